@@ -1,0 +1,54 @@
+//! The `mapkeeper` command line: argument parsing and glue only. Each subcommand lives in its
+//! own module under `cmd/`; the work is done by the library crates.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod cmd;
+
+/// Safe and robust lifelong map updating (Stefanini et al., Sensors 2023) with a headless 2D
+/// warehouse testbed.
+#[derive(Parser, Debug)]
+#[command(name = "mapkeeper", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// The hundred-world validation of the paper (§5.3.2) on the embedded default warehouse.
+    Validate(cmd::validate::Args),
+    /// Simulate a world and write a sensor log, the true trajectory and the ground-truth map.
+    Simulate(cmd::simulate::Args),
+    /// Build an occupancy map from a sensor log at the logged true poses.
+    Map(cmd::map::Args),
+    /// Run the particle-filter localiser over a sensor log.
+    Localise(cmd::localise::Args),
+    /// Run the map updater over recorded data (scans and poses or odometry) and a map.
+    Update(cmd::update::Args),
+    /// CC, MS and OPDF between two ROS map_server maps.
+    Metrics(cmd::metrics::Args),
+    /// Render a map, or the difference of two maps, as a PNG.
+    Render(cmd::render::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Validate(a) => cmd::validate::run(a),
+        Command::Simulate(a) => cmd::simulate::run(a),
+        Command::Map(a) => cmd::map::run(a),
+        Command::Localise(a) => cmd::localise::run(a),
+        Command::Update(a) => cmd::update::run(a),
+        Command::Metrics(a) => cmd::metrics::run(a),
+        Command::Render(a) => cmd::render::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("mapkeeper: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

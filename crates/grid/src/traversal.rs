@@ -1,0 +1,389 @@
+//! Grid traversal (Amanatides & Woo, 1987): the cells a segment passes through, in order, and
+//! ray casting to the first blocking cell.
+//!
+//! Both work on continuous grid coordinates, so the origin's yaw is honoured. Nothing is
+//! allocated per ray; the visitor is a closure that can stop the walk early.
+
+use crate::grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
+use crate::pose::Point2;
+use std::ops::ControlFlow;
+
+/// Clips the segment `a + t·(b − a)`, `t ∈ [0, 1]`, to the rectangle `[0, w] × [0, h]`
+/// (Liang–Barsky). Returns the clipped parameter interval, or `None` if it misses.
+fn clip(a: (f64, f64), b: (f64, f64), w: f64, h: f64) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let d = (b.0 - a.0, b.1 - a.1);
+    for (p, q) in [(-d.0, a.0), (d.0, w - a.0), (-d.1, a.1), (d.1, h - a.1)] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
+/// Visits, in order from `from` to `to`, every grid cell the segment passes through, clipped to
+/// the grid. The visitor returns [`ControlFlow::Break`] to stop. Where the segment passes exactly
+/// through a cell corner, the cell across the x boundary is visited before the one across y
+/// (one of the two cells the segment only touches is included, as in Amanatides–Woo).
+///
+/// Returns `Break` if the visitor stopped the walk, `Continue` otherwise (including when the
+/// segment misses the grid or an end point is not finite).
+///
+/// ```
+/// use mapkeeper_grid::{traverse, CellCoord, GridGeometry, Point2, Pose2};
+/// use std::ops::ControlFlow;
+/// let g = GridGeometry::new(10, 10, 1.0, Pose2::IDENTITY).unwrap();
+/// let mut cells = Vec::new();
+/// let _ = traverse(&g, Point2::new(0.5, 0.5), Point2::new(3.5, 1.5), |c| {
+///     cells.push(c);
+///     ControlFlow::<()>::Continue(())
+/// });
+/// assert_eq!(cells.first(), Some(&CellCoord::new(0, 0)));
+/// assert_eq!(cells.last(), Some(&CellCoord::new(3, 1)));
+/// assert_eq!(cells.len(), 5);
+/// ```
+#[inline]
+pub fn traverse<B, F>(geometry: &GridGeometry, from: Point2, to: Point2, mut visit: F) -> ControlFlow<B>
+where
+    F: FnMut(CellCoord) -> ControlFlow<B>,
+{
+    let a = geometry.world_to_grid(from);
+    let b = geometry.world_to_grid(to);
+    if !(a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite()) {
+        return ControlFlow::Continue(());
+    }
+    let (w, h) = (geometry.width(), geometry.height());
+    let Some((t0, t1)) = clip(a, b, w as f64, h as f64) else {
+        return ControlFlow::Continue(());
+    };
+    let d = (b.0 - a.0, b.1 - a.1);
+    let s = (a.0 + t0 * d.0, a.1 + t0 * d.1);
+    let e = (a.0 + t1 * d.0, a.1 + t1 * d.1);
+    let cell_of = |u: f64, n: usize| (u.floor() as i64).clamp(0, n as i64 - 1);
+    let (mut ix, mut iy) = (cell_of(s.0, w), cell_of(s.1, h));
+    let (ex, ey) = (cell_of(e.0, w), cell_of(e.1, h));
+
+    // Parametric distance (in units of the whole segment) to the next x / y boundary.
+    let (mut t_max_x, t_delta_x) = if d.0 != 0.0 {
+        let next = if d.0 > 0.0 { ix as f64 + 1.0 } else { ix as f64 };
+        ((next - s.0) / d.0, 1.0 / d.0.abs())
+    } else {
+        (f64::INFINITY, f64::INFINITY)
+    };
+    let (mut t_max_y, t_delta_y) = if d.1 != 0.0 {
+        let next = if d.1 > 0.0 { iy as f64 + 1.0 } else { iy as f64 };
+        ((next - s.1) / d.1, 1.0 / d.1.abs())
+    } else {
+        (f64::INFINITY, f64::INFINITY)
+    };
+
+    // Exactly |ex − ix| + |ey − iy| steps reach the end cell; the step choice follows the
+    // boundaries, but never moves an axis past its end cell (guards rounding at the ends).
+    let mut remaining_x = (ex - ix).abs();
+    let mut remaining_y = (ey - iy).abs();
+    let step_x = (ex - ix).signum();
+    let step_y = (ey - iy).signum();
+    loop {
+        visit(CellCoord::new(ix as i32, iy as i32))?;
+        if remaining_x == 0 && remaining_y == 0 {
+            return ControlFlow::Continue(());
+        }
+        let go_x = remaining_y == 0 || (remaining_x > 0 && t_max_x <= t_max_y);
+        if go_x {
+            ix += step_x;
+            t_max_x += t_delta_x;
+            remaining_x -= 1;
+        } else {
+            iy += step_y;
+            t_max_y += t_delta_y;
+            remaining_y -= 1;
+        }
+    }
+}
+
+/// Why a [`cast_ray`] stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayStop {
+    /// Reached an occupied cell.
+    Occupied,
+    /// Reached an unknown cell.
+    Unknown,
+    /// Left the grid (everything beyond is unknown).
+    LeftGrid,
+    /// Travelled the whole maximum range through free cells.
+    MaxRange,
+}
+
+/// The result of a [`cast_ray`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayHit {
+    /// Distance from the ray's origin to where it stopped, metres: the entry point of the
+    /// blocking cell, the grid's border, or the maximum range.
+    pub range_m: f64,
+    /// The blocking cell (for [`RayStop::Occupied`] and [`RayStop::Unknown`]).
+    pub cell: Option<CellCoord>,
+    /// Why the ray stopped.
+    pub stop: RayStop,
+}
+
+/// Casts a ray from `origin` along `angle` (radians, map frame) for at most `max_range_m`,
+/// stopping at the first cell that is occupied or, if `unknown_blocks`, unknown. A ray that
+/// starts in a blocking cell has range 0. A ray that starts outside the grid is cast through it
+/// as if the outside were transparent until it enters.
+pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f64, unknown_blocks: bool) -> RayHit {
+    let geometry = grid.geometry();
+    let (s, c) = angle.sin_cos();
+    let end = Point2::new(origin.x + c * max_range_m, origin.y + s * max_range_m);
+    let cells = grid.cells();
+    let width = geometry.width();
+    let mut entered_any = false;
+    let mut last = None;
+    let flow = traverse(geometry, origin, end, |cell| {
+        entered_any = true;
+        last = Some(cell);
+        let state = cells[cell.iy as usize * width + cell.ix as usize];
+        match state {
+            CellState::Free => ControlFlow::Continue(()),
+            CellState::Occupied => ControlFlow::Break((cell, RayStop::Occupied)),
+            CellState::Unknown if unknown_blocks => ControlFlow::Break((cell, RayStop::Unknown)),
+            CellState::Unknown => ControlFlow::Continue(()),
+        }
+    });
+    match flow {
+        ControlFlow::Break((cell, stop)) => RayHit { range_m: entry_distance(geometry, origin, angle, cell), cell: Some(cell), stop },
+        ControlFlow::Continue(()) => {
+            // Did the segment leave the grid before its end?
+            let end_inside = geometry.world_to_cell(end).is_some_and(|e| geometry.contains(e));
+            if end_inside || !entered_any {
+                if !entered_any {
+                    return RayHit { range_m: max_range_m, cell: None, stop: RayStop::LeftGrid };
+                }
+                RayHit { range_m: max_range_m, cell: None, stop: RayStop::MaxRange }
+            } else {
+                let exit = last.map_or(max_range_m, |cell| exit_distance(geometry, origin, angle, cell).min(max_range_m));
+                RayHit { range_m: exit, cell: None, stop: RayStop::LeftGrid }
+            }
+        }
+    }
+}
+
+/// Distance along the ray from `origin` (direction `angle`) to where it enters `cell`'s square
+/// (0 if it starts inside).
+fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> f64 {
+    slab(geometry, origin, angle, cell).0
+}
+
+/// Distance along the ray to where it leaves `cell`'s square.
+fn exit_distance(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> f64 {
+    slab(geometry, origin, angle, cell).1
+}
+
+/// Ray–square intersection interval (slab method) in metres, clamped at 0.
+fn slab(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> (f64, f64) {
+    let (u, v) = geometry.world_to_grid(origin);
+    let yaw = angle - geometry.origin().yaw;
+    let (dy, dx) = yaw.sin_cos();
+    let mut t_in = 0.0f64;
+    let mut t_out = f64::INFINITY;
+    for (p, d, lo) in [(u, dx, cell.ix as f64), (v, dy, cell.iy as f64)] {
+        if d.abs() < 1e-300 {
+            continue;
+        }
+        let ta = (lo - p) / d;
+        let tb = (lo + 1.0 - p) / d;
+        t_in = t_in.max(ta.min(tb));
+        t_out = t_out.min(ta.max(tb));
+    }
+    (t_in * geometry.resolution_m(), t_out.max(t_in) * geometry.resolution_m())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pose::Pose2;
+    use proptest::prelude::*;
+
+    fn collect(g: &GridGeometry, a: Point2, b: Point2) -> Vec<CellCoord> {
+        let mut v = Vec::new();
+        let _ = traverse(g, a, b, |c| {
+            v.push(c);
+            ControlFlow::<()>::Continue(())
+        });
+        v
+    }
+
+    /// Brute force: cells whose open square the segment crosses with positive length, ordered by
+    /// the parameter at which the segment enters them.
+    fn brute(g: &GridGeometry, a: Point2, b: Point2) -> Vec<CellCoord> {
+        let pa = g.world_to_grid(a);
+        let pb = g.world_to_grid(b);
+        let mut hits = Vec::new();
+        for ix in 0..g.width() as i32 {
+            for iy in 0..g.height() as i32 {
+                // Clip the segment to the cell square.
+                // Shrunk square: a segment along a cell border crosses no interior.
+                let e = 1e-9;
+                if let Some((t0, t1)) = clip(
+                    (pa.0 - ix as f64 - e, pa.1 - iy as f64 - e),
+                    (pb.0 - ix as f64 - e, pb.1 - iy as f64 - e),
+                    1.0 - 2.0 * e,
+                    1.0 - 2.0 * e,
+                ) {
+                    let len = (t1 - t0) * ((pb.0 - pa.0).hypot(pb.1 - pa.1));
+                    if len > 1e-9 {
+                        hits.push((t0, CellCoord::new(ix, iy)));
+                    }
+                }
+            }
+        }
+        hits.sort_by(|x, y| x.0.total_cmp(&y.0));
+        hits.into_iter().map(|(_, c)| c).collect()
+    }
+
+    fn touches(g: &GridGeometry, a: Point2, b: Point2, c: CellCoord) -> bool {
+        let pa = g.world_to_grid(a);
+        let pb = g.world_to_grid(b);
+        let e = 1e-9;
+        clip(
+            (pa.0 - c.ix as f64 + e, pa.1 - c.iy as f64 + e),
+            (pb.0 - c.ix as f64 + e, pb.1 - c.iy as f64 + e),
+            1.0 + 2.0 * e,
+            1.0 + 2.0 * e,
+        )
+        .is_some()
+    }
+
+    fn check_against_brute(g: &GridGeometry, a: Point2, b: Point2) {
+        let got = collect(g, a, b);
+        let want = brute(g, a, b);
+        // 4-connected path.
+        for w in got.windows(2) {
+            let d = (w[0].ix - w[1].ix).abs() + (w[0].iy - w[1].iy).abs();
+            assert_eq!(d, 1, "not 4-connected: {got:?}");
+        }
+        // Every crossed cell is visited, in order; any extra cell is at least touched.
+        let mut it = got.iter();
+        for c in &want {
+            assert!(it.any(|x| x == c), "missing or out of order {c:?}: got {got:?} want {want:?}");
+        }
+        for c in &got {
+            assert!(g.contains(*c));
+            assert!(want.contains(c) || touches(g, a, b, *c), "{c:?} not on the segment");
+        }
+        // No duplicates.
+        let mut sorted = got.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), got.len());
+    }
+
+    #[test]
+    fn horizontal_vertical_and_diagonal() {
+        let g = GridGeometry::new(8, 8, 1.0, Pose2::IDENTITY).unwrap();
+        let row: Vec<_> = (1..=6).map(|i| CellCoord::new(i, 2)).collect();
+        assert_eq!(collect(&g, Point2::new(1.5, 2.5), Point2::new(6.5, 2.5)), row);
+        let col: Vec<_> = (1..=6).rev().map(|i| CellCoord::new(3, i)).collect();
+        assert_eq!(collect(&g, Point2::new(3.2, 6.9), Point2::new(3.2, 1.1)), col);
+        // Exact diagonal through corners: x is stepped first at every tie.
+        let diag = collect(&g, Point2::new(0.0, 0.0), Point2::new(3.0, 3.0));
+        assert_eq!(diag.first(), Some(&CellCoord::new(0, 0)));
+        assert_eq!(diag.len(), 7); // (0,0) (1,0) (1,1) (2,1) (2,2) (3,2) (3,3): ends at floor(3,3)
+        check_against_brute(&g, Point2::new(0.0, 0.0), Point2::new(3.0, 3.0));
+    }
+
+    #[test]
+    fn clipped_to_grid_and_degenerate() {
+        let g = GridGeometry::new(4, 4, 1.0, Pose2::IDENTITY).unwrap();
+        assert_eq!(
+            collect(&g, Point2::new(-3.0, 1.5), Point2::new(10.0, 1.5)),
+            (0..4).map(|i| CellCoord::new(i, 1)).collect::<Vec<_>>()
+        );
+        assert!(collect(&g, Point2::new(-3.0, 5.5), Point2::new(10.0, 5.5)).is_empty());
+        assert_eq!(collect(&g, Point2::new(2.5, 2.5), Point2::new(2.5, 2.5)), vec![CellCoord::new(2, 2)]);
+        assert!(collect(&g, Point2::new(f64::NAN, 2.5), Point2::new(2.5, 2.5)).is_empty());
+        // Along the grid's top border (v = h exactly) the last row is used.
+        assert_eq!(collect(&g, Point2::new(0.5, 4.0), Point2::new(1.5, 4.0)).len(), 2);
+    }
+
+    #[test]
+    fn early_stop() {
+        let g = GridGeometry::new(10, 1, 1.0, Pose2::IDENTITY).unwrap();
+        let mut n = 0;
+        let r = traverse(&g, Point2::new(0.5, 0.5), Point2::new(9.5, 0.5), |c| {
+            n += 1;
+            if c.ix == 3 { ControlFlow::Break(c) } else { ControlFlow::Continue(()) }
+        });
+        assert_eq!(r, ControlFlow::Break(CellCoord::new(3, 0)));
+        assert_eq!(n, 4);
+    }
+
+    #[test]
+    fn cast_ray_hits_wall_at_entry() {
+        let g = GridGeometry::new(20, 5, 0.1, Pose2::IDENTITY).unwrap();
+        let mut grid = OccupancyGrid::filled(g, CellState::Free);
+        for iy in 0..5 {
+            grid.set(CellCoord::new(15, iy), CellState::Occupied);
+        }
+        let hit = cast_ray(&grid, Point2::new(0.25, 0.25), 0.0, 10.0, true);
+        assert_eq!(hit.stop, RayStop::Occupied);
+        assert_eq!(hit.cell, Some(CellCoord::new(15, 2)));
+        assert!((hit.range_m - 1.25).abs() < 1e-9, "{}", hit.range_m);
+        // Short of the wall: max range.
+        let short = cast_ray(&grid, Point2::new(0.25, 0.25), 0.0, 1.0, true);
+        assert_eq!(short.stop, RayStop::MaxRange);
+        assert_eq!(short.range_m, 1.0);
+        // Backwards: leaves the grid at x = 0.
+        let out = cast_ray(&grid, Point2::new(0.25, 0.25), std::f64::consts::PI, 10.0, true);
+        assert_eq!(out.stop, RayStop::LeftGrid);
+        assert!((out.range_m - 0.25).abs() < 1e-9, "{}", out.range_m);
+        // Unknown cells block only when asked.
+        grid.set(CellCoord::new(10, 2), CellState::Unknown);
+        assert_eq!(cast_ray(&grid, Point2::new(0.25, 0.25), 0.0, 10.0, true).stop, RayStop::Unknown);
+        assert_eq!(cast_ray(&grid, Point2::new(0.25, 0.25), 0.0, 10.0, false).stop, RayStop::Occupied);
+        // Starting inside a blocking cell.
+        assert_eq!(cast_ray(&grid, Point2::new(1.55, 0.25), 0.0, 10.0, true).range_m, 0.0);
+    }
+
+    #[test]
+    fn cast_ray_rotated_grid() {
+        let yaw = 0.4;
+        let g = GridGeometry::new(30, 30, 0.1, Pose2::new(2.0, -1.0, yaw)).unwrap();
+        let mut grid = OccupancyGrid::filled(g, CellState::Free);
+        for iy in 0..30 {
+            grid.set(CellCoord::new(20, iy), CellState::Occupied);
+        }
+        // From the centre of cell (5, 10) along the grid's own x axis.
+        let o = g.cell_center(CellCoord::new(5, 10));
+        let hit = cast_ray(&grid, o, yaw, 10.0, true);
+        assert_eq!(hit.cell, Some(CellCoord::new(20, 10)));
+        assert!((hit.range_m - 1.45).abs() < 1e-9, "{}", hit.range_m);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        #[test]
+        fn matches_brute_force(ax in -2.0f64..14.0, ay in -2.0f64..10.0, bx in -2.0f64..14.0, by in -2.0f64..10.0,
+                               yaw in -3.2f64..3.2, rotate in any::<bool>()) {
+            let origin = if rotate { Pose2::new(0.3, -0.2, yaw) } else { Pose2::new(-0.5, 0.25, 0.0) };
+            let g = GridGeometry::new(12, 8, 1.0, origin).unwrap();
+            check_against_brute(&g, Point2::new(ax, ay), Point2::new(bx, by));
+        }
+
+        #[test]
+        fn lattice_points_and_axis_aligned(ax in -1i32..13, ay in -1i32..9, bx in -1i32..13, by in -1i32..9,
+                                          half in any::<bool>()) {
+            let g = GridGeometry::new(12, 8, 1.0, Pose2::IDENTITY).unwrap();
+            let o = if half { 0.5 } else { 0.0 };
+            check_against_brute(&g, Point2::new(ax as f64 + o, ay as f64), Point2::new(bx as f64, by as f64 + o));
+        }
+    }
+}

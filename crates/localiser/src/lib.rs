@@ -1,0 +1,1 @@
+//! mapkeeper-localiser: see the crate description; under construction.

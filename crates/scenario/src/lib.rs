@@ -1,0 +1,1 @@
+//! mapkeeper-scenario: see the crate description; under construction.

@@ -1,0 +1,1 @@
+//! mapkeeper-sim: see the crate description; under construction.

@@ -1,0 +1,1 @@
+//! mapkeeper-updater: see the crate description; under construction.
