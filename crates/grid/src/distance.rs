@@ -130,7 +130,8 @@ mod tests {
 
     fn brute(grid: &OccupancyGrid, cap: f64) -> Vec<f32> {
         let g = grid.geometry();
-        let sites: Vec<_> = (0..g.len()).filter(|&i| grid.cells()[i] == CellState::Occupied).map(|i| g.coord(i)).collect();
+        let sites: Vec<_> =
+            (0..g.len()).filter(|&i| grid.cells()[i] == CellState::Occupied).map(|i| g.coord(i)).collect();
         (0..g.len())
             .map(|i| {
                 let c = g.coord(i);

@@ -1,8 +1,8 @@
 //! The occupancy grid: geometry (size, resolution, origin), cell states and coordinates
 //! (paper eq. 1, with the origin's yaw honoured as ROS map_server does).
 
-use crate::pose::{Point2, Pose2};
 use crate::GridError;
+use crate::pose::{Point2, Pose2};
 use serde::{Deserialize, Serialize};
 
 /// The largest grid accepted, in cells (256 M cells, 256 MiB of states). Anything larger is
@@ -331,16 +331,10 @@ mod tests {
     #[test]
     fn refuses_bad_geometry() {
         assert!(matches!(GridGeometry::new(0, 5, 0.05, Pose2::IDENTITY), Err(GridError::EmptyGrid { .. })));
-        assert!(matches!(
-            GridGeometry::new(100_000, 100_000, 0.05, Pose2::IDENTITY),
-            Err(GridError::TooLarge { .. })
-        ));
+        assert!(matches!(GridGeometry::new(100_000, 100_000, 0.05, Pose2::IDENTITY), Err(GridError::TooLarge { .. })));
         assert!(matches!(GridGeometry::new(5, 5, 0.0, Pose2::IDENTITY), Err(GridError::BadResolution(_))));
         assert!(matches!(GridGeometry::new(5, 5, -1.0, Pose2::IDENTITY), Err(GridError::BadResolution(_))));
-        assert!(matches!(
-            GridGeometry::new(5, 5, 0.05, Pose2::new(f64::NAN, 0.0, 0.0)),
-            Err(GridError::BadOrigin(_))
-        ));
+        assert!(matches!(GridGeometry::new(5, 5, 0.05, Pose2::new(f64::NAN, 0.0, 0.0)), Err(GridError::BadOrigin(_))));
         assert_eq!(
             GridGeometry::new(5, 5, 0.05, Pose2::IDENTITY).unwrap().world_to_cell(Point2::new(f64::NAN, 0.0)),
             None

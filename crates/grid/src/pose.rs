@@ -59,11 +59,7 @@ pub struct Pose2 {
 
 impl Pose2 {
     /// The identity transform.
-    pub const IDENTITY: Pose2 = Pose2 {
-        x: 0.0,
-        y: 0.0,
-        yaw: 0.0,
-    };
+    pub const IDENTITY: Pose2 = Pose2 { x: 0.0, y: 0.0, yaw: 0.0 };
 
     /// A pose from its components.
     pub const fn new(x: f64, y: f64, yaw: f64) -> Self {
@@ -88,11 +84,7 @@ impl Pose2 {
     /// The inverse transform: `a_in_b` becomes `b_in_a`.
     pub fn inverse(&self) -> Pose2 {
         let (s, c) = self.yaw.sin_cos();
-        Pose2 {
-            x: -c * self.x - s * self.y,
-            y: s * self.x - c * self.y,
-            yaw: wrap_angle(-self.yaw),
-        }
+        Pose2 { x: -c * self.x - s * self.y, y: s * self.x - c * self.y, yaw: wrap_angle(-self.yaw) }
     }
 
     /// The motion from `self` to `other` expressed in `self`'s frame (`self⁻¹ ∘ other`).

@@ -159,7 +159,9 @@ pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f
         }
     });
     match flow {
-        ControlFlow::Break((cell, stop)) => RayHit { range_m: entry_distance(geometry, origin, angle, cell), cell: Some(cell), stop },
+        ControlFlow::Break((cell, stop)) => {
+            RayHit { range_m: entry_distance(geometry, origin, angle, cell), cell: Some(cell), stop }
+        }
         ControlFlow::Continue(()) => {
             // Did the segment leave the grid before its end?
             let end_inside = geometry.world_to_cell(end).is_some_and(|e| geometry.contains(e));
@@ -169,7 +171,8 @@ pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f
                 }
                 RayHit { range_m: max_range_m, cell: None, stop: RayStop::MaxRange }
             } else {
-                let exit = last.map_or(max_range_m, |cell| exit_distance(geometry, origin, angle, cell).min(max_range_m));
+                let exit =
+                    last.map_or(max_range_m, |cell| exit_distance(geometry, origin, angle, cell).min(max_range_m));
                 RayHit { range_m: exit, cell: None, stop: RayStop::LeftGrid }
             }
         }

@@ -27,5 +27,8 @@
 mod log;
 mod scan;
 
-pub use log::{LOG_FORMAT, LOG_VERSION, LogError, LogHeader, LogRecord, LogWriter, MAX_LINE_BYTES, OdometryReading, SensorLog, TruePose};
+pub use log::{
+    LOG_FORMAT, LOG_VERSION, LogError, LogHeader, LogRecord, LogWriter, MAX_LINE_BYTES, OdometryReading, SensorLog,
+    TruePose,
+};
 pub use scan::{BeamValidity, LaserScan, MAX_BEAMS, ScanError};

@@ -331,7 +331,6 @@ fn tmp_path(path: &Path) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::io::Write as _;
 
     fn tmpdir(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("mapkeeper-sensor-{name}-{}", std::process::id()));
@@ -402,7 +401,9 @@ mod tests {
             ("type", format!("{h}\n{{\"type\":\"lidar\",\"stamp_ns\":0}}\n"), ":2:"),
             (
                 "nanpose",
-                format!("{h}\n{{\"type\":\"odom\",\"stamp_ns\":0,\"pose_in_odom\":{{\"x\":1e999,\"y\":0,\"yaw\":0}}}}\n"),
+                format!(
+                    "{h}\n{{\"type\":\"odom\",\"stamp_ns\":0,\"pose_in_odom\":{{\"x\":1e999,\"y\":0,\"yaw\":0}}}}\n"
+                ),
                 ":2:",
             ),
             (

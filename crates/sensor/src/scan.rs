@@ -185,7 +185,10 @@ mod tests {
         let s = scan(vec![1.0, f32::NAN, f32::INFINITY, -1.0, 0.0, 0.05, 30.0, 31.0, 29.99]);
         let v: Vec<_> = (0..s.len()).map(|i| s.validity(i)).collect();
         use BeamValidity::*;
-        assert_eq!(v, vec![Valid, NotFinite, NotFinite, BelowMin, BelowMin, BelowMin, AtOrBeyondMax, AtOrBeyondMax, Valid]);
+        assert_eq!(
+            v,
+            vec![Valid, NotFinite, NotFinite, BelowMin, BelowMin, BelowMin, AtOrBeyondMax, AtOrBeyondMax, Valid]
+        );
         assert_eq!(s.valid_count(), 2);
         assert!(s.validate().is_ok());
     }
