@@ -22,7 +22,11 @@
 
 mod distance;
 mod grid;
+pub mod map_io;
+pub mod mapper;
+pub mod metrics;
 mod pose;
+pub mod render;
 mod traversal;
 
 pub use distance::DistanceField;

@@ -1,0 +1,1 @@
+//! ROS map_server I/O: YAML + PGM/PNG.

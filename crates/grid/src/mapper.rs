@@ -1,0 +1,1 @@
+//! Log-odds occupancy mapping from rays at known poses.

@@ -1,0 +1,1 @@
+//! Map-quality metrics (paper §5.1): CC, MS and OPDF.

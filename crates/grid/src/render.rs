@@ -1,0 +1,1 @@
+//! Rendering maps and map differences to PNG.
