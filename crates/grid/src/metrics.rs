@@ -1,1 +1,686 @@
-//! Map-quality metrics (paper §5.1): CC, MS and OPDF.
+//! Map-quality metrics of the paper's §5.1: cross-correlation (CC), map score (MS) and the
+//! occupied picture-distance function (OPDF), all in percent. Definitions, open choices and
+//! degenerate cases are in `docs/metrics.md`; in short:
+//!
+//! - every cell has the value m = 1 occupied, 0 free, [`MetricParams::unknown_value`] unknown;
+//! - **CC** = 100 · (⟨MM~⟩ − ⟨M⟩⟨M~⟩) / (σ(M) σ(M~)) over all ν cells, in [−100, 100];
+//! - **MS** = 100 · (1 − (1/ν′) Σ (m − m~)²) over the ν′ cells occupied in at least one map,
+//!   in [0, 100];
+//! - **OPDF_as(M, M~)** = 100 · (1 − Σ dᵢ / (ν_M r)) over the ν_M occupied cells of M, with
+//!   dᵢ = min(r, L1 distance in cells to the nearest occupied cell of M~) and r = √(w² + h²) for
+//!   the search window [`MetricParams::opdf_window_m`] expressed in cells; **OPDF** is the mean
+//!   of both directions; all in [0, 100].
+//!
+//! Degenerate inputs have defined values (never NaN, never a panic):
+//!
+//! | case | value |
+//! |---|---|
+//! | σ(M) = 0 or σ(M~) = 0 (a constant map) | CC = 100 if the two maps have the same value in every cell, else 0 |
+//! | ν′ = 0 (no occupied cell in either map) | MS = 100 |
+//! | ν_M = 0 (M has no occupied cell) | OPDF_as(M, M~) = 100 if M~ has none either, else 0 |
+//!
+//! Manhattan distances come from an exact two-pass L1 distance transform (O(ν), no search).
+//!
+//! ```
+//! use mapkeeper_grid::metrics::{map_metrics, MetricParams};
+//! use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
+//! let geometry = GridGeometry::new(40, 40, 0.05, Pose2::IDENTITY).unwrap();
+//! let mut a = OccupancyGrid::filled(geometry, CellState::Free);
+//! for i in 0..40 {
+//!     a.set(CellCoord::new(i, 10), CellState::Occupied);
+//! }
+//! let m = map_metrics(&a, &a, &MetricParams::default()).unwrap();
+//! assert_eq!((m.cc, m.ms, m.opdf), (100.0, 100.0, 100.0));
+//! ```
+
+use crate::GridError;
+use crate::grid::{CellState, GridGeometry, OccupancyGrid};
+use serde::{Deserialize, Serialize};
+
+/// Errors of the metrics.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum MetricsError {
+    /// The two maps do not share a geometry ([`GridError::GeometryMismatch`]).
+    #[error(transparent)]
+    Grid(#[from] GridError),
+    /// A parameter is out of its range.
+    #[error("metric parameter {name} = {value} is invalid: expected {expected}")]
+    InvalidParam {
+        /// The field.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// What is accepted.
+        expected: &'static str,
+    },
+}
+
+/// Parameters of the map metrics: the choices the paper leaves open.
+///
+/// ```
+/// use mapkeeper_grid::metrics::MetricParams;
+/// let mut p = MetricParams::default();
+/// assert_eq!(p.unknown_value, 0.5);
+/// p.opdf_window_m = (2.0, 2.0);
+/// assert!(p.validate().is_ok());
+/// let q: MetricParams = serde_json::from_str(r#"{"unknown_value": 0.3}"#).unwrap();
+/// assert_eq!(q.opdf_window_m, (1.0, 1.0));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MetricParams {
+    /// Occupancy value given to unknown cells in CC and MS, in [0, 1]. Default 0.5 (the
+    /// occupancy probability of an unobserved cell).
+    pub unknown_value: f64,
+    /// OPDF search window (width, height), metres; each side finite and > 0. Converted to cells
+    /// with the map's resolution (not rounded), r = √(w² + h²) cells. Default (1.0, 1.0), i.e.
+    /// 20 × 20 cells and r ≈ 28.28 cells at 0.05 m.
+    pub opdf_window_m: (f64, f64),
+}
+
+impl Default for MetricParams {
+    fn default() -> Self {
+        Self { unknown_value: 0.5, opdf_window_m: (1.0, 1.0) }
+    }
+}
+
+impl MetricParams {
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<(), MetricsError> {
+        let u = self.unknown_value;
+        if !(u.is_finite() && (0.0..=1.0).contains(&u)) {
+            return Err(MetricsError::InvalidParam { name: "unknown_value", value: u, expected: "a number in [0, 1]" });
+        }
+        for (name, v) in [("opdf_window_m.0", self.opdf_window_m.0), ("opdf_window_m.1", self.opdf_window_m.1)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(MetricsError::InvalidParam {
+                    name,
+                    value: v,
+                    expected: "a finite positive length, metres",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The OPDF search radius r = √(w² + h²) in cells for a grid of `resolution_m` metres per cell.
+    pub fn opdf_radius_cells(&self, resolution_m: f64) -> f64 {
+        let w = self.opdf_window_m.0 / resolution_m;
+        let h = self.opdf_window_m.1 / resolution_m;
+        w.hypot(h)
+    }
+}
+
+/// The metrics of a pair of maps (M = `a`, M~ = `b`), percent, with the counts behind them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MapMetrics {
+    /// Cross-correlation × 100, in [−100, 100]; symmetric.
+    pub cc: f64,
+    /// Map score, in [0, 100]; symmetric.
+    pub ms: f64,
+    /// OPDF = (opdf_ab + opdf_ba) / 2, in [0, 100]; symmetric.
+    pub opdf: f64,
+    /// OPDF_as(a, b): occupied cells of `a` measured against `b`, in [0, 100].
+    pub opdf_ab: f64,
+    /// OPDF_as(b, a), in [0, 100].
+    pub opdf_ba: f64,
+    /// ν: cells in each map.
+    pub cells: usize,
+    /// ν′: cells occupied in at least one map (the cells MS is taken over).
+    pub union_occupied: usize,
+    /// ν_M of `a`: its occupied cells.
+    pub occupied_a: usize,
+    /// ν_M of `b`.
+    pub occupied_b: usize,
+    /// The OPDF search radius r used, cells.
+    pub opdf_radius_cells: f64,
+    /// True if CC came from the zero-variance rule rather than the formula.
+    pub cc_degenerate: bool,
+}
+
+/// CC, MS and OPDF of two maps on the same geometry.
+///
+/// Errors: [`GridError::GeometryMismatch`] (wrapped) if the geometries differ (see
+/// [`GridGeometry::same_as`]; use [`resample_onto`] first), and
+/// [`MetricsError::InvalidParam`] for parameters that fail [`MetricParams::validate`].
+pub fn map_metrics(a: &OccupancyGrid, b: &OccupancyGrid, params: &MetricParams) -> Result<MapMetrics, MetricsError> {
+    params.validate()?;
+    if !a.geometry().same_as(b.geometry()) {
+        return Err(GridError::GeometryMismatch.into());
+    }
+    let counts = JointCounts::of(a.cells(), b.cells());
+    let (cc, cc_degenerate) = counts.cross_correlation(params.unknown_value);
+    let ms = counts.map_score(params.unknown_value);
+    let geometry = a.geometry();
+    let r = params.opdf_radius_cells(geometry.resolution_m());
+    let mut scratch = vec![0u32; geometry.len()];
+    let opdf_ab = opdf_as(a, b, r, &mut scratch);
+    let opdf_ba = opdf_as(b, a, r, &mut scratch);
+    Ok(MapMetrics {
+        cc,
+        ms,
+        opdf: 0.5 * (opdf_ab + opdf_ba),
+        opdf_ab,
+        opdf_ba,
+        cells: geometry.len(),
+        union_occupied: counts.union_occupied(),
+        occupied_a: counts.occupied_a(),
+        occupied_b: counts.occupied_b(),
+        opdf_radius_cells: r,
+        cc_degenerate,
+    })
+}
+
+/// `src` resampled onto `target`: each target cell takes the state of the `src` cell containing
+/// its centre (nearest cell centre for equal resolutions; nearest-neighbour in general), and
+/// [`CellState::Unknown`] where that centre falls outside `src`.
+///
+/// ```
+/// use mapkeeper_grid::metrics::resample_onto;
+/// use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
+/// let src_geometry = GridGeometry::new(2, 2, 1.0, Pose2::IDENTITY).unwrap();
+/// let mut src = OccupancyGrid::filled(src_geometry, CellState::Free);
+/// src.set(CellCoord::new(1, 1), CellState::Occupied);
+/// // Twice as fine, shifted by one coarse cell to the left: the left half is outside `src`.
+/// let target = GridGeometry::new(4, 4, 0.5, Pose2::new(-1.0, 0.0, 0.0)).unwrap();
+/// let out = resample_onto(&src, &target);
+/// assert_eq!(out.get(CellCoord::new(0, 0)), Some(CellState::Unknown));
+/// assert_eq!(out.get(CellCoord::new(2, 0)), Some(CellState::Free));
+/// assert_eq!(out.get(CellCoord::new(3, 3)), Some(CellState::Free));
+/// assert_eq!(out.get(CellCoord::new(2, 2)), Some(CellState::Free)); // src (0, 1)
+/// ```
+pub fn resample_onto(src: &OccupancyGrid, target: &GridGeometry) -> OccupancyGrid {
+    let cells = (0..target.len())
+        .map(|i| {
+            let centre = target.cell_center(target.coord(i));
+            src.geometry().world_to_cell(centre).map_or(CellState::Unknown, |c| src.get_or_unknown(c))
+        })
+        .collect();
+    // The cell vector has exactly target.len() entries.
+    OccupancyGrid::from_cells(*target, cells).unwrap_or_else(|_| OccupancyGrid::filled(*target, CellState::Unknown))
+}
+
+/// Index of a state in the 3 × 3 joint table.
+#[inline]
+fn slot(s: CellState) -> usize {
+    match s {
+        CellState::Free => 0,
+        CellState::Occupied => 1,
+        CellState::Unknown => 2,
+    }
+}
+
+/// States by slot.
+const STATES: [CellState; 3] = [CellState::Free, CellState::Occupied, CellState::Unknown];
+
+/// How many cells have each pair of states (a, b): exact integer counts, from which CC and MS
+/// follow without accumulating rounding over ν cells.
+struct JointCounts {
+    n: [[u64; 3]; 3],
+    total: u64,
+}
+
+impl JointCounts {
+    fn of(a: &[CellState], b: &[CellState]) -> Self {
+        let mut n = [[0u64; 3]; 3];
+        for (&x, &y) in a.iter().zip(b) {
+            n[slot(x)][slot(y)] += 1;
+        }
+        Self { n, total: a.len().min(b.len()) as u64 }
+    }
+
+    fn marginal_a(&self, i: usize) -> u64 {
+        self.n[i].iter().sum()
+    }
+
+    fn marginal_b(&self, j: usize) -> u64 {
+        (0..3).map(|i| self.n[i][j]).sum()
+    }
+
+    fn occupied_a(&self) -> usize {
+        self.marginal_a(1) as usize
+    }
+
+    fn occupied_b(&self) -> usize {
+        self.marginal_b(1) as usize
+    }
+
+    fn union_occupied(&self) -> usize {
+        (self.marginal_a(1) + self.marginal_b(1) - self.n[1][1]) as usize
+    }
+
+    /// (CC, degenerate?). Centred sums over the 3 × 3 table (no E[x²] − E[x]² cancellation).
+    fn cross_correlation(&self, unknown_value: f64) -> (f64, bool) {
+        let v = STATES.map(|s| s.value(unknown_value));
+        let nu = self.total as f64;
+        let mean_a = (0..3).map(|i| self.marginal_a(i) as f64 * v[i]).sum::<f64>() / nu;
+        let mean_b = (0..3).map(|j| self.marginal_b(j) as f64 * v[j]).sum::<f64>() / nu;
+        let var_a = (0..3).map(|i| self.marginal_a(i) as f64 * (v[i] - mean_a).powi(2)).sum::<f64>() / nu;
+        let var_b = (0..3).map(|j| self.marginal_b(j) as f64 * (v[j] - mean_b).powi(2)).sum::<f64>() / nu;
+        let mut cov = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                cov += self.n[i][j] as f64 * (v[i] - mean_a) * (v[j] - mean_b);
+            }
+        }
+        cov /= nu;
+        if self.values_identical(unknown_value) {
+            // Pearson correlation of a vector with itself (or with a map of equal values) is 1:
+            // returned exactly rather than as cov / (σ·σ) with its rounding.
+            let degenerate = self.distinct_values(unknown_value, true) <= 1;
+            return (100.0, degenerate);
+        }
+        let constant_a = self.distinct_values(unknown_value, true) <= 1;
+        let constant_b = self.distinct_values(unknown_value, false) <= 1;
+        let denom = var_a.sqrt() * var_b.sqrt();
+        if constant_a || constant_b || denom.is_nan() || denom <= 0.0 {
+            // Identical maps were handled above.
+            return (0.0, true);
+        }
+        let cc = 100.0 * cov / denom;
+        if cc.is_finite() { (cc.clamp(-100.0, 100.0), false) } else { (0.0, true) }
+    }
+
+    /// Number of distinct cell values present in map a (`of_a`) or b.
+    fn distinct_values(&self, unknown_value: f64, of_a: bool) -> usize {
+        let mut seen: Vec<f64> = Vec::with_capacity(3);
+        for (k, s) in STATES.iter().enumerate() {
+            let count = if of_a { self.marginal_a(k) } else { self.marginal_b(k) };
+            let value = s.value(unknown_value);
+            if count > 0 && !seen.contains(&value) {
+                seen.push(value);
+            }
+        }
+        seen.len()
+    }
+
+    /// Whether every cell has the same value in both maps.
+    fn values_identical(&self, unknown_value: f64) -> bool {
+        (0..3).all(|i| {
+            (0..3).all(|j| self.n[i][j] == 0 || STATES[i].value(unknown_value) == STATES[j].value(unknown_value))
+        })
+    }
+
+    /// MS; 100 when no cell is occupied in either map.
+    fn map_score(&self, unknown_value: f64) -> f64 {
+        let union = self.union_occupied();
+        if union == 0 {
+            return 100.0;
+        }
+        let v = STATES.map(|s| s.value(unknown_value));
+        let mut sum = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                if i == 1 || j == 1 {
+                    sum += self.n[i][j] as f64 * (v[i] - v[j]).powi(2);
+                }
+            }
+        }
+        (100.0 * (1.0 - sum / union as f64)).clamp(0.0, 100.0)
+    }
+}
+
+/// Distance value meaning "no occupied cell reachable" (large, but far from overflowing when 1
+/// is added).
+const FAR: u32 = u32::MAX / 2;
+
+/// Exact L1 (Manhattan) distance transform in cells to the nearest occupied cell of `grid`,
+/// written into `out` (length ν; [`FAR`] where the grid has no occupied cell). Two raster passes
+/// with the 4-neighbour mask, which is exact for the L1 metric.
+fn manhattan_to_occupied(grid: &OccupancyGrid, out: &mut [u32]) {
+    let (w, h) = (grid.geometry().width(), grid.geometry().height());
+    for (d, &s) in out.iter_mut().zip(grid.cells()) {
+        *d = if s == CellState::Occupied { 0 } else { FAR };
+    }
+    // Forward: from the bottom-left, look at the left and lower neighbours.
+    for y in 0..h {
+        let row = y * w;
+        for x in 0..w {
+            let i = row + x;
+            let mut d = out[i];
+            if x > 0 {
+                d = d.min(out[i - 1].saturating_add(1));
+            }
+            if y > 0 {
+                d = d.min(out[i - w].saturating_add(1));
+            }
+            out[i] = d.min(FAR);
+        }
+    }
+    // Backward: from the top-right, look at the right and upper neighbours.
+    for y in (0..h).rev() {
+        let row = y * w;
+        for x in (0..w).rev() {
+            let i = row + x;
+            let mut d = out[i];
+            if x + 1 < w {
+                d = d.min(out[i + 1].saturating_add(1));
+            }
+            if y + 1 < h {
+                d = d.min(out[i + w].saturating_add(1));
+            }
+            out[i] = d.min(FAR);
+        }
+    }
+}
+
+/// OPDF_as(m, other) with search radius `r` cells; `scratch` has length ν.
+fn opdf_as(m: &OccupancyGrid, other: &OccupancyGrid, r: f64, scratch: &mut [u32]) -> f64 {
+    let occupied_m = m.count(CellState::Occupied);
+    if occupied_m == 0 {
+        return if other.count(CellState::Occupied) == 0 { 100.0 } else { 0.0 };
+    }
+    manhattan_to_occupied(other, scratch);
+    // Distances below r summed exactly as integers, the capped ones counted.
+    let (mut below, mut capped) = (0u64, 0u64);
+    for (&s, &d) in m.cells().iter().zip(scratch.iter()) {
+        if s == CellState::Occupied {
+            if (d as f64) < r {
+                below += u64::from(d);
+            } else {
+                capped += 1;
+            }
+        }
+    }
+    let sum = below as f64 + capped as f64 * r;
+    let value = 100.0 * (1.0 - sum / (occupied_m as f64 * r));
+    if value.is_finite() { value.clamp(0.0, 100.0) } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::CellCoord;
+    use crate::pose::{Point2, Pose2};
+    use proptest::prelude::*;
+
+    const F: CellState = CellState::Free;
+    const O: CellState = CellState::Occupied;
+    const U: CellState = CellState::Unknown;
+
+    /// A grid from rows written top row first (as drawn), at 1 m per cell.
+    fn grid(rows_top_first: &[&[CellState]]) -> OccupancyGrid {
+        grid_res(rows_top_first, 1.0)
+    }
+
+    fn grid_res(rows_top_first: &[&[CellState]], res: f64) -> OccupancyGrid {
+        let h = rows_top_first.len();
+        let w = rows_top_first[0].len();
+        let g = GridGeometry::new(w, h, res, Pose2::IDENTITY).unwrap();
+        let cells = rows_top_first.iter().rev().flat_map(|r| r.iter().copied()).collect();
+        OccupancyGrid::from_cells(g, cells).unwrap()
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-9
+    }
+
+    /// Window giving a chosen r at 1 m per cell: w = h = r / √2.
+    fn params_with_r(r: f64) -> MetricParams {
+        let side = r / 2f64.sqrt();
+        MetricParams { opdf_window_m: (side, side), ..MetricParams::default() }
+    }
+
+    #[test]
+    fn cc_hand_computed_3x3() {
+        // a: O at (0,0) and (1,1); b: O at (0,0) only; everything else free.
+        // Values a = [1,1,0,...] (2 ones of 9), b = [1,0,...] (1 one of 9), overlap 1 cell.
+        // ⟨A⟩ = 2/9, ⟨B⟩ = 1/9, ⟨AB⟩ = 1/9.
+        // cov = 1/9 − 2/81 = 7/81. σA² = 2/9 − 4/81 = 14/81, σB² = 1/9 − 1/81 = 8/81.
+        // CC = 100 · 7 / √(14·8) = 100 · 7/√112 ≈ 66.1438.
+        let a = grid(&[&[F, F, F], &[F, O, F], &[O, F, F]]);
+        let b = grid(&[&[F, F, F], &[F, F, F], &[O, F, F]]);
+        let m = map_metrics(&a, &b, &MetricParams::default()).unwrap();
+        assert!(close(m.cc, 700.0 / 112f64.sqrt()), "{}", m.cc);
+        assert!(!m.cc_degenerate);
+    }
+
+    #[test]
+    fn cc_with_unknown_value_4x2() {
+        // 4 × 2, u = 0.5. a values: [1, 0, 0.5, 0, 0, 0, 0, 1]; b values: [1, 0, 0, 0, 0, 0, 1, 1].
+        // Σa = 2.5, ⟨A⟩ = 0.3125; Σb = 3, ⟨B⟩ = 0.375; Σab = 1 + 1 = 2, ⟨AB⟩ = 0.25.
+        // cov = 0.25 − 0.3125·0.375 = 0.1328125.
+        // Σa² = 2.25 → σA² = 0.28125 − 0.09765625 = 0.18359375.
+        // Σb² = 3 → σB² = 0.375 − 0.140625 = 0.234375.
+        // CC = 100 · 0.1328125 / √(0.18359375 · 0.234375).
+        let a = grid(&[&[F, F, F, O], &[O, F, U, F]]);
+        let b = grid(&[&[F, F, O, O], &[O, F, F, F]]);
+        let m = map_metrics(&a, &b, &MetricParams::default()).unwrap();
+        let want = 100.0 * 0.1328125 / (0.18359375f64 * 0.234375).sqrt();
+        assert!(close(m.cc, want), "{} vs {want}", m.cc);
+        // Symmetric.
+        let n = map_metrics(&b, &a, &MetricParams::default()).unwrap();
+        assert!(close(m.cc, n.cc));
+    }
+
+    #[test]
+    fn cc_anticorrelated_is_minus_100() {
+        let a = grid(&[&[O, F], &[F, O]]);
+        let b = grid(&[&[F, O], &[O, F]]);
+        let m = map_metrics(&a, &b, &MetricParams::default()).unwrap();
+        assert!(close(m.cc, -100.0), "{}", m.cc);
+    }
+
+    #[test]
+    fn cc_zero_variance_rule() {
+        let free = grid(&[&[F, F], &[F, F]]);
+        let unknown = grid(&[&[U, U], &[U, U]]);
+        let some = grid(&[&[O, F], &[F, F]]);
+        let p = MetricParams::default();
+        // Identical constant maps: 100.
+        let m = map_metrics(&free, &free, &p).unwrap();
+        assert_eq!(m.cc, 100.0);
+        assert!(m.cc_degenerate);
+        // Different constants, or one constant: 0.
+        assert_eq!(map_metrics(&free, &unknown, &p).unwrap().cc, 0.0);
+        assert_eq!(map_metrics(&free, &some, &p).unwrap().cc, 0.0);
+        assert_eq!(map_metrics(&some, &free, &p).unwrap().cc, 0.0);
+        // With unknown_value = 0, unknown and free cells have equal values: "identical".
+        let p0 = MetricParams { unknown_value: 0.0, ..p };
+        assert_eq!(map_metrics(&free, &unknown, &p0).unwrap().cc, 100.0);
+    }
+
+    #[test]
+    fn ms_hand_computed() {
+        // 3 × 3, u = 0.5.
+        // a:  O F U      b:  O O F
+        //     F F F          F U F
+        //     U F O          O F F
+        // Cells occupied in a or b: (top) a=O,b=O → 0; a=F,b=O → 1;
+        // (bottom) a=U,b=O → 0.25; a=O,b=F → 1. ν′ = 4, Σ = 2.25.
+        // MS = 100 · (1 − 2.25/4) = 43.75.
+        let a = grid(&[&[O, F, U], &[F, F, F], &[U, F, O]]);
+        let b = grid(&[&[O, O, F], &[F, U, F], &[O, F, F]]);
+        let m = map_metrics(&a, &b, &MetricParams::default()).unwrap();
+        assert_eq!(m.union_occupied, 4);
+        assert!(close(m.ms, 43.75), "{}", m.ms);
+        assert!(close(map_metrics(&b, &a, &MetricParams::default()).unwrap().ms, 43.75));
+        // With u = 0.2 the (U, O) cell costs 0.64: MS = 100 · (1 − 2.64/4) = 34.
+        let m = map_metrics(&a, &b, &MetricParams { unknown_value: 0.2, ..MetricParams::default() }).unwrap();
+        assert!(close(m.ms, 34.0), "{}", m.ms);
+    }
+
+    #[test]
+    fn ms_no_occupied_cell_is_100() {
+        let a = grid(&[&[F, U], &[F, F]]);
+        let b = grid(&[&[U, U], &[F, U]]);
+        let m = map_metrics(&a, &b, &MetricParams::default()).unwrap();
+        assert_eq!(m.union_occupied, 0);
+        assert_eq!(m.ms, 100.0);
+    }
+
+    #[test]
+    fn manhattan_transform_matches_brute_force_small() {
+        // 4 × 3 with occupied cells at (0,0) and (3,2).
+        let a = grid(&[&[F, F, F, O], &[F, F, F, F], &[O, F, F, F]]);
+        let mut d = vec![0u32; 12];
+        manhattan_to_occupied(&a, &mut d);
+        // Row 0 (bottom): (0,0)=0, (1,0)=1, (2,0)=2, (3,0)=min(3 to (0,0), 2 to (3,2))=2.
+        assert_eq!(&d[0..4], &[0, 1, 2, 2]);
+        // Row 1: (0,1)=1, (1,1)=min(2, 3)=2, (2,1)=min(3, 1+1)=2, (3,1)=1.
+        assert_eq!(&d[4..8], &[1, 2, 2, 1]);
+        // Row 2 (top): (0,2)=min(2, 3)=2, (1,2)=min(3, 2)=2, (2,2)=1, (3,2)=0.
+        assert_eq!(&d[8..12], &[2, 2, 1, 0]);
+        // No occupied cell: FAR everywhere.
+        let empty = grid(&[&[F, U], &[F, F]]);
+        let mut d = vec![0u32; 4];
+        manhattan_to_occupied(&empty, &mut d);
+        assert!(d.iter().all(|&x| x == FAR));
+    }
+
+    #[test]
+    fn opdf_hand_computed() {
+        // 4 × 2 at 1 m per cell, r = 2 (window √2 × √2 m).
+        // a:  O F F F     b:  F F F F
+        //     F F F O         F O F F
+        // a's occupied cells: (0,1) top-left, (3,0) bottom-right; b's: (1,0).
+        // a→b: (0,1)→(1,0): 1 + 1 = 2 → min(2, 2) = 2; (3,0)→(1,0): 2 → 2. Σ = 4,
+        //   OPDF_as(a, b) = 100 · (1 − 4 / (2 · 2)) = 0.
+        // b→a: (1,0)→ nearest of {(0,1): 2, (3,0): 2} = 2 → min(2, 2) = 2: OPDF_as(b, a) = 0.
+        let a = grid(&[&[O, F, F, F], &[F, F, F, O]]);
+        let b = grid(&[&[F, F, F, F], &[F, O, F, F]]);
+        let m = map_metrics(&a, &b, &params_with_r(2.0)).unwrap();
+        assert!(close(m.opdf_radius_cells, 2.0));
+        assert!(close(m.opdf_ab, 0.0) && close(m.opdf_ba, 0.0), "{m:?}");
+        // With r = 4: a→b Σ = 2 + 2 = 4 → 100 · (1 − 4/8) = 50; b→a: 2 → 100 · (1 − 2/4) = 50.
+        let m = map_metrics(&a, &b, &params_with_r(4.0)).unwrap();
+        assert!(close(m.opdf_ab, 50.0) && close(m.opdf_ba, 50.0), "{m:?}");
+        // Move b's cell to (2,0): a→b: (0,1) → 2 + 1 = 3, (3,0) → 1; Σ = 4 → 50.
+        //   b→a: (2,0) → (3,0) is 1 → 100 · (1 − 1/4) = 75. OPDF = 62.5.
+        let b2 = grid(&[&[F, F, F, F], &[F, F, O, F]]);
+        let m = map_metrics(&a, &b2, &params_with_r(4.0)).unwrap();
+        assert!(close(m.opdf_ab, 50.0) && close(m.opdf_ba, 75.0) && close(m.opdf, 62.5), "{m:?}");
+        let n = map_metrics(&b2, &a, &params_with_r(4.0)).unwrap();
+        assert!(close(n.opdf_ab, 75.0) && close(n.opdf_ba, 50.0) && close(n.opdf, m.opdf));
+    }
+
+    #[test]
+    fn opdf_default_window_at_5cm() {
+        // Default 1 m × 1 m at 0.05 m: 20 × 20 cells, r = √800.
+        // a: one occupied cell at (0,0); b: one at (3,4): L1 = 7.
+        // OPDF_as = 100 · (1 − 7/√800) both ways.
+        let g = GridGeometry::new(10, 10, 0.05, Pose2::IDENTITY).unwrap();
+        let mut a = OccupancyGrid::filled(g, F);
+        let mut b = OccupancyGrid::filled(g, F);
+        a.set(CellCoord::new(0, 0), O);
+        b.set(CellCoord::new(3, 4), O);
+        let m = map_metrics(&a, &b, &MetricParams::default()).unwrap();
+        assert!(close(m.opdf_radius_cells, 800f64.sqrt()));
+        let want = 100.0 * (1.0 - 7.0 / 800f64.sqrt());
+        assert!(close(m.opdf_ab, want) && close(m.opdf_ba, want) && close(m.opdf, want), "{m:?}");
+    }
+
+    #[test]
+    fn opdf_empty_cases() {
+        let none = grid(&[&[F, U], &[F, F]]);
+        let some = grid(&[&[O, U], &[F, F]]);
+        let p = MetricParams::default();
+        // Both empty: 100 each way.
+        let m = map_metrics(&none, &none, &p).unwrap();
+        assert_eq!((m.opdf_ab, m.opdf_ba, m.opdf), (100.0, 100.0, 100.0));
+        // One empty: the empty side scores 0 by the rule, the other side 0 because every
+        // distance is capped at r.
+        let m = map_metrics(&none, &some, &p).unwrap();
+        assert_eq!((m.opdf_ab, m.opdf_ba, m.opdf), (0.0, 0.0, 0.0));
+        let m = map_metrics(&some, &none, &p).unwrap();
+        assert_eq!((m.opdf_ab, m.opdf_ba, m.opdf), (0.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn identical_maps_score_100() {
+        let a = grid(&[&[O, F, U, O], &[F, O, F, U], &[U, U, F, O]]);
+        let m = map_metrics(&a, &a, &MetricParams::default()).unwrap();
+        assert!(close(m.cc, 100.0) && close(m.ms, 100.0) && close(m.opdf, 100.0), "{m:?}");
+        assert_eq!((m.cells, m.occupied_a, m.occupied_b, m.union_occupied), (12, 4, 4, 4));
+    }
+
+    #[test]
+    fn geometry_mismatch_and_bad_params() {
+        let a = grid(&[&[O, F], &[F, F]]);
+        let b = grid_res(&[&[O, F], &[F, F]], 0.5);
+        assert_eq!(map_metrics(&a, &b, &MetricParams::default()), Err(MetricsError::Grid(GridError::GeometryMismatch)));
+        for p in [
+            MetricParams { unknown_value: f64::NAN, ..MetricParams::default() },
+            MetricParams { unknown_value: 1.5, ..MetricParams::default() },
+            MetricParams { opdf_window_m: (0.0, 1.0), ..MetricParams::default() },
+            MetricParams { opdf_window_m: (1.0, f64::INFINITY), ..MetricParams::default() },
+        ] {
+            assert!(matches!(map_metrics(&a, &a, &p), Err(MetricsError::InvalidParam { .. })), "{p:?}");
+        }
+        assert!(toml::from_str::<MetricParams>("bogus = 1").is_err());
+    }
+
+    #[test]
+    fn resample_nearest_centre_and_outside_unknown() {
+        let a = grid(&[&[O, F], &[F, U]]);
+        // Same geometry: unchanged.
+        assert_eq!(resample_onto(&a, a.geometry()), a);
+        // Shifted by one cell to the right: column 0 takes a's column 1, column 1 is outside.
+        let shifted = GridGeometry::new(2, 2, 1.0, Pose2::new(1.0, 0.0, 0.0)).unwrap();
+        let r = resample_onto(&a, &shifted);
+        assert_eq!(r.get(CellCoord::new(0, 1)), Some(F));
+        assert_eq!(r.get(CellCoord::new(0, 0)), Some(U));
+        assert_eq!(r.get(CellCoord::new(1, 0)), Some(U));
+        assert_eq!(r.get(CellCoord::new(1, 1)), Some(U));
+        // Finer target: each fine cell takes the coarse cell containing its centre.
+        let fine = GridGeometry::new(4, 4, 0.5, Pose2::IDENTITY).unwrap();
+        let r = resample_onto(&a, &fine);
+        assert_eq!(r.count(O), 4);
+        assert_eq!(r.get_world(Point2::new(0.25, 1.75)), Some(O));
+    }
+
+    fn arb_grid_pair() -> impl Strategy<Value = (OccupancyGrid, OccupancyGrid)> {
+        (1usize..12, 1usize..12).prop_flat_map(|(w, h)| {
+            let states = prop::sample::select(vec![F, O, U]);
+            (prop::collection::vec(states.clone(), w * h), prop::collection::vec(states, w * h)).prop_map(
+                move |(ca, cb)| {
+                    let g = GridGeometry::new(w, h, 0.05, Pose2::IDENTITY).unwrap();
+                    (OccupancyGrid::from_cells(g, ca).unwrap(), OccupancyGrid::from_cells(g, cb).unwrap())
+                },
+            )
+        })
+    }
+
+    /// Brute-force OPDF_as with a per-cell search.
+    fn brute_opdf_as(m: &OccupancyGrid, other: &OccupancyGrid, r: f64) -> f64 {
+        let g = m.geometry();
+        let occ: Vec<CellCoord> = (0..g.len()).filter(|&i| other.cells()[i] == O).map(|i| g.coord(i)).collect();
+        let mine: Vec<CellCoord> = (0..g.len()).filter(|&i| m.cells()[i] == O).map(|i| g.coord(i)).collect();
+        if mine.is_empty() {
+            return if occ.is_empty() { 100.0 } else { 0.0 };
+        }
+        let sum: f64 = mine
+            .iter()
+            .map(|c| {
+                let best = occ.iter().map(|o| (o.ix - c.ix).abs() + (o.iy - c.iy).abs()).min();
+                best.map_or(r, |d| (d as f64).min(r))
+            })
+            .sum();
+        100.0 * (1.0 - sum / (mine.len() as f64 * r))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        #[test]
+        fn finite_in_range_and_symmetric((a, b) in arb_grid_pair(), u in 0.0f64..=1.0, win in 0.01f64..2.0) {
+            let p = MetricParams { unknown_value: u, opdf_window_m: (win, win * 0.7) };
+            let m = map_metrics(&a, &b, &p).unwrap();
+            let n = map_metrics(&b, &a, &p).unwrap();
+            for v in [m.cc, m.ms, m.opdf, m.opdf_ab, m.opdf_ba] {
+                prop_assert!(v.is_finite());
+            }
+            prop_assert!((-100.0..=100.0).contains(&m.cc));
+            prop_assert!((0.0..=100.0).contains(&m.ms));
+            prop_assert!((0.0..=100.0).contains(&m.opdf_ab) && (0.0..=100.0).contains(&m.opdf_ba));
+            prop_assert!((m.cc - n.cc).abs() < 1e-9);
+            prop_assert!((m.ms - n.ms).abs() < 1e-9);
+            prop_assert!((m.opdf - n.opdf).abs() < 1e-9);
+            prop_assert!((m.opdf_ab - n.opdf_ba).abs() < 1e-12);
+            let r = m.opdf_radius_cells;
+            prop_assert!((m.opdf_ab - brute_opdf_as(&a, &b, r)).abs() < 1e-9);
+            prop_assert!((m.opdf_ba - brute_opdf_as(&b, &a, r)).abs() < 1e-9);
+            let s = map_metrics(&a, &a, &p).unwrap();
+            prop_assert!((s.cc - 100.0).abs() < 1e-9 && s.ms == 100.0 && s.opdf == 100.0);
+        }
+    }
+}
