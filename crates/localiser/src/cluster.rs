@@ -1,0 +1,176 @@
+//! The pose estimate: particles are grouped by their KLD histogram bins, bins that touch (26
+//! neighbours in x, y, yaw, yaw wrapping) form one cluster, and the estimate is the weighted
+//! mean and covariance of the heaviest cluster (circular mean for yaw).
+
+use crate::kld::{BinKey, Bins};
+use mapkeeper_grid::{Pose2, angle_diff};
+
+/// The weighted mean and covariance of the heaviest cluster.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClusterStats {
+    /// Weighted mean pose (circular mean for yaw).
+    pub mean: Pose2,
+    /// Weighted covariance of (x m, y m, yaw rad), yaw deviations wrapped around the mean.
+    pub covariance: [[f64; 3]; 3],
+    /// Share of the total weight in this cluster, in [0, 1].
+    pub weight: f64,
+    /// Number of clusters found.
+    pub clusters: usize,
+}
+
+/// Reusable buffers for [`best_cluster`].
+#[derive(Clone, Debug, Default)]
+pub struct ClusterScratch {
+    keyed: Vec<(BinKey, u32)>,
+    bins: Vec<(BinKey, u32, u32)>,
+    parent: Vec<u32>,
+    weight: Vec<f64>,
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let p = parent[i as usize];
+        parent[i as usize] = parent[p as usize];
+        i = p;
+    }
+    i
+}
+
+/// The heaviest cluster of the weighted particles. Weights need not be normalised; if they sum
+/// to zero (or are not finite) every particle counts equally. `poses` must not be empty.
+pub fn best_cluster(poses: &[Pose2], weights: &[f64], bins: &Bins, s: &mut ClusterScratch) -> ClusterStats {
+    let total: f64 = weights.iter().sum();
+    let uniform = !(total.is_finite() && total > 0.0);
+    let w = |i: usize| if uniform { 1.0 } else { weights.get(i).copied().unwrap_or(0.0) };
+
+    s.keyed.clear();
+    s.keyed.extend(poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)));
+    s.keyed.sort_unstable();
+    s.bins.clear();
+    for (j, &(key, _)) in s.keyed.iter().enumerate() {
+        match s.bins.last_mut() {
+            Some(last) if last.0 == key => last.2 = j as u32 + 1,
+            _ => s.bins.push((key, j as u32, j as u32 + 1)),
+        }
+    }
+    let nb = s.bins.len();
+    s.parent.clear();
+    s.parent.extend(0..nb as u32);
+    let yaw_bins = bins.yaw_bins();
+    for b in 0..nb {
+        let (x, y, a) = s.bins[b].0;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for da in -1..=1 {
+                    if (dx, dy, da) == (0, 0, 0) {
+                        continue;
+                    }
+                    let n = (x.saturating_add(dx), y.saturating_add(dy), (a + da).rem_euclid(yaw_bins));
+                    if let Ok(o) = s.bins.binary_search_by(|e| e.0.cmp(&n)) {
+                        let (ra, rb) = (find(&mut s.parent, b as u32), find(&mut s.parent, o as u32));
+                        if ra != rb {
+                            // Smaller index as root: deterministic.
+                            let (lo, hi) = (ra.min(rb), ra.max(rb));
+                            s.parent[hi as usize] = lo;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    s.weight.clear();
+    s.weight.resize(nb, 0.0);
+    let mut clusters = 0;
+    for b in 0..nb {
+        let r = find(&mut s.parent, b as u32) as usize;
+        if r == b {
+            clusters += 1;
+        }
+        let (_, lo, hi) = s.bins[b];
+        s.weight[r] += s.keyed[lo as usize..hi as usize].iter().map(|&(_, i)| w(i as usize)).sum::<f64>();
+    }
+    let mut best = 0usize;
+    for b in 0..nb {
+        if s.weight[b] > s.weight[best] {
+            best = b;
+        }
+    }
+    let best_weight = s.weight.get(best).copied().unwrap_or(0.0);
+
+    // Mean: linear in x, y; circular in yaw.
+    let (mut sw, mut sx, mut sy, mut ss, mut sc) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for b in 0..nb {
+        if find(&mut s.parent, b as u32) as usize != best {
+            continue;
+        }
+        let (_, lo, hi) = s.bins[b];
+        for &(_, i) in &s.keyed[lo as usize..hi as usize] {
+            let (p, wi) = (&poses[i as usize], w(i as usize));
+            sw += wi;
+            sx += wi * p.x;
+            sy += wi * p.y;
+            ss += wi * p.yaw.sin();
+            sc += wi * p.yaw.cos();
+        }
+    }
+    let sw_safe = if sw > 0.0 { sw } else { 1.0 };
+    let mean = Pose2::new(sx / sw_safe, sy / sw_safe, ss.atan2(sc));
+    let mut cov = [[0.0; 3]; 3];
+    for b in 0..nb {
+        if find(&mut s.parent, b as u32) as usize != best {
+            continue;
+        }
+        let (_, lo, hi) = s.bins[b];
+        for &(_, i) in &s.keyed[lo as usize..hi as usize] {
+            let (p, wi) = (&poses[i as usize], w(i as usize));
+            let d = [p.x - mean.x, p.y - mean.y, angle_diff(p.yaw, mean.yaw)];
+            for r in 0..3 {
+                for c in 0..3 {
+                    cov[r][c] += wi * d[r] * d[c];
+                }
+            }
+        }
+    }
+    for row in &mut cov {
+        for v in row.iter_mut() {
+            *v /= sw_safe;
+        }
+    }
+    let all: f64 = s.weight.iter().sum();
+    ClusterStats { mean, covariance: cov, weight: if all > 0.0 { best_weight / all } else { 0.0 }, clusters }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn heaviest_of_two_clusters_with_circular_yaw() {
+        let bins = Bins::new(0.5, 10f64.to_radians());
+        // Cluster A near (0, 0) across the ±π seam; cluster B far away with less weight.
+        let poses = [
+            Pose2::new(0.0, 0.0, PI - 0.05),
+            Pose2::new(0.2, 0.0, -PI + 0.05),
+            Pose2::new(5.0, 5.0, 0.0),
+            Pose2::new(5.1, 5.0, 0.0),
+        ];
+        let weights = [0.3, 0.3, 0.2, 0.2];
+        let st = best_cluster(&poses, &weights, &bins, &mut ClusterScratch::default());
+        assert_eq!(st.clusters, 2);
+        assert!((st.weight - 0.6).abs() < 1e-12);
+        assert!((st.mean.x - 0.1).abs() < 1e-12 && st.mean.y.abs() < 1e-12);
+        assert!((st.mean.yaw.abs() - PI).abs() < 1e-9, "{}", st.mean.yaw);
+        assert!((st.covariance[0][0] - 0.01).abs() < 1e-12);
+        assert!((st.covariance[2][2] - 0.0025).abs() < 1e-9);
+        assert!((st.covariance[0][2] - st.covariance[2][0]).abs() < 1e-15);
+    }
+
+    #[test]
+    fn zero_weights_count_equally() {
+        let bins = Bins::new(0.5, 0.2);
+        let poses = [Pose2::new(1.0, 1.0, 0.0), Pose2::new(1.2, 1.0, 0.0)];
+        let st = best_cluster(&poses, &[0.0, 0.0], &bins, &mut ClusterScratch::default());
+        assert!((st.mean.x - 1.1).abs() < 1e-12 && st.clusters == 1 && st.weight == 1.0);
+    }
+}

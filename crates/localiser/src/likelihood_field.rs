@@ -1,0 +1,257 @@
+//! The likelihood-field sensor model (Thrun et al. §6.4): a beam's endpoint is scored by its
+//! distance `d` to the nearest occupied cell,
+//! `p(z) = z_hit · exp(−d² / (2 σ_hit²)) + z_rand / laser_max_range`, and a pose's score is the
+//! sum of the beams' `ln p(z)`.
+//!
+//! `ln p` is precomputed once per map for every cell from the exact distance transform
+//! ([`mapkeeper_grid::DistanceField`], capped at `likelihood_max_dist_m`) and stored as `f32`, so
+//! scoring one beam is a rotation, a floor and one table read. Endpoints outside the map get the
+//! value of `likelihood_max_dist_m`; endpoints in unknown cells follow
+//! [`UnknownCells`](crate::UnknownCells). As in AMCL, the Gaussian is not normalised (its peak
+//! is `z_hit`), so `z_hit` and `z_rand` are directly the mixture's relative weights at a hit.
+
+use crate::params::{FilterParams, UnknownCells};
+use mapkeeper_grid::{CellState, DistanceField, OccupancyGrid, Point2, Pose2};
+use mapkeeper_sensor::{BeamValidity, LaserScan};
+
+/// Offset that makes a truncating cast act as `floor` for every coordinate of interest (grid
+/// sides are at most 2^20 cells): anything below `−OFFSET` lands off the map anyway.
+const FLOOR_OFFSET: f64 = (1u64 << 21) as f64;
+
+/// Per-cell log-likelihood of a beam endpoint, for one map.
+#[derive(Clone, Debug)]
+pub struct LikelihoodField {
+    width: usize,
+    height: usize,
+    inv_resolution: f64,
+    map_in_grid: Pose2,
+    log_p: Vec<f32>,
+    off_map_log_p: f32,
+}
+
+/// `ln p(z)` at distance `d_m` from the nearest obstacle.
+pub fn beam_log_likelihood(params: &FilterParams, d_m: f64) -> f64 {
+    let s = params.sigma_hit_m;
+    (params.z_hit * (-(d_m * d_m) / (2.0 * s * s)).exp() + params.z_rand / params.laser_max_range_m).ln()
+}
+
+impl LikelihoodField {
+    /// Builds the table for `map` (one exact distance transform plus one `ln` per cell).
+    pub fn new(map: &OccupancyGrid, params: &FilterParams) -> Self {
+        let geometry = map.geometry();
+        let max_d = params.likelihood_max_dist_m;
+        let df = DistanceField::to_occupied(map, max_d);
+        let far = beam_log_likelihood(params, max_d) as f32;
+        let log_p = df
+            .distances_m()
+            .iter()
+            .zip(map.cells())
+            .map(|(&d, &state)| match (state, params.unknown_cells) {
+                (CellState::Unknown, UnknownCells::MaxDistance) => far,
+                _ => beam_log_likelihood(params, d as f64) as f32,
+            })
+            .collect();
+        Self {
+            width: geometry.width(),
+            height: geometry.height(),
+            inv_resolution: 1.0 / geometry.resolution_m(),
+            map_in_grid: geometry.origin().inverse(),
+            log_p,
+            off_map_log_p: far,
+        }
+    }
+
+    /// `ln p` of an endpoint at a map-frame point.
+    pub fn log_p_at(&self, p_in_map: Point2) -> f32 {
+        let g = self.map_in_grid.transform_point(p_in_map);
+        self.lookup(g.x * self.inv_resolution, g.y * self.inv_resolution)
+    }
+
+    /// `ln p` given to endpoints outside the map.
+    pub fn off_map_log_p(&self) -> f32 {
+        self.off_map_log_p
+    }
+
+    #[inline(always)]
+    fn lookup(&self, u: f64, v: f64) -> f32 {
+        // Truncation after the offset is floor for u, v ≥ −OFFSET; NaN casts to 0 → off map.
+        let iu = (u + FLOOR_OFFSET) as i64 - FLOOR_OFFSET as i64;
+        let iv = (v + FLOOR_OFFSET) as i64 - FLOOR_OFFSET as i64;
+        if (iu as u64) < self.width as u64 && (iv as u64) < self.height as u64 {
+            let i = iv as usize * self.width + iu as usize;
+            self.log_p.get(i).copied().unwrap_or(self.off_map_log_p)
+        } else {
+            self.off_map_log_p
+        }
+    }
+
+    /// Sum of `ln p` over the beams for the robot at `robot_in_map`. No allocation; one
+    /// `sin_cos` per call and a handful of flops plus one table read per beam.
+    #[inline]
+    pub fn log_likelihood(&self, robot_in_map: &Pose2, beams: &BeamSet) -> f64 {
+        let g = self.map_in_grid.compose(robot_in_map);
+        let (s, c) = g.yaw.sin_cos();
+        let k = self.inv_resolution;
+        let (px, py, c, s) = (g.x * k, g.y * k, c * k, s * k);
+        let mut sum = 0.0f64;
+        for &[ex, ey] in &beams.endpoints_in_robot {
+            sum += self.lookup(px + c * ex - s * ey, py + s * ex + c * ey) as f64;
+        }
+        sum
+    }
+}
+
+/// The beam endpoints of one update, in the robot frame (lidar extrinsics applied once per
+/// update, not per particle). Reused between updates: no allocation after warm-up.
+#[derive(Clone, Debug, Default)]
+pub struct BeamSet {
+    endpoints_in_robot: Vec<[f64; 2]>,
+}
+
+impl BeamSet {
+    /// An empty set.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Removes every beam (keeps the capacity).
+    pub fn clear(&mut self) {
+        self.endpoints_in_robot.clear();
+    }
+
+    /// Number of beams.
+    pub fn len(&self) -> usize {
+        self.endpoints_in_robot.len()
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.endpoints_in_robot.is_empty()
+    }
+
+    /// Adds one endpoint given in the robot frame.
+    pub fn push(&mut self, endpoint_in_robot: Point2) {
+        self.endpoints_in_robot.push([endpoint_in_robot.x, endpoint_in_robot.y]);
+    }
+
+    /// Adds up to `max_beams` valid beams of `scan`, evenly spaced over its valid beams (first
+    /// and last included), skipping readings at or beyond `max_range_m`. Returns how many were
+    /// added. The scan's header must be valid ([`LaserScan::validate`]).
+    pub fn add_scan(&mut self, scan: &LaserScan, max_beams: usize, max_range_m: f64) -> usize {
+        let usable = |r: f32| scan.validity_of(r) == BeamValidity::Valid && (r as f64) < max_range_m;
+        let count = scan.ranges_m.iter().filter(|&&r| usable(r)).count();
+        let take = count.min(max_beams);
+        if take == 0 {
+            return 0;
+        }
+        let target = |j: usize| if take == 1 { (count - 1) / 2 } else { j * (count - 1) / (take - 1) };
+        let mount = scan.lidar_in_robot;
+        let (mut valid_seen, mut j) = (0usize, 0usize);
+        for (i, &r) in scan.ranges_m.iter().enumerate() {
+            if !usable(r) {
+                continue;
+            }
+            if valid_seen == target(j) {
+                let a = scan.beam_angle(i as f64);
+                let p = Point2::new(r as f64 * a.cos(), r as f64 * a.sin());
+                self.push(mount.transform_point(p));
+                j += 1;
+                if j == take {
+                    break;
+                }
+            }
+            valid_seen += 1;
+        }
+        take
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapkeeper_grid::{CellCoord, GridGeometry};
+
+    fn room() -> OccupancyGrid {
+        // 2 m × 1 m at 0.1 m, wall column at ix = 15 (x ∈ [1.5, 1.6)), unknown block beyond.
+        let g = GridGeometry::new(20, 10, 0.1, Pose2::new(-1.0, 0.0, 0.0)).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for iy in 0..10 {
+            m.set(CellCoord::new(15, iy), CellState::Occupied);
+            for ix in 16..20 {
+                m.set(CellCoord::new(ix, iy), CellState::Unknown);
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn table_matches_the_formula() {
+        let p = FilterParams::default();
+        let f = LikelihoodField::new(&room(), &p);
+        // The wall cell in the map frame is x ∈ [0.5, 0.6).
+        let hit = (0.5f64 + 0.5 / 30.0).ln() as f32;
+        assert!((f.log_p_at(Point2::new(0.55, 0.45)) - hit).abs() < 1e-6);
+        // Three cells left of the wall: d = 0.3 m.
+        let want = beam_log_likelihood(&p, 0.3) as f32;
+        assert!((f.log_p_at(Point2::new(0.25, 0.45)) - want).abs() < 1e-6);
+        // Off the map: the capped distance.
+        let far = beam_log_likelihood(&p, 2.0) as f32;
+        assert_eq!(f.log_p_at(Point2::new(-1.01, 0.5)), far);
+        assert_eq!(f.log_p_at(Point2::new(f64::NAN, 0.5)), far);
+        // Unknown cell two cells past the wall: nearest occupied by default, far otherwise.
+        let u = Point2::new(0.75, 0.45);
+        assert!((f.log_p_at(u) - beam_log_likelihood(&p, 0.2) as f32).abs() < 1e-6);
+        let q = FilterParams { unknown_cells: UnknownCells::MaxDistance, ..p };
+        assert_eq!(LikelihoodField::new(&room(), &q).log_p_at(u), far);
+    }
+
+    #[test]
+    fn pose_score_uses_extrinsics_and_frames() {
+        let p = FilterParams::default();
+        let f = LikelihoodField::new(&room(), &p);
+        let scan = LaserScan {
+            stamp_ns: 0,
+            lidar_id: 0,
+            lidar_in_robot: Pose2::new(0.1, 0.0, std::f64::consts::FRAC_PI_2),
+            angle_min_rad: -std::f64::consts::FRAC_PI_2,
+            angle_increment_rad: 0.1,
+            range_min_m: 0.05,
+            range_max_m: 10.0,
+            ranges_m: vec![0.45],
+        };
+        let mut beams = BeamSet::new();
+        assert_eq!(beams.add_scan(&scan, 30, 30.0), 1);
+        // Robot at x = 0, so the lidar at x = 0.1 looks along +x and the endpoint is x = 0.55.
+        let robot = Pose2::new(0.0, 0.45, 0.0);
+        let want = f.log_p_at(Point2::new(0.55, 0.45)) as f64;
+        assert!((f.log_likelihood(&robot, &beams) - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn beam_subsampling_is_even_and_skips_invalid() {
+        let mut ranges = vec![1.0f32; 11];
+        ranges[3] = f32::NAN;
+        ranges[7] = 50.0; // beyond range_max
+        let scan = LaserScan {
+            stamp_ns: 0,
+            lidar_id: 0,
+            lidar_in_robot: Pose2::IDENTITY,
+            angle_min_rad: 0.0,
+            angle_increment_rad: 0.1,
+            range_min_m: 0.05,
+            range_max_m: 30.0,
+            ranges_m: ranges,
+        };
+        let mut beams = BeamSet::new();
+        // 9 valid beams (0,1,2,4,5,6,8,9,10); 3 evenly spaced: valid ranks 0, 4, 8 = beams 0, 5, 10.
+        assert_eq!(beams.add_scan(&scan, 3, 30.0), 3);
+        let angles: Vec<f64> = beams.endpoints_in_robot.iter().map(|e| e[1].atan2(e[0])).collect();
+        for (a, want) in angles.iter().zip([0.0, 0.5, 1.0]) {
+            assert!((a - want).abs() < 1e-9, "{angles:?}");
+        }
+        beams.clear();
+        assert_eq!(beams.add_scan(&scan, 100, 30.0), 9);
+        beams.clear();
+        assert_eq!(beams.add_scan(&scan, 100, 0.5), 0);
+    }
+}

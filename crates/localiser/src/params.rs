@@ -1,0 +1,281 @@
+//! The filter's parameters: one struct, [`FilterParams`], with the odometry noise model nested in
+//! it as [`MotionParams`]. Defaults are Robotnik's Summit-XL AMCL configuration.
+
+use crate::LocaliserError;
+use serde::{Deserialize, Serialize};
+
+/// The largest particle count accepted (guards against absurd allocations from a bad file).
+pub const MAX_PARTICLES_LIMIT: usize = 1_000_000;
+
+/// The robot base's kinematics, which selects the odometry motion model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kinematics {
+    /// Omnidirectional (mecanum) base: translation along any bearing plus an independent
+    /// sideways ("strafe") noise term (`alpha5`). The Summit-XL Steel's default.
+    #[default]
+    Omni,
+    /// Differential or skid-steer base: rotate, translate, rotate (Thrun et al. table 5.6).
+    Differential,
+}
+
+/// Odometry noise: how much variance each kind of motion adds, AMCL's `alpha1`..`alpha5`.
+///
+/// The alphas multiply *variances* (the corrected forms), e.g. for the differential model
+/// `σ_rot1 = sqrt(alpha1·rot1² + alpha2·trans²)`, never the legacy `alpha1·|rot1| + ...` that
+/// treats a variance as a standard deviation. Rotations in radians, translations in metres.
+///
+/// ```
+/// use mapkeeper_localiser::MotionParams;
+/// let mut m = MotionParams::default();
+/// assert_eq!((m.alpha1, m.alpha2, m.alpha3, m.alpha4, m.alpha5), (0.2, 0.2, 0.8, 0.2, 0.1));
+/// m.alpha3 = 0.1;
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MotionParams {
+    /// Rotation variance per squared rotation, rad²/rad². Default 0.2.
+    pub alpha1: f64,
+    /// Rotation variance per squared translation, rad²/m². Default 0.2.
+    pub alpha2: f64,
+    /// Translation variance per squared translation, m²/m². Default 0.8.
+    pub alpha3: f64,
+    /// Translation variance per squared rotation, m²/rad². Default 0.2.
+    pub alpha4: f64,
+    /// Sideways (strafe) variance per squared translation, m²/m², omni model only. Default 0.1.
+    pub alpha5: f64,
+}
+
+impl Default for MotionParams {
+    fn default() -> Self {
+        Self { alpha1: 0.2, alpha2: 0.2, alpha3: 0.8, alpha4: 0.2, alpha5: 0.1 }
+    }
+}
+
+/// What the likelihood field assigns to a beam that ends in an *unknown* cell inside the map.
+/// (Beams ending outside the map always get the likelihood of `likelihood_max_dist_m`.)
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UnknownCells {
+    /// The distance to the nearest occupied cell, as for free cells (AMCL's behaviour). Unknown
+    /// cells are mostly obstacle interiors, so this is the penetration depth: a beam that
+    /// overshoots a box surface by 3 cm of range noise is scored 3 cm off, not as a miss.
+    #[default]
+    NearestOccupied,
+    /// As far as possible (`likelihood_max_dist_m`): only known structure supports a pose.
+    MaxDistance,
+}
+
+/// Every parameter of the filter. Units are in the names; each field's doc gives its default.
+///
+/// ```
+/// use mapkeeper_localiser::{FilterParams, Kinematics};
+/// let mut p = FilterParams::default();
+/// assert_eq!((p.min_particles, p.max_particles, p.max_beams), (500, 5000, 30));
+/// p.kinematics = Kinematics::Differential;
+/// p.max_beams = 60;
+/// assert!(p.validate().is_ok());
+/// p.sigma_hit_m = -1.0;
+/// assert!(p.validate().is_err());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FilterParams {
+    /// Motion model. Default [`Kinematics::Omni`].
+    pub kinematics: Kinematics,
+    /// Odometry noise (`alpha1`..`alpha5`). Default 0.2 / 0.2 / 0.8 / 0.2 / 0.1.
+    pub motion: MotionParams,
+    /// Fewest particles KLD sampling may keep. Default 500.
+    pub min_particles: usize,
+    /// Most particles KLD sampling may keep (and the count used for any initialisation).
+    /// Default 5000.
+    pub max_particles: usize,
+    /// KLD sampling: maximum error ε between the true and the estimated distribution.
+    /// Default 0.05.
+    pub kld_err: f64,
+    /// KLD sampling: the upper standard normal quantile z used in Fox's bound, given directly
+    /// as in AMCL's `kld_z` (0.99, not a probability). Default 0.99.
+    pub kld_z: f64,
+    /// KLD histogram (and clustering) bin side in x and y, metres. Default 0.5 m.
+    pub kld_bin_xy_m: f64,
+    /// KLD histogram (and clustering) bin width in yaw, radians. Default 10° (0.1745 rad).
+    pub kld_bin_yaw_rad: f64,
+    /// Beams used per lidar and update, evenly spaced over its valid beams. Default 30.
+    pub max_beams: usize,
+    /// Weight of the Gaussian "hit" term of the likelihood field. Default 0.5.
+    pub z_hit: f64,
+    /// Weight of the uniform "random" term (spread over `laser_max_range_m`). Default 0.5.
+    pub z_rand: f64,
+    /// Standard deviation of the hit term, metres. Default 0.2 m.
+    pub sigma_hit_m: f64,
+    /// Distances to the nearest obstacle are capped here; off-map endpoints get this distance,
+    /// metres. Default 2.0 m.
+    pub likelihood_max_dist_m: f64,
+    /// Range over which the random term is spread, and beams at or beyond it are not used,
+    /// metres. Default 30 m (SICK S300).
+    pub laser_max_range_m: f64,
+    /// How endpoints in unknown cells are scored. Default [`UnknownCells::NearestOccupied`].
+    pub unknown_cells: UnknownCells,
+    /// The filter updates only after the odometry has moved this far since the last update,
+    /// metres. Default 0.2 m.
+    pub update_min_d_m: f64,
+    /// ... or turned this much, radians. Default 0.5 rad.
+    pub update_min_a_rad: f64,
+    /// Resample after every this many sensor updates (≥ 1). Default 1.
+    pub resample_interval: u32,
+    /// Augmented MCL: decay rate of the slow average likelihood (0 disables recovery).
+    /// Default 0.
+    pub recovery_alpha_slow: f64,
+    /// Augmented MCL: decay rate of the fast average likelihood (0 disables recovery).
+    /// Default 0.
+    pub recovery_alpha_fast: f64,
+}
+
+impl Default for FilterParams {
+    fn default() -> Self {
+        Self::summit_xl()
+    }
+}
+
+impl FilterParams {
+    /// Robotnik's Summit-XL AMCL configuration (the default), with an omnidirectional base.
+    pub fn summit_xl() -> Self {
+        Self {
+            kinematics: Kinematics::Omni,
+            motion: MotionParams::default(),
+            min_particles: 500,
+            max_particles: 5000,
+            kld_err: 0.05,
+            kld_z: 0.99,
+            kld_bin_xy_m: 0.5,
+            kld_bin_yaw_rad: 10f64.to_radians(),
+            max_beams: 30,
+            z_hit: 0.5,
+            z_rand: 0.5,
+            sigma_hit_m: 0.2,
+            likelihood_max_dist_m: 2.0,
+            laser_max_range_m: 30.0,
+            unknown_cells: UnknownCells::NearestOccupied,
+            update_min_d_m: 0.2,
+            update_min_a_rad: 0.5,
+            resample_interval: 1,
+            recovery_alpha_slow: 0.0,
+            recovery_alpha_fast: 0.0,
+        }
+    }
+
+    /// Whether augmented-MCL recovery is enabled (both alphas non-zero).
+    pub fn recovery_enabled(&self) -> bool {
+        self.recovery_alpha_slow > 0.0 && self.recovery_alpha_fast > 0.0
+    }
+
+    /// Checks every field; the first violation is returned, nothing is adjusted.
+    pub fn validate(&self) -> Result<(), LocaliserError> {
+        fn check(name: &'static str, value: f64, ok: bool, requirement: &'static str) -> Result<(), LocaliserError> {
+            if ok && value.is_finite() {
+                Ok(())
+            } else {
+                Err(LocaliserError::InvalidParameter { name, value, requirement })
+            }
+        }
+        let m = &self.motion;
+        for (name, v) in [
+            ("motion.alpha1", m.alpha1),
+            ("motion.alpha2", m.alpha2),
+            ("motion.alpha3", m.alpha3),
+            ("motion.alpha4", m.alpha4),
+            ("motion.alpha5", m.alpha5),
+        ] {
+            check(name, v, v >= 0.0, "finite and >= 0")?;
+        }
+        let (min, max) = (self.min_particles, self.max_particles);
+        check("min_particles", min as f64, min >= 1, ">= 1")?;
+        check("max_particles", max as f64, max <= MAX_PARTICLES_LIMIT, "<= 1000000")?;
+        if min > max {
+            return Err(LocaliserError::ParticleRange { min, max });
+        }
+        check("kld_err", self.kld_err, self.kld_err > 0.0 && self.kld_err < 1.0, "in (0, 1)")?;
+        check("kld_z", self.kld_z, self.kld_z > 0.0, "finite and > 0")?;
+        check("kld_bin_xy_m", self.kld_bin_xy_m, self.kld_bin_xy_m > 0.0, "finite and > 0")?;
+        let yaw_bin = self.kld_bin_yaw_rad;
+        check("kld_bin_yaw_rad", yaw_bin, yaw_bin > 0.0 && yaw_bin <= std::f64::consts::PI, "in (0, pi]")?;
+        let beams = self.max_beams;
+        check("max_beams", beams as f64, (1..=mapkeeper_sensor::MAX_BEAMS).contains(&beams), "in 1..=65536")?;
+        check("z_hit", self.z_hit, self.z_hit >= 0.0, "finite and >= 0")?;
+        check("z_rand", self.z_rand, self.z_rand >= 0.0, "finite and >= 0")?;
+        let sum = self.z_hit + self.z_rand;
+        check("z_hit + z_rand", sum, sum > 0.0, "> 0")?;
+        check("sigma_hit_m", self.sigma_hit_m, self.sigma_hit_m > 0.0, "finite and > 0")?;
+        let d = self.likelihood_max_dist_m;
+        check("likelihood_max_dist_m", d, d > 0.0, "finite and > 0")?;
+        check("laser_max_range_m", self.laser_max_range_m, self.laser_max_range_m > 0.0, "finite and > 0")?;
+        check("update_min_d_m", self.update_min_d_m, self.update_min_d_m >= 0.0, "finite and >= 0")?;
+        check("update_min_a_rad", self.update_min_a_rad, self.update_min_a_rad >= 0.0, "finite and >= 0")?;
+        let ri = self.resample_interval;
+        check("resample_interval", ri as f64, ri >= 1, ">= 1")?;
+        let (slow, fast) = (self.recovery_alpha_slow, self.recovery_alpha_fast);
+        check("recovery_alpha_slow", slow, (0.0..=1.0).contains(&slow), "in [0, 1]")?;
+        check("recovery_alpha_fast", fast, (0.0..=1.0).contains(&fast), "in [0, 1]")?;
+        let both_off = slow == 0.0 && fast == 0.0;
+        if !(both_off || (slow > 0.0 && slow < fast)) {
+            return Err(LocaliserError::RecoveryAlphas { slow, fast });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_match_the_spec() {
+        let p = FilterParams::default();
+        p.validate().unwrap();
+        assert_eq!(p.kld_err, 0.05);
+        assert_eq!(p.kld_z, 0.99);
+        assert_eq!((p.z_hit, p.z_rand, p.sigma_hit_m, p.likelihood_max_dist_m), (0.5, 0.5, 0.2, 2.0));
+        assert_eq!((p.update_min_d_m, p.update_min_a_rad, p.resample_interval), (0.2, 0.5, 1));
+        assert!(!p.recovery_enabled());
+    }
+
+    fn refused(f: impl FnOnce(&mut FilterParams)) -> LocaliserError {
+        let mut p = FilterParams::default();
+        f(&mut p);
+        p.validate().unwrap_err()
+    }
+
+    #[test]
+    fn invalid_parameters_are_refused_not_reset() {
+        let e = refused(|p| p.sigma_hit_m = 0.0);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "sigma_hit_m", .. }), "{e}");
+        let e = refused(|p| p.motion.alpha3 = f64::NAN);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "motion.alpha3", .. }), "{e}");
+        let e = refused(|p| p.min_particles = 0);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "min_particles", .. }), "{e}");
+        let e = refused(|p| p.min_particles = 6000);
+        assert_eq!(e, LocaliserError::ParticleRange { min: 6000, max: 5000 });
+        let e = refused(|p| p.kld_err = 0.0);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "kld_err", .. }));
+        let e = refused(|p| {
+            p.z_hit = 0.0;
+            p.z_rand = 0.0;
+        });
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "z_hit + z_rand", .. }));
+        let e = refused(|p| p.resample_interval = 0);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "resample_interval", .. }));
+        let e = refused(|p| p.max_beams = 0);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "max_beams", .. }));
+        let e = refused(|p| p.update_min_a_rad = f64::INFINITY);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "update_min_a_rad", .. }));
+        let e = refused(|p| {
+            p.recovery_alpha_slow = 0.1;
+            p.recovery_alpha_fast = 0.001;
+        });
+        assert!(matches!(e, LocaliserError::RecoveryAlphas { .. }));
+        let e = refused(|p| p.recovery_alpha_fast = 0.1);
+        assert!(matches!(e, LocaliserError::RecoveryAlphas { .. }));
+        let p = FilterParams { recovery_alpha_slow: 0.001, recovery_alpha_fast: 0.1, ..Default::default() };
+        assert!(p.validate().is_ok() && p.recovery_enabled());
+    }
+}
