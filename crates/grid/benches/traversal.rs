@@ -72,6 +72,22 @@ fn bench(c: &mut Criterion) {
             (o, Point2::new(o.x + r * a.cos(), o.y + r * a.sin()))
         })
         .collect();
+    group.finish();
+    // The same walks counted in cells, to compare maps whose rays differ in length.
+    let cells: usize = ends
+        .iter()
+        .map(|&(a, e)| {
+            let mut n = 0usize;
+            let _ = traverse(map.geometry(), a, e, |_| {
+                n += 1;
+                ControlFlow::<()>::Continue(())
+            });
+            n
+        })
+        .sum();
+    eprintln!("traversal: {} rays, {:.1} cells per ray on average", ends.len(), cells as f64 / ends.len() as f64);
+    let mut group = c.benchmark_group("traversal_cells");
+    group.throughput(Throughput::Elements(cells as u64));
     group.bench_function("traverse_segments", |b| {
         b.iter(|| {
             let mut n = 0usize;

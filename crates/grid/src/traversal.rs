@@ -56,6 +56,15 @@ pub fn traverse<B, F>(geometry: &GridGeometry, from: Point2, to: Point2, mut vis
 where
     F: FnMut(CellCoord) -> ControlFlow<B>,
 {
+    traverse_indexed(geometry, from, to, |c, _| visit(c))
+}
+
+/// [`traverse`], also passing each cell's linear index (row-major from the bottom row).
+#[inline]
+pub fn traverse_indexed<B, F>(geometry: &GridGeometry, from: Point2, to: Point2, mut visit: F) -> ControlFlow<B>
+where
+    F: FnMut(CellCoord, usize) -> ControlFlow<B>,
+{
     let a = geometry.world_to_grid(from);
     let b = geometry.world_to_grid(to);
     if !(a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite()) {
@@ -92,18 +101,22 @@ where
     let mut remaining_y = (ey - iy).abs();
     let step_x = (ex - ix).signum();
     let step_y = (ey - iy).signum();
+    let stride_y = step_y * w as i64;
+    let mut index = (iy * w as i64 + ix) as usize;
     loop {
-        visit(CellCoord::new(ix as i32, iy as i32))?;
+        visit(CellCoord::new(ix as i32, iy as i32), index)?;
         if remaining_x == 0 && remaining_y == 0 {
             return ControlFlow::Continue(());
         }
         let go_x = remaining_y == 0 || (remaining_x > 0 && t_max_x <= t_max_y);
         if go_x {
             ix += step_x;
+            index = index.wrapping_add_signed(step_x as isize);
             t_max_x += t_delta_x;
             remaining_x -= 1;
         } else {
             iy += step_y;
+            index = index.wrapping_add_signed(stride_y as isize);
             t_max_y += t_delta_y;
             remaining_y -= 1;
         }
@@ -144,14 +157,12 @@ pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f
     let (s, c) = angle.sin_cos();
     let end = Point2::new(origin.x + c * max_range_m, origin.y + s * max_range_m);
     let cells = grid.cells();
-    let width = geometry.width();
     let mut entered_any = false;
     let mut last = None;
-    let flow = traverse(geometry, origin, end, |cell| {
+    let flow = traverse_indexed(geometry, origin, end, |cell, index| {
         entered_any = true;
         last = Some(cell);
-        let state = cells[cell.iy as usize * width + cell.ix as usize];
-        match state {
+        match cells[index] {
             CellState::Free => ControlFlow::Continue(()),
             CellState::Occupied => ControlFlow::Break((cell, RayStop::Occupied)),
             CellState::Unknown if unknown_blocks => ControlFlow::Break((cell, RayStop::Unknown)),
