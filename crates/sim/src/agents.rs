@@ -1,0 +1,201 @@
+//! People and other robots: kinematic bodies on waypoint loops or random walks. An agent pauses
+//! while the robot stands in its way and, after waiting `give_way_s`, turns back, so it never
+//! walks through the robot and two blocked parties never wait for each other for ever.
+
+use crate::seeds::stream_rng;
+use crate::world::{Agent, Motion};
+use mapkeeper_grid::{Point2, Pose2};
+use rand::RngExt;
+use rand::rngs::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// How agents react to the robot.
+///
+/// ```
+/// use mapkeeper_sim::AgentParams;
+/// let p = AgentParams { give_way_s: 5.0, ..AgentParams::default() };
+/// assert!(p.validate().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AgentParams {
+    /// An agent stops when the robot is within this distance ahead of its edge, metres
+    /// (default 0.6).
+    pub lookahead_m: f64,
+    /// Lateral clearance an agent keeps from the robot, metres (default 0.05).
+    pub clearance_m: f64,
+    /// After waiting this long for the robot, an agent turns back, seconds (default 3).
+    pub give_way_s: f64,
+}
+
+impl Default for AgentParams {
+    fn default() -> Self {
+        Self { lookahead_m: 0.6, clearance_m: 0.05, give_way_s: 3.0 }
+    }
+}
+
+impl AgentParams {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in
+            [("lookahead_m", self.lookahead_m), ("clearance_m", self.clearance_m), ("give_way_s", self.give_way_s)]
+        {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{name} must be finite and ≥ 0, got {v}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One agent's state.
+pub(crate) struct AgentState {
+    pub(crate) radius: f64,
+    pub(crate) pose: Pose2,
+    waypoints: Vec<Point2>,
+    random_walk: bool,
+    max_pause_s: f64,
+    speed: f64,
+    from: usize,
+    target: usize,
+    step_dir: isize,
+    pause_s: f64,
+    blocked_s: f64,
+    rng: ChaCha8Rng,
+}
+
+impl AgentState {
+    pub(crate) fn new(agent: &Agent, run_seed: u64) -> Self {
+        let waypoints = agent.motion.waypoints();
+        let (random_walk, max_pause_s) = match agent.motion {
+            Motion::Loop { .. } => (false, 0.0),
+            Motion::RandomWalk { max_pause_s, .. } => (true, max_pause_s),
+        };
+        let (a, b) = (waypoints[0], waypoints[1]);
+        Self {
+            radius: agent.footprint.center().distance(Point2::new(0.0, 0.0)) + agent.footprint.bounding_radius(),
+            pose: Pose2::new(a.x, a.y, (b.y - a.y).atan2(b.x - a.x)),
+            waypoints,
+            random_walk,
+            max_pause_s,
+            speed: agent.speed_mps,
+            from: 0,
+            target: 1,
+            step_dir: 1,
+            pause_s: 0.0,
+            blocked_s: 0.0,
+            rng: stream_rng(run_seed, &format!("agent/{}", agent.id)),
+        }
+    }
+
+    fn next_target(&mut self) -> usize {
+        let n = self.waypoints.len();
+        if self.random_walk {
+            let t = self.target;
+            let up = if t == 0 {
+                true
+            } else if t + 1 == n {
+                false
+            } else {
+                self.rng.random::<bool>()
+            };
+            if up { t + 1 } else { t - 1 }
+        } else {
+            (self.target as isize + self.step_dir).rem_euclid(n as isize) as usize
+        }
+    }
+
+    /// Moves the agent by one step of `dt_s`, unless the robot (a circle) is in the way.
+    pub(crate) fn advance(&mut self, dt_s: f64, robot: Point2, robot_radius: f64, p: &AgentParams) {
+        if self.pause_s > 0.0 {
+            self.pause_s = (self.pause_s - dt_s).max(0.0);
+            return;
+        }
+        let pos = self.pose.position();
+        let target = self.waypoints[self.target];
+        let (dx, dy) = (target.x - pos.x, target.y - pos.y);
+        let dist = dx.hypot(dy);
+        if dist > 1e-12 {
+            let dir = (dx / dist, dy / dist);
+            let (rx, ry) = (robot.x - pos.x, robot.y - pos.y);
+            let t = rx * dir.0 + ry * dir.1;
+            let lateral = (rx * dir.1 - ry * dir.0).abs();
+            let contact = self.radius + robot_radius;
+            if t > 0.0 && t < contact + p.lookahead_m && lateral < contact + p.clearance_m {
+                self.blocked_s += dt_s;
+                if self.blocked_s >= p.give_way_s {
+                    // Turn back.
+                    self.blocked_s = 0.0;
+                    std::mem::swap(&mut self.from, &mut self.target);
+                    self.step_dir = -self.step_dir;
+                }
+                return;
+            }
+        }
+        self.blocked_s = 0.0;
+        let step = self.speed * dt_s;
+        if step >= dist {
+            self.pose = Pose2::new(target.x, target.y, self.pose.yaw);
+            self.from = self.target;
+            self.target = self.next_target();
+            if self.random_walk && self.max_pause_s > 0.0 {
+                self.pause_s = self.rng.random::<f64>() * self.max_pause_s;
+            }
+            let next = self.waypoints[self.target];
+            self.pose.yaw = (next.y - target.y).atan2(next.x - target.x);
+        } else {
+            self.pose = Pose2::new(pos.x + step * dx / dist, pos.y + step * dy / dist, dy.atan2(dx));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shape::Shape;
+    use crate::world::AgentKind;
+
+    fn person(motion: Motion) -> Agent {
+        Agent {
+            id: "p".into(),
+            kind: AgentKind::Person,
+            footprint: Shape::circle(Point2::new(0.0, 0.0), 0.25),
+            speed_mps: 1.0,
+            motion,
+        }
+    }
+
+    #[test]
+    fn loop_walks_at_speed_and_wraps() {
+        let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]] });
+        let mut s = AgentState::new(&a, 1);
+        let far = Point2::new(100.0, 100.0);
+        let p = AgentParams::default();
+        for _ in 0..50 {
+            s.advance(0.02, far, 0.5, &p);
+        }
+        assert!((s.pose.x - 1.0).abs() < 1e-9 && s.pose.y.abs() < 1e-9);
+        for _ in 0..(50 + 71) {
+            s.advance(0.02, far, 0.5, &p);
+        }
+        // 1 m up, then √2 m back to the first waypoint.
+        assert!(s.pose.position().distance(Point2::new(0.0, 0.0)) < 0.02);
+    }
+
+    #[test]
+    fn waits_for_the_robot_then_turns_back() {
+        let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [5.0, 0.0]] });
+        let mut s = AgentState::new(&a, 1);
+        let p = AgentParams::default();
+        let robot = Point2::new(1.0, 0.0);
+        for _ in 0..100 {
+            s.advance(0.02, robot, 0.5, &p);
+        }
+        assert_eq!(s.pose.x, 0.0); // waited 2 s
+        for _ in 0..100 {
+            s.advance(0.02, robot, 0.5, &p);
+        }
+        // Turned back after 3 s: now heading for (0, 0), which it is at, then (5, 0) again...
+        assert!(s.pose.x <= 1e-9 || s.target == 0);
+    }
+}

@@ -1,0 +1,425 @@
+//! 2D lidars: parameters (with SICK S300 and Hokuyo UST-20LX presets), the noise model, and the
+//! ray-cast scan against the rapier world.
+
+use crate::error::{SimError, params_err};
+use crate::seeds::stream_rng;
+use mapkeeper_grid::Pose2;
+use mapkeeper_sensor::LaserScan;
+use rand::RngExt;
+use rand::rngs::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use rapier2d::prelude::{QueryPipeline, Ray, Vector};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The noise terms of a lidar. Each term draws from its own random stream
+/// (`lidar/<id>/gauss`, `/dropout`, `/spurious`), so switching one off leaves the others' numbers
+/// unchanged.
+///
+/// ```
+/// use mapkeeper_sim::LidarNoise;
+/// let mut n = LidarNoise::default();
+/// n.sigma_m = 0.05;
+/// assert!(n.validate().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LidarNoise {
+    /// Standard deviation of the Gaussian range noise, metres (default 0.03, the S300's).
+    pub sigma_m: f64,
+    /// Ranges are rounded to multiples of this, metres; 0 disables (default 0.01).
+    pub quantisation_m: f64,
+    /// Probability that a beam returns nothing (reported as +inf) (default 0.002).
+    pub dropout_probability: f64,
+    /// Probability of a short spurious return, uniform in `[range_min, min(true range,
+    /// spurious_max_m)]` (default 0.0005).
+    pub spurious_probability: f64,
+    /// Farthest spurious return, metres (default 2.0).
+    pub spurious_max_m: f64,
+}
+
+impl Default for LidarNoise {
+    fn default() -> Self {
+        Self {
+            sigma_m: 0.03,
+            quantisation_m: 0.01,
+            dropout_probability: 0.002,
+            spurious_probability: 0.0005,
+            spurious_max_m: 2.0,
+        }
+    }
+}
+
+impl LidarNoise {
+    /// No noise at all (exact ranges; no-return beams still +inf).
+    pub fn none() -> Self {
+        Self {
+            sigma_m: 0.0,
+            quantisation_m: 0.0,
+            dropout_probability: 0.0,
+            spurious_probability: 0.0,
+            spurious_max_m: 2.0,
+        }
+    }
+
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), String> {
+        let nonneg = |name: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be finite and ≥ 0, got {v}")) }
+        };
+        nonneg("sigma_m", self.sigma_m)?;
+        nonneg("quantisation_m", self.quantisation_m)?;
+        nonneg("spurious_max_m", self.spurious_max_m)?;
+        for (name, p) in
+            [("dropout_probability", self.dropout_probability), ("spurious_probability", self.spurious_probability)]
+        {
+            if !(0.0..=1.0).contains(&p) {
+                return Err(format!("{name} must be in [0, 1], got {p}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One lidar's configuration. Beam `i` points at `angle_min_rad + i · angle_increment_rad` in
+/// the lidar's frame, which sits at `lidar_in_robot` in the robot's base frame.
+///
+/// ```
+/// use mapkeeper_sim::LidarParams;
+/// let mut front = LidarParams::sick_s300_front();
+/// front.beams = 271; // 1° resolution
+/// front.angle_increment_rad = 1f64.to_radians();
+/// assert!(front.validate().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LidarParams {
+    /// Mounting pose in the robot base frame (metres, radians). An upside-down mounting is folded
+    /// into this pose (scans are expressed z-up). Default: the S300 front mount.
+    pub lidar_in_robot: Pose2,
+    /// Angle of the first beam, radians (default −135°).
+    pub angle_min_rad: f64,
+    /// Angle between beams, radians (default 0.5°).
+    pub angle_increment_rad: f64,
+    /// Number of beams (default 541).
+    pub beams: usize,
+    /// Shortest valid range, metres (default 0.10).
+    pub range_min_m: f64,
+    /// Farthest range; anything at or beyond is "no return", +inf (default 30).
+    pub range_max_m: f64,
+    /// Scan rate, Hz (default 12.5).
+    pub rate_hz: f64,
+    /// Time of the first scan after the start, seconds, on top of one physics tick (default 0).
+    pub phase_offset_s: f64,
+    /// Noise model.
+    pub noise: LidarNoise,
+}
+
+impl Default for LidarParams {
+    fn default() -> Self {
+        Self::sick_s300_front()
+    }
+}
+
+impl LidarParams {
+    /// SICK S300 (270°, 541 beams at 0.5°, 0.10-30 m, 12.5 Hz, σ 0.03 m) at `lidar_in_robot`.
+    pub fn sick_s300(lidar_in_robot: Pose2) -> Self {
+        Self {
+            lidar_in_robot,
+            angle_min_rad: -135f64.to_radians(),
+            angle_increment_rad: 0.5f64.to_radians(),
+            beams: 541,
+            range_min_m: 0.10,
+            range_max_m: 30.0,
+            rate_hz: 12.5,
+            phase_offset_s: 0.0,
+            noise: LidarNoise::default(),
+        }
+    }
+
+    /// The Summit-XL Steel's front S300: at (0.2865, −0.2089) m facing −45°.
+    pub fn sick_s300_front() -> Self {
+        Self::sick_s300(Pose2::new(0.2865, -0.2089, -PI / 4.0))
+    }
+
+    /// The Summit-XL Steel's rear S300: at (−0.2865, 0.2089) m facing +135°.
+    pub fn sick_s300_rear() -> Self {
+        Self::sick_s300(Pose2::new(-0.2865, 0.2089, 3.0 * PI / 4.0))
+    }
+
+    /// Hokuyo UST-20LX (270°, 1081 beams at 0.25°, 0.06-20 m, 40 Hz, σ 0.01 m) at
+    /// `lidar_in_robot`.
+    pub fn hokuyo_ust20lx(lidar_in_robot: Pose2) -> Self {
+        Self {
+            lidar_in_robot,
+            angle_min_rad: -135f64.to_radians(),
+            angle_increment_rad: 0.25f64.to_radians(),
+            beams: 1081,
+            range_min_m: 0.06,
+            range_max_m: 20.0,
+            rate_hz: 40.0,
+            phase_offset_s: 0.0,
+            noise: LidarNoise {
+                sigma_m: 0.01,
+                quantisation_m: 0.001,
+                dropout_probability: 0.001,
+                spurious_probability: 0.0005,
+                spurious_max_m: 2.0,
+            },
+        }
+    }
+
+    /// The default pair: front and rear S300.
+    pub fn summit_xl_pair() -> Vec<LidarParams> {
+        vec![Self::sick_s300_front(), Self::sick_s300_rear()]
+    }
+
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), String> {
+        if !self.lidar_in_robot.is_finite() {
+            return Err(format!("lidar_in_robot must be finite, got {:?}", self.lidar_in_robot));
+        }
+        if !self.angle_min_rad.is_finite() {
+            return Err(format!("angle_min_rad must be finite, got {}", self.angle_min_rad));
+        }
+        if !(self.angle_increment_rad.is_finite() && self.angle_increment_rad != 0.0) {
+            return Err(format!("angle_increment_rad must be finite and non-zero, got {}", self.angle_increment_rad));
+        }
+        if self.beams == 0 || self.beams > mapkeeper_sensor::MAX_BEAMS {
+            return Err(format!("beams must be in 1..={}, got {}", mapkeeper_sensor::MAX_BEAMS, self.beams));
+        }
+        if self.angle_increment_rad.abs() * (self.beams - 1) as f64 > 2.0 * PI + 1e-6 {
+            return Err("the beams span more than a full turn".into());
+        }
+        if !(self.range_min_m.is_finite()
+            && self.range_max_m.is_finite()
+            && self.range_min_m >= 0.0
+            && self.range_min_m < self.range_max_m)
+        {
+            return Err(format!(
+                "range limits must satisfy 0 ≤ range_min_m < range_max_m, got {} and {}",
+                self.range_min_m, self.range_max_m
+            ));
+        }
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 1000.0) {
+            return Err(format!("rate_hz must be in (0, 1000], got {}", self.rate_hz));
+        }
+        if !(self.phase_offset_s.is_finite() && self.phase_offset_s >= 0.0) {
+            return Err(format!("phase_offset_s must be finite and ≥ 0, got {}", self.phase_offset_s));
+        }
+        self.noise.validate().map_err(|e| format!("noise: {e}"))
+    }
+
+    /// The scan period, nanoseconds (rounded).
+    pub fn period_ns(&self) -> u64 {
+        (1e9 / self.rate_hz).round() as u64
+    }
+}
+
+/// The random streams of one lidar's noise.
+pub(crate) struct NoiseStreams {
+    gauss: ChaCha8Rng,
+    dropout: ChaCha8Rng,
+    spurious: ChaCha8Rng,
+    normal: Option<Normal<f64>>,
+}
+
+impl NoiseStreams {
+    pub(crate) fn new(run_seed: u64, lidar_id: usize, noise: &LidarNoise) -> Self {
+        Self {
+            gauss: stream_rng(run_seed, &format!("lidar/{lidar_id}/gauss")),
+            dropout: stream_rng(run_seed, &format!("lidar/{lidar_id}/dropout")),
+            spurious: stream_rng(run_seed, &format!("lidar/{lidar_id}/spurious")),
+            normal: (noise.sigma_m > 0.0).then(|| Normal::new(0.0, noise.sigma_m).ok()).flatten(),
+        }
+    }
+
+    /// The reported range of a beam whose true range is `truth` (`None`: nothing within
+    /// `range_max_m`). Order of terms: dropout, spurious return, Gaussian noise, quantisation,
+    /// then anything at or beyond `range_max_m` becomes +inf.
+    pub(crate) fn reading(&mut self, truth: Option<f64>, p: &LidarParams) -> f32 {
+        let n = &p.noise;
+        if n.dropout_probability > 0.0 && self.dropout.random::<f64>() < n.dropout_probability {
+            return f32::INFINITY;
+        }
+        let mut r = if n.spurious_probability > 0.0 && self.spurious.random::<f64>() < n.spurious_probability {
+            let hi = truth.unwrap_or(p.range_max_m).min(n.spurious_max_m).max(p.range_min_m);
+            p.range_min_m + self.spurious.random::<f64>() * (hi - p.range_min_m)
+        } else {
+            match truth {
+                None => return f32::INFINITY,
+                Some(t) => t + self.normal.as_ref().map_or(0.0, |d| d.sample(&mut self.gauss)),
+            }
+        };
+        if n.quantisation_m > 0.0 {
+            r = (r / n.quantisation_m).round() * n.quantisation_m;
+        }
+        if r >= p.range_max_m { f32::INFINITY } else { r as f32 }
+    }
+}
+
+/// A lidar in a running simulation: its parameters, schedule, beam directions and noise streams.
+pub(crate) struct LidarSim {
+    pub(crate) id: u32,
+    pub(crate) params: LidarParams,
+    pub(crate) next_fire_ns: u64,
+    /// Whether it fires at the current tick.
+    pub(crate) fire_now: bool,
+    period_ns: u64,
+    /// Beam directions in the lidar frame (cos, sin).
+    dirs: Vec<(f64, f64)>,
+    noise: NoiseStreams,
+}
+
+impl LidarSim {
+    pub(crate) fn new(id: usize, params: &LidarParams, run_seed: u64, tick_ns: u64) -> Result<Self, SimError> {
+        params.validate().map_err(|e| params_err(format!("lidars[{id}]"), e))?;
+        let dirs = (0..params.beams)
+            .map(|i| {
+                let a = params.angle_min_rad + i as f64 * params.angle_increment_rad;
+                (a.cos(), a.sin())
+            })
+            .collect();
+        Ok(Self {
+            id: id as u32,
+            params: params.clone(),
+            next_fire_ns: tick_ns + (params.phase_offset_s * 1e9).round() as u64,
+            fire_now: false,
+            period_ns: params.period_ns().max(1),
+            dirs,
+            noise: NoiseStreams::new(run_seed, id, &params.noise),
+        })
+    }
+
+    /// Whether the lidar fires at time `t_ns`; advances its schedule if so.
+    pub(crate) fn due(&mut self, t_ns: u64) -> bool {
+        if t_ns < self.next_fire_ns {
+            return false;
+        }
+        while self.next_fire_ns <= t_ns {
+            self.next_fire_ns += self.period_ns;
+        }
+        true
+    }
+
+    /// One scan from the robot at `robot_in_map`, cast through `query` (which must exclude the
+    /// robot's own collider).
+    pub(crate) fn scan(&mut self, query: &QueryPipeline<'_>, robot_in_map: &Pose2, stamp_ns: u64) -> LaserScan {
+        let p = &self.params;
+        let lidar = robot_in_map.compose(&p.lidar_in_robot);
+        let (s, c) = lidar.yaw.sin_cos();
+        let origin = Vector::new(lidar.x as f32, lidar.y as f32);
+        let max = p.range_max_m as f32;
+        let mut ranges = Vec::with_capacity(self.dirs.len());
+        for &(dc, ds) in &self.dirs {
+            let dir = Vector::new((c * dc - s * ds) as f32, (s * dc + c * ds) as f32);
+            let hit = query.cast_ray(&Ray::new(origin, dir), max, true).map(|(_, toi)| f64::from(toi));
+            ranges.push(self.noise.reading(hit.filter(|&t| t < p.range_max_m), p));
+        }
+        LaserScan {
+            stamp_ns,
+            lidar_id: self.id,
+            lidar_in_robot: p.lidar_in_robot,
+            angle_min_rad: p.angle_min_rad,
+            angle_increment_rad: p.angle_increment_rad,
+            range_min_m: p.range_min_m as f32,
+            range_max_m: p.range_max_m as f32,
+            ranges_m: ranges,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_validate() {
+        for p in [
+            LidarParams::sick_s300_front(),
+            LidarParams::sick_s300_rear(),
+            LidarParams::hokuyo_ust20lx(Pose2::IDENTITY),
+        ] {
+            assert!(p.validate().is_ok());
+        }
+        assert_eq!(LidarParams::sick_s300_front().period_ns(), 80_000_000);
+        assert_eq!(LidarParams::hokuyo_ust20lx(Pose2::IDENTITY).period_ns(), 25_000_000);
+        let mut bad = LidarParams::sick_s300_front();
+        bad.range_max_m = 0.05;
+        assert!(bad.validate().is_err());
+        bad = LidarParams::sick_s300_front();
+        bad.noise.dropout_probability = 1.5;
+        assert!(bad.validate().unwrap_err().contains("dropout_probability"));
+    }
+
+    #[test]
+    fn gaussian_noise_statistics() {
+        let mut p = LidarParams::sick_s300_front();
+        p.noise = LidarNoise {
+            quantisation_m: 0.0,
+            dropout_probability: 0.0,
+            spurious_probability: 0.0,
+            ..LidarNoise::default()
+        };
+        let mut s = NoiseStreams::new(1, 0, &p.noise);
+        let n = 200_000;
+        let (mut sum, mut sum2) = (0.0, 0.0);
+        for _ in 0..n {
+            let e = f64::from(s.reading(Some(5.0), &p)) - 5.0;
+            sum += e;
+            sum2 += e * e;
+        }
+        let mean = sum / n as f64;
+        let sd = (sum2 / n as f64 - mean * mean).sqrt();
+        // Standard error of the mean: 0.03 / √200000 ≈ 6.7e-5; of the sd ≈ 4.7e-5 (+ f32 rounding).
+        assert!(mean.abs() < 4e-4, "mean {mean}");
+        assert!((sd - 0.03).abs() < 5e-4, "sd {sd}");
+    }
+
+    #[test]
+    fn dropout_and_spurious_rates() {
+        let mut p = LidarParams::sick_s300_front();
+        p.noise = LidarNoise {
+            sigma_m: 0.0,
+            quantisation_m: 0.0,
+            dropout_probability: 0.1,
+            spurious_probability: 0.05,
+            spurious_max_m: 2.0,
+        };
+        let mut s = NoiseStreams::new(2, 0, &p.noise);
+        let n = 100_000;
+        let (mut drops, mut spurious) = (0, 0);
+        for _ in 0..n {
+            let r = s.reading(Some(10.0), &p);
+            if r.is_infinite() {
+                drops += 1;
+            } else if r != 10.0 {
+                assert!((0.1..=2.0).contains(&r), "spurious {r}");
+                spurious += 1;
+            }
+        }
+        // Expected 10 % dropouts and 0.9 × 5 % = 4.5 % spurious; binomial sd ≈ 0.1 % and 0.07 %.
+        let fd = drops as f64 / n as f64;
+        let fs = spurious as f64 / n as f64;
+        assert!((fd - 0.1).abs() < 0.005, "dropout fraction {fd}");
+        assert!((fs - 0.045).abs() < 0.004, "spurious fraction {fs}");
+    }
+
+    #[test]
+    fn quantisation_and_max_range() {
+        let mut p = LidarParams::sick_s300_front();
+        p.noise = LidarNoise { quantisation_m: 0.01, ..LidarNoise::none() };
+        let mut s = NoiseStreams::new(3, 0, &p.noise);
+        assert!((s.reading(Some(1.23456), &p) - 1.23).abs() < 1e-6);
+        assert_eq!(s.reading(None, &p), f32::INFINITY);
+        assert_eq!(s.reading(Some(29.999), &p), f32::INFINITY); // rounds to 30.00 = range_max
+    }
+
+    #[test]
+    fn schedule_fires_at_rate() {
+        let p = LidarParams::default();
+        let mut l = LidarSim::new(0, &p, 0, 20_000_000).unwrap();
+        let fired: Vec<u64> = (1..=20u64).map(|k| k * 20_000_000).filter(|&t| l.due(t)).collect();
+        assert_eq!(fired, vec![20_000_000, 100_000_000, 180_000_000, 260_000_000, 340_000_000]);
+    }
+}

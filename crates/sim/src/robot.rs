@@ -1,0 +1,332 @@
+//! The Summit-XL Steel: footprint, drive limits, and the path follower that turns a route into
+//! velocity commands.
+
+use mapkeeper_grid::{Point2, Pose2, angle_diff};
+use serde::{Deserialize, Serialize};
+
+/// How the wheels move the base.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DriveKind {
+    /// Mecanum wheels: any (vx, vy, ω).
+    Omni,
+    /// Skid steering: vy = 0.
+    SkidSteer,
+}
+
+/// The robot's body, limits and path follower.
+///
+/// ```
+/// use mapkeeper_sim::{DriveKind, RobotParams};
+/// let mut r = RobotParams::default();
+/// r.drive = DriveKind::SkidSteer;
+/// assert!(r.validate().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotParams {
+    /// Footprint length along x, metres (default 0.75).
+    pub length_m: f64,
+    /// Footprint width along y, metres (default 0.68).
+    pub width_m: f64,
+    /// Mass, kilograms (default 105).
+    pub mass_kg: f64,
+    /// Drive kinematics (default omni).
+    pub drive: DriveKind,
+    /// Top speed, m/s (default 1.5).
+    pub max_speed_mps: f64,
+    /// Linear acceleration limit, m/s² (default 0.6).
+    pub max_accel_mps2: f64,
+    /// Yaw-rate limit, rad/s (default 3.0).
+    pub max_yaw_rate_radps: f64,
+    /// Yaw acceleration limit, rad/s² (default 1.5).
+    pub max_yaw_accel_radps2: f64,
+    /// Path follower.
+    pub follower: FollowerParams,
+}
+
+impl Default for RobotParams {
+    fn default() -> Self {
+        Self {
+            length_m: 0.75,
+            width_m: 0.68,
+            mass_kg: 105.0,
+            drive: DriveKind::Omni,
+            max_speed_mps: 1.5,
+            max_accel_mps2: 0.6,
+            max_yaw_rate_radps: 3.0,
+            max_yaw_accel_radps2: 1.5,
+            follower: FollowerParams::default(),
+        }
+    }
+}
+
+impl RobotParams {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("length_m", self.length_m),
+            ("width_m", self.width_m),
+            ("mass_kg", self.mass_kg),
+            ("max_speed_mps", self.max_speed_mps),
+            ("max_accel_mps2", self.max_accel_mps2),
+            ("max_yaw_rate_radps", self.max_yaw_rate_radps),
+            ("max_yaw_accel_radps2", self.max_yaw_accel_radps2),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be finite and > 0, got {v}"));
+            }
+        }
+        self.follower.validate().map_err(|e| format!("follower: {e}"))
+    }
+
+    /// Half the footprint's extent across and along a direction of travel at `angle` from the
+    /// robot's heading: `(across, along)`.
+    pub(crate) fn half_extents(&self, angle: f64) -> (f64, f64) {
+        let (s, c) = angle.sin_cos();
+        let (hl, hw) = (self.length_m / 2.0, self.width_m / 2.0);
+        ((hl * s).abs() + (hw * c).abs(), (hl * c).abs() + (hw * s).abs())
+    }
+}
+
+/// The pure-pursuit path follower.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FollowerParams {
+    /// Look-ahead distance along the route, metres (default 0.6).
+    pub lookahead_m: f64,
+    /// A waypoint counts as reached within this distance, metres (default 0.15).
+    pub waypoint_tolerance_m: f64,
+    /// The last waypoint counts as reached within this distance, metres (default 0.05).
+    pub goal_tolerance_m: f64,
+    /// Turns sharper than this stop the robot at the waypoint, degrees (default 60).
+    pub corner_angle_deg: f64,
+    /// Heading gain: commanded yaw rate per radian of heading error, 1/s (default 2.5).
+    pub yaw_gain: f64,
+    /// Omni drive: turn to face the direction of travel (default true).
+    pub face_travel_direction: bool,
+    /// Look this far beyond the stopping distance for agents in the way, metres (default 0.5).
+    pub agent_lookahead_m: f64,
+    /// Lateral clearance kept from agents, metres (default 0.05).
+    pub agent_clearance_m: f64,
+}
+
+impl Default for FollowerParams {
+    fn default() -> Self {
+        Self {
+            lookahead_m: 0.6,
+            waypoint_tolerance_m: 0.15,
+            goal_tolerance_m: 0.05,
+            corner_angle_deg: 60.0,
+            yaw_gain: 2.5,
+            face_travel_direction: true,
+            agent_lookahead_m: 0.5,
+            agent_clearance_m: 0.05,
+        }
+    }
+}
+
+impl FollowerParams {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("lookahead_m", self.lookahead_m),
+            ("waypoint_tolerance_m", self.waypoint_tolerance_m),
+            ("goal_tolerance_m", self.goal_tolerance_m),
+            ("yaw_gain", self.yaw_gain),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be finite and > 0, got {v}"));
+            }
+        }
+        for (name, v) in [
+            ("corner_angle_deg", self.corner_angle_deg),
+            ("agent_lookahead_m", self.agent_lookahead_m),
+            ("agent_clearance_m", self.agent_clearance_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{name} must be finite and ≥ 0, got {v}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A circle bounding an agent, for the "is the way blocked" test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Obstruction {
+    pub(crate) center: Point2,
+    pub(crate) radius: f64,
+}
+
+/// What the follower wants this tick.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Desire {
+    /// Desired world-frame velocity, m/s.
+    pub(crate) vel: (f64, f64),
+    /// Desired heading, if any.
+    pub(crate) yaw: Option<f64>,
+    /// Whether an agent blocks the way.
+    pub(crate) blocked: bool,
+}
+
+/// Route progress.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Follower {
+    pub(crate) route: Vec<Point2>,
+    /// Index of the waypoint being driven to; `route.len()` when done.
+    pub(crate) target: usize,
+    pub(crate) stopped: bool,
+}
+
+impl Follower {
+    pub(crate) fn set_route(&mut self, route: Vec<Point2>) {
+        self.route = route;
+        self.target = 0;
+    }
+
+    pub(crate) fn done(&self) -> bool {
+        self.target >= self.route.len()
+    }
+
+    fn is_corner(&self, k: usize, corner_cos: f64) -> bool {
+        if k + 1 >= self.route.len() {
+            return true; // the goal
+        }
+        if k == 0 {
+            return false;
+        }
+        let (a, b, c) = (self.route[k - 1], self.route[k], self.route[k + 1]);
+        let (u, v) = ((b.x - a.x, b.y - a.y), (c.x - b.x, c.y - b.y));
+        let (nu, nv) = (u.0.hypot(u.1), v.0.hypot(v.1));
+        if nu == 0.0 || nv == 0.0 {
+            return false;
+        }
+        (u.0 * v.0 + u.1 * v.1) / (nu * nv) < corner_cos
+    }
+
+    /// The desired motion from `pose`, given the robot's parameters and the agents nearby.
+    pub(crate) fn desire(&mut self, pose: &Pose2, speed: f64, p: &RobotParams, agents: &[Obstruction]) -> Desire {
+        let f = &p.follower;
+        let pos = pose.position();
+        // Advance past reached waypoints.
+        while !self.done() {
+            let last = self.target + 1 == self.route.len();
+            let tol = if last { f.goal_tolerance_m } else { f.waypoint_tolerance_m };
+            if pos.distance(self.route[self.target]) <= tol {
+                self.target += 1;
+            } else {
+                break;
+            }
+        }
+        if self.done() || self.stopped {
+            return Desire::default();
+        }
+        let corner_cos = f.corner_angle_deg.to_radians().cos();
+        // Look-ahead point and path distance to the next stop (sharp corner or goal).
+        let start =
+            if self.target == 0 { pos } else { project(pos, self.route[self.target - 1], self.route[self.target]) };
+        let mut from = start;
+        let mut along = 0.0;
+        let mut look = None;
+        let mut k = self.target;
+        loop {
+            let to = self.route[k];
+            let seg = from.distance(to);
+            if look.is_none() && along + seg >= f.lookahead_m {
+                let t = if seg > 0.0 { (f.lookahead_m - along) / seg } else { 0.0 };
+                look = Some(Point2::new(from.x + t * (to.x - from.x), from.y + t * (to.y - from.y)));
+            }
+            along += seg;
+            if self.is_corner(k, corner_cos) || (along > 20.0 && look.is_some()) {
+                if look.is_none() {
+                    look = Some(to);
+                }
+                break;
+            }
+            from = to;
+            k += 1;
+        }
+        let stop_dist = pos.distance(start) + along;
+        let look = look.unwrap_or(self.route[self.target]);
+        let (dx, dy) = (look.x - pos.x, look.y - pos.y);
+        let dist = dx.hypot(dy);
+        if dist < 1e-9 {
+            return Desire::default();
+        }
+        let dir = (dx / dist, dy / dist);
+        let a = 0.8 * p.max_accel_mps2;
+        let mut v = p.max_speed_mps.min((2.0 * a * stop_dist).sqrt()).max(0.05_f64.min(p.max_speed_mps));
+        let travel_yaw = dir.1.atan2(dir.0);
+        // Agents in the corridor ahead.
+        let (across, along) = p.half_extents(angle_diff(travel_yaw, pose.yaw));
+        let reach = along + speed * speed / (2.0 * p.max_accel_mps2) + f.agent_lookahead_m;
+        let blocked = agents.iter().any(|o| {
+            let (rx, ry) = (o.center.x - pos.x, o.center.y - pos.y);
+            let t = rx * dir.0 + ry * dir.1;
+            let lateral = (rx * dir.1 - ry * dir.0).abs();
+            t > 0.0 && t < reach + o.radius && lateral < across + o.radius + f.agent_clearance_m
+        });
+        if blocked {
+            v = 0.0;
+        }
+        let yaw = match p.drive {
+            DriveKind::Omni if !f.face_travel_direction => None,
+            _ => Some(travel_yaw),
+        };
+        if p.drive == DriveKind::SkidSteer {
+            let err = angle_diff(travel_yaw, pose.yaw);
+            v *= if err.abs() > std::f64::consts::FRAC_PI_4 { 0.0 } else { err.cos() };
+            let (s, c) = pose.yaw.sin_cos();
+            return Desire { vel: (v * c, v * s), yaw, blocked };
+        }
+        Desire { vel: (v * dir.0, v * dir.1), yaw, blocked }
+    }
+}
+
+/// The projection of `p` on the segment `a`–`b`.
+fn project(p: Point2, a: Point2, b: Point2) -> Point2 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let len2 = dx * dx + dy * dy;
+    if len2 == 0.0 {
+        return b;
+    }
+    let t = (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0);
+    Point2::new(a.x + t * dx, a.y + t * dy)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn follower_heads_for_lookahead_and_slows_at_goal() {
+        let p = RobotParams::default();
+        let mut f = Follower::default();
+        f.set_route(vec![Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)]);
+        let d = f.desire(&Pose2::new(0.0, 0.5, 0.0), 0.0, &p, &[]);
+        // Past the first waypoint (0.5 m away > tolerance? no: 0.5 > 0.15, so it drives there first).
+        assert!(d.vel.1 < 0.0);
+        let d = f.desire(&Pose2::new(0.05, 0.0, 0.0), 1.0, &p, &[]);
+        assert_eq!(f.target, 1);
+        assert!((d.vel.0 - 1.5).abs() < 1e-9 && d.vel.1.abs() < 1e-9);
+        // Near the goal the speed follows √(2·a·d).
+        let d = f.desire(&Pose2::new(9.9, 0.0, 0.0), 0.3, &p, &[]);
+        assert!((d.vel.0 - (2.0 * 0.48 * 0.1f64).sqrt()).abs() < 1e-9);
+        f.desire(&Pose2::new(9.99, 0.0, 0.0), 0.0, &p, &[]);
+        assert!(f.done());
+    }
+
+    #[test]
+    fn agent_ahead_blocks_agent_beside_does_not() {
+        let p = RobotParams::default();
+        let mut f = Follower::default();
+        f.set_route(vec![Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)]);
+        let ahead = [Obstruction { center: Point2::new(1.0, 0.1), radius: 0.25 }];
+        assert!(f.desire(&Pose2::new(0.05, 0.0, 0.0), 0.0, &p, &ahead).blocked);
+        let beside = [Obstruction { center: Point2::new(1.0, 0.7), radius: 0.25 }];
+        assert!(!f.desire(&Pose2::new(0.05, 0.0, 0.0), 0.0, &p, &beside).blocked);
+        let behind = [Obstruction { center: Point2::new(-0.8, 0.0), radius: 0.25 }];
+        assert!(!f.desire(&Pose2::new(0.05, 0.0, 0.0), 0.0, &p, &behind).blocked);
+    }
+}

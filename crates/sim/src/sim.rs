@@ -1,0 +1,446 @@
+//! The simulator: a rapier world with the robot, the static and movable geometry and the
+//! agents, stepped on an integer tick clock; lidars, odometry and the true pose are its outputs.
+
+use crate::agents::{AgentParams, AgentState};
+use crate::error::{SimError, params_err};
+use crate::lidar::{LidarParams, LidarSim};
+use crate::odometry::{Odometry, OdometryParams};
+use crate::robot::{DriveKind, Follower, Obstruction, RobotParams};
+use crate::shape::Shape;
+use crate::world::{ObstacleRef, World};
+use mapkeeper_grid::{Point2, Pose2, angle_diff};
+use mapkeeper_sensor::{LaserScan, OdometryReading, TruePose};
+use rapier2d::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+/// Everything configurable about a run except the world and the seed.
+///
+/// ```
+/// use mapkeeper_sim::{LidarParams, SimParams};
+/// let mut p = SimParams::default();
+/// p.lidars = vec![LidarParams::hokuyo_ust20lx(mapkeeper_grid::Pose2::new(0.3, 0.0, 0.0))];
+/// assert!(p.validate().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimParams {
+    /// Physics step, nanoseconds (default 20,000,000: 50 Hz).
+    pub tick_ns: u64,
+    /// The robot.
+    pub robot: RobotParams,
+    /// The lidars, in `lidar_id` order (default: front and rear SICK S300).
+    pub lidars: Vec<LidarParams>,
+    /// Wheel odometry noise.
+    pub odometry: OdometryParams,
+    /// Agent behaviour.
+    pub agents: AgentParams,
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        Self {
+            tick_ns: 20_000_000,
+            robot: RobotParams::default(),
+            lidars: LidarParams::summit_xl_pair(),
+            odometry: OdometryParams::default(),
+            agents: AgentParams::default(),
+        }
+    }
+}
+
+impl SimParams {
+    /// Checks every component.
+    pub fn validate(&self) -> Result<(), SimError> {
+        if !(1_000_000..=1_000_000_000).contains(&self.tick_ns) {
+            return Err(params_err("SimParams", format!("tick_ns must be in 1 ms..1 s, got {}", self.tick_ns)));
+        }
+        self.robot.validate().map_err(|e| params_err("RobotParams", e))?;
+        for (i, l) in self.lidars.iter().enumerate() {
+            l.validate().map_err(|e| params_err(format!("lidars[{i}]"), e))?;
+        }
+        self.odometry.validate().map_err(|e| params_err("OdometryParams", e))?;
+        self.agents.validate().map_err(|e| params_err("AgentParams", e))
+    }
+}
+
+/// The robot touched something.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CollisionEvent {
+    /// Tick of the physics step in which it happened.
+    pub tick: u64,
+    /// Time, nanoseconds.
+    pub stamp_ns: u64,
+    /// What the robot touched.
+    pub other: ObstacleRef,
+    /// True when contact began, false when it ended.
+    pub started: bool,
+}
+
+/// What one step produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepOutput {
+    /// The tick reached by this step (1 after the first step).
+    pub tick: u64,
+    /// `tick × tick_ns`.
+    pub stamp_ns: u64,
+    /// Scans of the lidars that fired at this tick, in lidar order.
+    pub scans: Vec<LaserScan>,
+    /// Wheel odometry at this tick.
+    pub odometry: OdometryReading,
+    /// The true pose at this tick.
+    pub truth: TruePose,
+    /// Contacts of the robot that began or ended during this step.
+    pub collisions: Vec<CollisionEvent>,
+    /// Whether the route's last waypoint has been reached (true also with no route).
+    pub route_done: bool,
+    /// Whether the robot is waiting for an agent in its way.
+    pub blocked: bool,
+}
+
+#[derive(Default)]
+struct Collector(Mutex<Vec<(ColliderHandle, ColliderHandle, bool)>>);
+
+impl EventHandler for Collector {
+    fn handle_collision_event(
+        &self,
+        _: &RigidBodySet,
+        _: &ColliderSet,
+        event: rapier2d::prelude::CollisionEvent,
+        _: Option<&ContactPair>,
+    ) {
+        if let Ok(mut v) = self.0.lock() {
+            v.push((event.collider1(), event.collider2(), event.started()));
+        }
+    }
+    fn handle_contact_force_event(&self, _: Real, _: &RigidBodySet, _: &ColliderSet, _: &ContactPair, _: Real) {}
+    fn handle_soft_body_tear_event(&self, _: &SoftBodySet, _: &SoftBodyTearEvent) {}
+}
+
+/// A running simulation.
+pub struct Simulator {
+    world: World,
+    params: SimParams,
+    seed: u64,
+    tick: u64,
+    physics: PhysicsWorld,
+    events: Collector,
+    robot_body: RigidBodyHandle,
+    robot_collider: ColliderHandle,
+    robot_radius: f64,
+    refs: Vec<ObstacleRef>,
+    agents: Vec<(AgentState, RigidBodyHandle)>,
+    lidars: Vec<LidarSim>,
+    odometry: Odometry,
+    follower: Follower,
+    cmd_vel: (f64, f64),
+    cmd_fwd: f64,
+    cmd_omega: f64,
+    prev_true: Pose2,
+    blocked: bool,
+}
+
+fn rapier_pose(p: &Pose2) -> Pose {
+    Pose::new(Vector::new(p.x as f32, p.y as f32), p.yaw as f32)
+}
+
+/// A rapier collider for a shape in its parent's frame.
+fn collider_for(shape: &Shape) -> Result<ColliderBuilder, SimError> {
+    Ok(match shape {
+        Shape::Rect { center, size, yaw_deg } => ColliderBuilder::cuboid(
+            (size[0] / 2.0) as f32,
+            (size[1] / 2.0) as f32,
+        )
+        .position(rapier_pose(&Pose2::new(center[0], center[1], yaw_deg.to_radians()))),
+        Shape::Circle { center, radius } => {
+            ColliderBuilder::ball(*radius as f32).translation(Vector::new(center[0] as f32, center[1] as f32))
+        }
+        Shape::Polygon { points } => {
+            let v: Vec<Vector> = points.iter().map(|p| Vector::new(p[0] as f32, p[1] as f32)).collect();
+            let convex = is_convex(points);
+            match convex.then(|| ColliderBuilder::convex_polyline(v.clone())).flatten() {
+                Some(b) => b,
+                None => {
+                    let n = v.len() as u32;
+                    ColliderBuilder::polyline(v, Some((0..n).map(|i| [i, (i + 1) % n]).collect()))
+                }
+            }
+        }
+    })
+}
+
+fn is_convex(points: &[[f64; 2]]) -> bool {
+    let n = points.len();
+    let mut sign = 0.0;
+    for i in 0..n {
+        let (a, b, c) = (points[i], points[(i + 1) % n], points[(i + 2) % n]);
+        let cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
+        if cross != 0.0 {
+            if sign != 0.0 && cross.signum() != sign {
+                return false;
+            }
+            sign = cross.signum();
+        }
+    }
+    true
+}
+
+impl Simulator {
+    /// Builds the simulation of `world` (validated again here) with `params`; every random
+    /// stream derives from `seed`.
+    pub fn new(world: &World, params: SimParams, seed: u64) -> Result<Self, SimError> {
+        world.validate(&world.name)?;
+        params.validate()?;
+        let mut physics = PhysicsWorld { gravity: Vector::ZERO, ..PhysicsWorld::default() };
+        physics.integration_parameters.dt = params.tick_ns as f32 / 1e9;
+        let mut refs = Vec::new();
+        for (r, shape) in world.obstacles() {
+            let b = collider_for(&shape)?.user_data(refs.len() as u128).friction(0.0);
+            refs.push(r);
+            physics.colliders.insert(b);
+        }
+        let start = world.robot_start.pose();
+        let rp = &params.robot;
+        let robot_body = physics.bodies.insert(RigidBodyBuilder::dynamic().pose(rapier_pose(&start)).can_sleep(false));
+        let robot_collider = physics.colliders.insert_with_parent(
+            ColliderBuilder::cuboid((rp.length_m / 2.0) as f32, (rp.width_m / 2.0) as f32)
+                .mass(rp.mass_kg as f32)
+                .friction(0.0)
+                .restitution(0.0)
+                .user_data(u128::MAX)
+                .active_events(ActiveEvents::COLLISION_EVENTS),
+            robot_body,
+            &mut physics.bodies,
+        );
+        let mut agents = Vec::new();
+        for a in &world.agents {
+            let state = AgentState::new(a, seed);
+            let body = physics
+                .bodies
+                .insert(RigidBodyBuilder::kinematic_position_based().pose(rapier_pose(&state.pose)).can_sleep(false));
+            let b = collider_for(&a.footprint)?.user_data(refs.len() as u128).friction(0.0);
+            refs.push(ObstacleRef::Agent(a.id.clone()));
+            physics.colliders.insert_with_parent(b, body, &mut physics.bodies);
+            agents.push((state, body));
+        }
+        let lidars = params
+            .lidars
+            .iter()
+            .enumerate()
+            .map(|(i, l)| LidarSim::new(i, l, seed, params.tick_ns))
+            .collect::<Result<Vec<_>, _>>()?;
+        let events = Collector::default();
+        // Make the colliders visible to scene queries before the first step.
+        physics.detect_collisions(&(), &events);
+        if let Ok(mut v) = events.0.lock() {
+            v.clear();
+        }
+        Ok(Self {
+            world: world.clone(),
+            odometry: Odometry::new(&params.odometry, seed),
+            robot_radius: rp.length_m.hypot(rp.width_m) / 2.0,
+            params,
+            seed,
+            tick: 0,
+            physics,
+            events,
+            robot_body,
+            robot_collider,
+            refs,
+            agents,
+            lidars,
+            follower: Follower::default(),
+            cmd_vel: (0.0, 0.0),
+            cmd_fwd: 0.0,
+            cmd_omega: 0.0,
+            prev_true: start,
+            blocked: false,
+        })
+    }
+
+    /// The world being simulated.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The parameters of the run.
+    pub fn params(&self) -> &SimParams {
+        &self.params
+    }
+
+    /// The run seed.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The current tick (0 before the first step).
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// The current time, nanoseconds.
+    pub fn stamp_ns(&self) -> u64 {
+        self.tick * self.params.tick_ns
+    }
+
+    /// Drive this route from where the robot is (replaces any previous route).
+    pub fn set_route(&mut self, waypoints: Vec<Point2>) {
+        self.follower.set_route(waypoints);
+    }
+
+    /// Stop: the robot brakes at its limits and waits until [`Simulator::resume`].
+    pub fn stop(&mut self) {
+        self.follower.stopped = true;
+    }
+
+    /// Resume the route after [`Simulator::stop`].
+    pub fn resume(&mut self) {
+        self.follower.stopped = false;
+    }
+
+    /// Whether the robot is stopped by [`Simulator::stop`].
+    pub fn is_stopped(&self) -> bool {
+        self.follower.stopped
+    }
+
+    /// The robot's true pose now.
+    pub fn true_pose(&self) -> Pose2 {
+        let p = self.physics.bodies[self.robot_body].position();
+        Pose2::new(f64::from(p.translation.x), f64::from(p.translation.y), f64::from(p.rotation.angle()))
+    }
+
+    /// The agents' true poses now, in world order, with their ids.
+    pub fn agent_poses(&self) -> Vec<(&str, Pose2)> {
+        self.world.agents.iter().zip(&self.agents).map(|(a, (s, _))| (a.id.as_str(), s.pose)).collect()
+    }
+
+    /// Moves the robot instantly (a kidnapping), at rest. Odometry does not see the jump.
+    pub fn teleport_robot(&mut self, pose: Pose2) {
+        if let Some(b) = self.physics.bodies.get_mut(self.robot_body) {
+            b.set_position(rapier_pose(&pose), true);
+            b.set_linvel(Vector::ZERO, true);
+            b.set_angvel(0.0, true);
+        }
+        self.cmd_vel = (0.0, 0.0);
+        self.cmd_fwd = 0.0;
+        self.cmd_omega = 0.0;
+        self.prev_true = self.true_pose();
+        // Refresh the broad phase so that queries see the robot where it now is.
+        self.physics.detect_collisions(&(), &self.events);
+    }
+
+    /// Velocity command for this tick from the follower, within the robot's limits.
+    fn command(&mut self, pose: &Pose2, dt: f64) {
+        let rp = &self.params.robot;
+        let obstructions: Vec<Obstruction> =
+            self.agents.iter().map(|(s, _)| Obstruction { center: s.pose.position(), radius: s.radius }).collect();
+        let speed = self.cmd_vel.0.hypot(self.cmd_vel.1);
+        let desire = self.follower.desire(pose, speed, rp, &obstructions);
+        self.blocked = desire.blocked;
+        let dv_max = rp.max_accel_mps2 * dt;
+        match rp.drive {
+            DriveKind::Omni => {
+                let (mut dx, mut dy) = (desire.vel.0 - self.cmd_vel.0, desire.vel.1 - self.cmd_vel.1);
+                let n = dx.hypot(dy);
+                if n > dv_max {
+                    dx *= dv_max / n;
+                    dy *= dv_max / n;
+                }
+                let (vx, vy) = (self.cmd_vel.0 + dx, self.cmd_vel.1 + dy);
+                let s = vx.hypot(vy);
+                let k = if s > rp.max_speed_mps { rp.max_speed_mps / s } else { 1.0 };
+                self.cmd_vel = (vx * k, vy * k);
+            }
+            DriveKind::SkidSteer => {
+                let (s, c) = pose.yaw.sin_cos();
+                let want = (desire.vel.0 * c + desire.vel.1 * s).clamp(-rp.max_speed_mps, rp.max_speed_mps);
+                self.cmd_fwd += (want - self.cmd_fwd).clamp(-dv_max, dv_max);
+                self.cmd_vel = (self.cmd_fwd * c, self.cmd_fwd * s);
+            }
+        }
+        let want_omega = match desire.yaw {
+            Some(y) if desire.vel.0.hypot(desire.vel.1) > 1e-6 || rp.drive == DriveKind::SkidSteer => {
+                let err = angle_diff(y, pose.yaw);
+                let braking = (2.0 * rp.max_yaw_accel_radps2 * err.abs()).sqrt();
+                (rp.follower.yaw_gain * err)
+                    .clamp(-braking, braking)
+                    .clamp(-rp.max_yaw_rate_radps, rp.max_yaw_rate_radps)
+            }
+            _ => 0.0,
+        };
+        let dw_max = rp.max_yaw_accel_radps2 * dt;
+        self.cmd_omega += (want_omega - self.cmd_omega).clamp(-dw_max, dw_max);
+    }
+
+    /// Advances one physics tick and returns what the robot's sensors produced.
+    pub fn step(&mut self) -> StepOutput {
+        let dt = self.params.tick_ns as f64 / 1e9;
+        let pose = self.true_pose();
+        self.command(&pose, dt);
+        if let Some(b) = self.physics.bodies.get_mut(self.robot_body) {
+            b.set_linvel(Vector::new(self.cmd_vel.0 as f32, self.cmd_vel.1 as f32), true);
+            b.set_angvel(self.cmd_omega as f32, true);
+        }
+        let robot_pos = pose.position();
+        for (state, body) in &mut self.agents {
+            state.advance(dt, robot_pos, self.robot_radius, &self.params.agents);
+            if let Some(b) = self.physics.bodies.get_mut(*body) {
+                b.set_next_kinematic_position(rapier_pose(&state.pose));
+            }
+        }
+        self.physics.step_with_events(&(), &self.events);
+        self.tick += 1;
+        let stamp_ns = self.stamp_ns();
+        let truth = self.true_pose();
+        self.odometry.update(&self.prev_true.between(&truth));
+        self.prev_true = truth;
+        let mut scans = Vec::new();
+        let mut any = false;
+        for l in &mut self.lidars {
+            l.fire_now = l.due(stamp_ns);
+            any |= l.fire_now;
+        }
+        if any {
+            // One query view per sensor tick, shared by every lidar that fires.
+            let filter = QueryFilter::default().exclude_rigid_body(self.robot_body);
+            let query = self.physics.broad_phase.as_query_pipeline(
+                self.physics.narrow_phase.query_dispatcher(),
+                &self.physics.bodies,
+                &self.physics.colliders,
+                filter,
+            );
+            for l in self.lidars.iter_mut().filter(|l| l.fire_now) {
+                scans.push(l.scan(&query, &truth, stamp_ns));
+            }
+        }
+        let collisions = self.drain_events(stamp_ns);
+        StepOutput {
+            tick: self.tick,
+            stamp_ns,
+            scans,
+            odometry: OdometryReading { stamp_ns, pose_in_odom: self.odometry.pose() },
+            truth: TruePose { stamp_ns, pose_in_map: truth },
+            collisions,
+            route_done: self.follower.done(),
+            blocked: self.blocked,
+        }
+    }
+
+    fn drain_events(&mut self, stamp_ns: u64) -> Vec<CollisionEvent> {
+        let raw = match self.events.0.lock() {
+            Ok(mut v) => std::mem::take(&mut *v),
+            Err(_) => Vec::new(),
+        };
+        let mut out: Vec<CollisionEvent> = raw
+            .into_iter()
+            .filter_map(|(a, b, started)| {
+                let other = if a == self.robot_collider { b } else { a };
+                let idx = self.physics.colliders.get(other)?.user_data;
+                let other = self.refs.get(usize::try_from(idx).ok()?)?.clone();
+                Some(CollisionEvent { tick: self.tick, stamp_ns, other, started })
+            })
+            .collect();
+        out.sort_by(|x, y| (&x.other, x.started).cmp(&(&y.other, y.started)));
+        out
+    }
+}
