@@ -26,9 +26,11 @@
 
 mod log;
 mod scan;
+pub mod tum;
 
 pub use log::{
     LOG_FORMAT, LOG_VERSION, LogError, LogHeader, LogRecord, LogWriter, MAX_LINE_BYTES, OdometryReading, SensorLog,
     TruePose,
 };
 pub use scan::{BeamValidity, LaserScan, MAX_BEAMS, ScanError};
+pub use tum::{StampedPose, TumError, interpolate, read_tum, write_tum};
