@@ -1,0 +1,240 @@
+//! Beam classifier (§4.1, eq. 2-5, Appendix A.1).
+//!
+//! For each valid beam, the hit point p_i (eq. 2, with the lidar's mounting pose) is compared
+//! with the expected hit points of N = 2n_e + 1 rays cast in `M_{i-1}` from the same lidar at
+//! angle offsets l·v·Δθ (eq. 3-4), unknown cells counting as occupied. The beam is a "detected
+//! change" iff the smallest distance exceeds D_th(z) = min(m_th·z + q_th, D_max) (eq. 5).
+//!
+//! Two exact shortcuts keep it fast: the rays are tried central first and the search stops at
+//! the first expected point within D_th (the minimum is then ≤ D_th whatever the others are);
+//! and no ray is cast further than z + D_th, because an expected point at range z_e is at least
+//! |z_e − z| from p_i whatever the angle offset.
+
+use crate::UpdaterParams;
+use mapkeeper_grid::{OccupancyGrid, Point2, Pose2, RayStop, cast_ray};
+use mapkeeper_sensor::{BeamValidity, LaserScan};
+
+/// The classifier's verdict on one beam.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BeamClass {
+    /// Not usable (NaN, inf, out of range, or its scan's header is bad).
+    Invalid,
+    /// Agrees with `M_{i-1}` ("non-detected change").
+    Unchanged,
+    /// Disagrees with `M_{i-1}` ("detected change").
+    Changed,
+    /// A detected change removed by the outlier filter (`min_change_run`); neither counted in
+    /// n_dc nor evaluated.
+    Outlier,
+    /// Agrees with the map but lies within `skip_near_changes_beams` of a change; not evaluated.
+    NearChange,
+}
+
+/// One beam of the processed step.
+#[derive(Clone, Copy, Debug)]
+pub struct Beam {
+    /// Index of the lidar frame in [`BeamClassifier::lidars`].
+    pub lidar: u32,
+    /// Measured range z_i, metres (0 when invalid).
+    pub range_m: f64,
+    /// Beam direction in the map frame, radians.
+    pub angle_rad: f64,
+    /// Hit point p_i in the map frame.
+    pub hit: Point2,
+    /// The verdict.
+    pub class: BeamClass,
+}
+
+/// Where one scan's lidar was in the map during the step.
+#[derive(Clone, Copy, Debug)]
+pub struct LidarFrame {
+    /// Lidar position in the map: the start of every ray of this scan.
+    pub origin: Point2,
+    /// First beam of this scan in [`BeamClassifier::beams`].
+    pub first_beam: usize,
+    /// Number of beams of this scan.
+    pub beam_count: usize,
+}
+
+/// Counts of one step's classification.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ClassCounts {
+    /// n: valid beams over all lidars.
+    pub n_valid: usize,
+    /// Invalid beams (including every beam of an invalid scan).
+    pub n_invalid: usize,
+    /// Scans whose header failed [`LaserScan::validate`].
+    pub invalid_scans: usize,
+    /// n_dc: detected-change beams after the outlier filter.
+    pub n_dc: usize,
+}
+
+/// The classifier with its per-step scratch (reused from step to step, never map-sized).
+#[derive(Clone, Debug, Default)]
+pub struct BeamClassifier {
+    /// Every beam of every valid scan of the last step, scan after scan.
+    pub beams: Vec<Beam>,
+    /// One frame per valid scan of the last step.
+    pub lidars: Vec<LidarFrame>,
+}
+
+/// Number of virtual rays each side and their spacing (in beam increments) for one scan.
+pub fn virtual_rays(params: &UpdaterParams, increment_rad: f64) -> (i32, f64) {
+    let v = params.virtual_ray_spacing_beams;
+    if params.virtual_window_rad > 0.0 {
+        let step = v * increment_rad.abs();
+        let n = if step > 0.0 { (params.virtual_window_rad / step - 1e-9).ceil() } else { 0.0 };
+        (n.clamp(0.0, 1024.0) as i32, v)
+    } else {
+        (params.virtual_rays_each_side as i32, v)
+    }
+}
+
+/// Eq. 3-5 for one beam: whether the smallest distance from `hit` (at range `z` along
+/// `angle_rad` from `origin`) to the expected hit points of the 2n_e + 1 rays cast in `base` at
+/// `angle_rad + l·v·increment_rad` exceeds `d_th`. Unknown cells block the rays.
+#[allow(clippy::too_many_arguments)]
+pub fn detects_change(
+    base: &OccupancyGrid,
+    origin: Point2,
+    angle_rad: f64,
+    increment_rad: f64,
+    hit: Point2,
+    z: f64,
+    n_e: i32,
+    v: f64,
+    max_range_m: f64,
+    d_th: f64,
+) -> bool {
+    let cast_len = z + d_th + 1e-6;
+    let (len, truncated) = if cast_len >= max_range_m { (max_range_m, false) } else { (cast_len, true) };
+    let d_th_sq = d_th * d_th;
+    for k in 0..=2 * n_e {
+        // 0, -1, +1, -2, +2, ...
+        let l = if k % 2 == 0 { -(k / 2) } else { (k + 1) / 2 };
+        let a = angle_rad + l as f64 * v * increment_rad;
+        let ray = cast_ray(base, origin, a, len, true);
+        if truncated && ray.stop == RayStop::MaxRange {
+            continue; // z_e > z + D_th: too far whatever the angle.
+        }
+        let (s, c) = a.sin_cos();
+        let expected = Point2::new(origin.x + ray.range_m * c, origin.y + ray.range_m * s);
+        if expected.distance_sq(hit) <= d_th_sq {
+            return false;
+        }
+    }
+    true
+}
+
+impl BeamClassifier {
+    /// A classifier with empty scratch.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Classifies every beam of `scans` (all lidars of one step) against `base` = `M_{i-1}` with
+    /// the robot at `robot_in_map`.
+    pub fn classify(
+        &mut self,
+        base: &OccupancyGrid,
+        robot_in_map: &Pose2,
+        scans: &[LaserScan],
+        params: &UpdaterParams,
+    ) -> ClassCounts {
+        self.beams.clear();
+        self.lidars.clear();
+        let mut counts = ClassCounts::default();
+        for scan in scans {
+            if scan.validate().is_err() || !robot_in_map.is_finite() {
+                counts.invalid_scans += 1;
+                counts.n_invalid += scan.len();
+                continue;
+            }
+            let lidar_in_map = scan.lidar_in_map(robot_in_map);
+            let origin = lidar_in_map.position();
+            let lidar = self.lidars.len() as u32;
+            self.lidars.push(LidarFrame { origin, first_beam: self.beams.len(), beam_count: scan.len() });
+            let max_range_m = params.max_range_m.min(scan.range_max_m as f64);
+            let (n_e, v) = virtual_rays(params, scan.angle_increment_rad);
+            for (i, &r) in scan.ranges_m.iter().enumerate() {
+                let angle_rad = lidar_in_map.yaw + scan.beam_angle(i as f64);
+                let z = r as f64;
+                let valid = scan.validity_of(r) == BeamValidity::Valid && z < params.max_range_m;
+                if !valid {
+                    counts.n_invalid += 1;
+                    self.beams.push(Beam { lidar, range_m: 0.0, angle_rad, hit: origin, class: BeamClass::Invalid });
+                    continue;
+                }
+                counts.n_valid += 1;
+                let (s, c) = angle_rad.sin_cos();
+                let hit = Point2::new(origin.x + z * c, origin.y + z * s);
+                let d_th = params.change_distance_m(z);
+                let changed = detects_change(
+                    base,
+                    origin,
+                    angle_rad,
+                    scan.angle_increment_rad,
+                    hit,
+                    z,
+                    n_e,
+                    v,
+                    max_range_m,
+                    d_th,
+                );
+                let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
+                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class });
+            }
+        }
+        self.filter_outliers(params.min_change_run as usize);
+        self.mark_near_changes(params.skip_near_changes_beams as usize);
+        counts.n_dc = self.beams.iter().filter(|b| b.class == BeamClass::Changed).count();
+        counts
+    }
+
+    /// Reference outlier filter: detected changes survive only in runs of ≥ `min_run` adjacent
+    /// beams of one lidar.
+    fn filter_outliers(&mut self, min_run: usize) {
+        if min_run <= 1 {
+            return;
+        }
+        for f in &self.lidars {
+            let beams = &mut self.beams[f.first_beam..f.first_beam + f.beam_count];
+            let mut i = 0;
+            while i < beams.len() {
+                if beams[i].class != BeamClass::Changed {
+                    i += 1;
+                    continue;
+                }
+                let start = i;
+                while i < beams.len() && beams[i].class == BeamClass::Changed {
+                    i += 1;
+                }
+                if i - start < min_run {
+                    beams[start..i].iter_mut().for_each(|b| b.class = BeamClass::Outlier);
+                }
+            }
+        }
+    }
+
+    /// Reference rule: unchanged beams within ±`k` of a detected change are not evaluated.
+    fn mark_near_changes(&mut self, k: usize) {
+        if k == 0 {
+            return;
+        }
+        for f in &self.lidars {
+            let beams = &mut self.beams[f.first_beam..f.first_beam + f.beam_count];
+            for i in 0..beams.len() {
+                if beams[i].class != BeamClass::Changed {
+                    continue;
+                }
+                let lo = i.saturating_sub(k);
+                let hi = (i + k).min(beams.len() - 1);
+                for b in &mut beams[lo..=hi] {
+                    if b.class == BeamClass::Unchanged {
+                        b.class = BeamClass::NearChange;
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,517 @@
+//! `UpdaterParams`: every parameter of the updater in one struct, with the `paper` and
+//! `reference` presets, the `always-update` / `no-update` ablations and the naive log-odds
+//! baseline (paper §4 and its parameter table; `spec/10-updater.md`).
+
+use crate::UpdaterError;
+use serde::{Deserialize, Serialize};
+
+/// Which algorithm turns `M_{i-1}` into `M_i`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum UpdateMethod {
+    /// The paper's method: beam classifier, localisation check, cell buffers (default).
+    Stefanini,
+    /// Naive baseline: plain log-odds occupancy mapping of every gated scan into `M_{i-1}` at the
+    /// estimated pose, no localisation check, no buffers.
+    LogOdds,
+}
+
+/// Parameters of the pose-updating module (§4.6): ICP with several initial hypotheses and a
+/// fitness gate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PoseUpdatingParams {
+    /// Run pose updating when the localisation check says Lost. Default `true`.
+    pub enabled: bool,
+    /// Use every k-th valid beam of the current scan as ICP source point. Default 2.
+    pub source_beam_step: u32,
+    /// Largest correspondence distance at the first ICP iteration, metres. Default 1.0.
+    pub max_correspondence_m: f64,
+    /// The correspondence distance shrinks by this factor per iteration… Default 0.8.
+    pub correspondence_decay: f64,
+    /// …down to this floor, metres. Default 0.25.
+    pub min_correspondence_m: f64,
+    /// Maximum ICP iterations per hypothesis. Default 40.
+    pub max_iterations: u32,
+    /// Converged when an iteration moves the pose less than this, metres. Default 1e-4.
+    pub convergence_translation_m: f64,
+    /// Converged when an iteration turns the pose less than this, radians. Default 1e-4.
+    pub convergence_rotation_rad: f64,
+    /// Yaw offsets tried as initial hypotheses around the predicted pose, radians.
+    /// Default [0, ±0.2, ±0.4, ±0.8].
+    pub yaw_offsets_rad: Vec<f64>,
+    /// Position offsets tried along x and y (every combination) around the predicted pose,
+    /// metres. Default [0, ±0.6].
+    pub position_offsets_m: Vec<f64>,
+    /// A source point is an inlier when its nearest expected point is closer than this, metres.
+    /// Default 0.10.
+    pub inlier_distance_m: f64,
+    /// Fitness gate: smallest accepted inlier ratio (inliers / source points). Default 0.6.
+    pub min_inlier_ratio: f64,
+    /// Fitness gate: largest accepted RMSE over inliers, metres. Default 0.06.
+    pub max_rmse_m: f64,
+    /// Fewest source and expected points needed to try at all. Default 30.
+    pub min_points: u32,
+    /// Two converged hypotheses whose inlier ratios differ by less than this and whose poses are
+    /// further apart than `ambiguity_distance_m` / `ambiguity_rotation_rad` make the result
+    /// ambiguous, which is refused. Default 0.02.
+    pub ambiguity_ratio_margin: f64,
+    /// See `ambiguity_ratio_margin`, metres. Default 0.3.
+    pub ambiguity_distance_m: f64,
+    /// See `ambiguity_ratio_margin`, radians. Default 0.1.
+    pub ambiguity_rotation_rad: f64,
+}
+
+impl Default for PoseUpdatingParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            source_beam_step: 2,
+            max_correspondence_m: 1.0,
+            correspondence_decay: 0.8,
+            min_correspondence_m: 0.25,
+            max_iterations: 40,
+            convergence_translation_m: 1e-4,
+            convergence_rotation_rad: 1e-4,
+            yaw_offsets_rad: vec![0.0, 0.2, -0.2, 0.4, -0.4, 0.8, -0.8],
+            position_offsets_m: vec![0.0, 0.6, -0.6],
+            inlier_distance_m: 0.10,
+            min_inlier_ratio: 0.6,
+            max_rmse_m: 0.06,
+            min_points: 30,
+            ambiguity_ratio_margin: 0.02,
+            ambiguity_distance_m: 0.3,
+            ambiguity_rotation_rad: 0.1,
+        }
+    }
+}
+
+/// Parameters of the log-odds baseline (only used with [`UpdateMethod::LogOdds`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LogOddsParams {
+    /// Log-odds added to the hit cell. Default 0.85.
+    pub hit_log_odds: f32,
+    /// Log-odds added to each traversed cell (negative). Default −0.4.
+    pub miss_log_odds: f32,
+    /// Log-odds of a cell that is occupied in `M_{i-1}` at the start. Default 2.0.
+    pub prior_occupied_log_odds: f32,
+    /// Log-odds of a cell that is free in `M_{i-1}` at the start. Default −2.0.
+    pub prior_free_log_odds: f32,
+    /// Clamp of the log-odds magnitude. Default 3.5.
+    pub clamp_log_odds: f32,
+    /// A cell reads occupied at or above this log-odds. Default 0.6.
+    pub occupied_threshold: f32,
+    /// A cell reads free at or below this log-odds. Default −0.6.
+    pub free_threshold: f32,
+}
+
+impl Default for LogOddsParams {
+    fn default() -> Self {
+        Self {
+            hit_log_odds: 0.85,
+            miss_log_odds: -0.4,
+            prior_occupied_log_odds: 2.0,
+            prior_free_log_odds: -2.0,
+            clamp_log_odds: 3.5,
+            occupied_threshold: 0.6,
+            free_threshold: -0.6,
+        }
+    }
+}
+
+/// All parameters of the map updater. `Default` is the `paper` preset.
+///
+/// ```
+/// use mapkeeper_updater::UpdaterParams;
+/// let mut p = UpdaterParams::default();
+/// assert_eq!(p.buffer_size, 10);
+/// p.change_threshold = 8;
+/// assert!(p.validate().is_ok());
+/// let r = UpdaterParams::preset("reference").unwrap();
+/// assert_eq!(r.max_range_m, 18.0);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct UpdaterParams {
+    /// Which algorithm runs. Default [`UpdateMethod::Stefanini`].
+    pub method: UpdateMethod,
+
+    // --- Update gating (§4.5) ---
+    /// Process a scan only after the robot moved at least this far since the last processed
+    /// scan (odometry), metres. Default 0.05.
+    pub gating_min_translation_m: f64,
+    /// …or turned at least this much, radians. Default 20° (0.349).
+    pub gating_min_rotation_rad: f64,
+    /// …and at least this long after the last processed scan, seconds. Default 0 (reference 0.3).
+    pub gating_min_interval_s: f64,
+    /// Pause the update after a rotation faster than this, rad/s (`inf` = never; reference 12°/s).
+    pub fast_rotation_rad_s: f64,
+    /// The pause lasts at least this long, seconds. Default 1.2 (only with `fast_rotation_rad_s`).
+    pub fast_rotation_pause_s: f64,
+    /// …and until the robot travelled at least this far, metres. Default 1.6.
+    pub fast_rotation_pause_m: f64,
+
+    // --- Beam classifier (§4.1, Appendix A.1) ---
+    /// Beams at or beyond this range are invalid, metres; `inf` = each lidar's own maximum.
+    /// Default `inf` (reference 18).
+    pub max_range_m: f64,
+    /// n_e: virtual rays on each side of a beam. Default 1.
+    pub virtual_rays_each_side: u32,
+    /// v: spacing of the virtual rays in units of the beam increment Δθ. Default 0.5 (Fig. 7).
+    pub virtual_ray_spacing_beams: f64,
+    /// If positive, n_e is derived per scan as ceil(window / (v·|Δθ|)) instead, radians.
+    /// Default 0 (reference ±4° at v = 1).
+    pub virtual_window_rad: f64,
+    /// m_th of D_th(z) = min(m_th·z + q_th, D_max), metres per metre. Default 0.01327.
+    pub change_slope: f64,
+    /// q_th, metres. Default 0.1473.
+    pub change_intercept_m: f64,
+    /// D_max, metres. Default 0.30.
+    pub change_max_m: f64,
+    /// Outlier filter: detected-change beams count only in runs of at least this many adjacent
+    /// beams of one lidar. Default 1 (no filter; reference 3).
+    pub min_change_run: u32,
+
+    // --- Localisation check (§4.2) ---
+    /// Run the localisation check; `false` is the `always-update` ablation. Default `true`.
+    pub localisation_check: bool,
+    /// D_εmin of eq. 6-7. Default 0.75 (reference 0.58).
+    pub d_eps_min: f64,
+    /// D_εmax of eq. 7-8. Default 0.90 (reference 0.58: no Suspend band).
+    pub d_eps_max: f64,
+
+    // --- Changed / unchanged cells evaluators (§4.3, §4.4) ---
+    /// tol(z) = min(tol_slope·z + tol_intercept_m, tol_max_m): slope. Default 0.01.
+    pub tol_slope: f64,
+    /// tol intercept, metres. Default 0.10 (reference 0.15).
+    pub tol_intercept_m: f64,
+    /// tol cap, metres (`inf` = uncapped). Default 0.20 (reference `inf`).
+    pub tol_max_m: f64,
+    /// Final chunk skipped by the changed evaluator: max(slope·z, min), slope. Default 0.02.
+    pub skip_changed_slope: f64,
+    /// …and its minimum, metres. Default 0.15.
+    pub skip_changed_min_m: f64,
+    /// Final chunk skipped by the unchanged evaluator: max(slope·z, min), slope. Default 0.02.
+    pub skip_unchanged_slope: f64,
+    /// …and its minimum, metres. Default 0.
+    pub skip_unchanged_min_m: f64,
+    /// Beams within ±this many beams of a detected change are not evaluated as unchanged.
+    /// Default 0 (reference 2).
+    pub skip_near_changes_beams: u32,
+
+    // --- Cells update (§4.5) ---
+    /// Run the map update at all; `false` is the `no-update` ablation (M_1 kept). Default `true`.
+    pub map_update: bool,
+    /// N_b: rolling buffer size, flags (1..=32). Default 10.
+    pub buffer_size: u32,
+    /// A cell flips when it holds at least this many "changed" flags (1..=N_b). Default 7.
+    pub change_threshold: u32,
+    /// Reference rule: the count plus the number of 8-neighbours already at the threshold with
+    /// the same initial state must reach the threshold. Default `false` (reference `true`).
+    pub neighbour_support: bool,
+    /// Set unknown 8-neighbours of a cell that became free to occupied (Fig. 14). Default `true`.
+    pub border_reconstruction: bool,
+
+    // --- Pose updating (§4.6) ---
+    /// Pose updating (ICP) parameters.
+    pub pose_updating: PoseUpdatingParams,
+    /// Log-odds baseline parameters.
+    pub log_odds: LogOddsParams,
+}
+
+impl Default for UpdaterParams {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+/// The names accepted by [`UpdaterParams::preset`].
+pub const PRESET_NAMES: [&str; 5] = ["paper", "reference", "always-update", "no-update", "log-odds"];
+
+impl UpdaterParams {
+    /// The paper's parameters (§4 and its table).
+    pub fn paper() -> Self {
+        Self {
+            method: UpdateMethod::Stefanini,
+            gating_min_translation_m: 0.05,
+            gating_min_rotation_rad: 20f64.to_radians(),
+            gating_min_interval_s: 0.0,
+            fast_rotation_rad_s: f64::INFINITY,
+            fast_rotation_pause_s: 1.2,
+            fast_rotation_pause_m: 1.6,
+            max_range_m: f64::INFINITY,
+            virtual_rays_each_side: 1,
+            virtual_ray_spacing_beams: 0.5,
+            virtual_window_rad: 0.0,
+            change_slope: 0.01327,
+            change_intercept_m: 0.1473,
+            change_max_m: 0.30,
+            min_change_run: 1,
+            localisation_check: true,
+            d_eps_min: 0.75,
+            d_eps_max: 0.90,
+            tol_slope: 0.01,
+            tol_intercept_m: 0.10,
+            tol_max_m: 0.20,
+            skip_changed_slope: 0.02,
+            skip_changed_min_m: 0.15,
+            skip_unchanged_slope: 0.02,
+            skip_unchanged_min_m: 0.0,
+            skip_near_changes_beams: 0,
+            map_update: true,
+            buffer_size: 10,
+            change_threshold: 7,
+            neighbour_support: false,
+            border_reconstruction: true,
+            pose_updating: PoseUpdatingParams::default(),
+            log_odds: LogOddsParams::default(),
+        }
+    }
+
+    /// The behaviour of the authors' published code, as `spec/10-updater.md` lists it.
+    pub fn reference() -> Self {
+        Self {
+            gating_min_interval_s: 0.3,
+            fast_rotation_rad_s: 12f64.to_radians(),
+            max_range_m: 18.0,
+            virtual_ray_spacing_beams: 1.0,
+            virtual_window_rad: 4f64.to_radians(),
+            min_change_run: 3,
+            d_eps_min: 0.58,
+            d_eps_max: 0.58,
+            tol_slope: 0.013,
+            tol_intercept_m: 0.15,
+            tol_max_m: f64::INFINITY,
+            skip_near_changes_beams: 2,
+            neighbour_support: true,
+            ..Self::paper()
+        }
+    }
+
+    /// The paper's "old approach" (Table 1): the localisation check is off, every processed
+    /// scan updates the map.
+    pub fn always_update() -> Self {
+        Self { localisation_check: false, ..Self::paper() }
+    }
+
+    /// The static-map baseline: scans are classified and checked but `M_1` is kept.
+    pub fn no_update() -> Self {
+        Self { map_update: false, ..Self::paper() }
+    }
+
+    /// The naive log-odds baseline.
+    pub fn log_odds() -> Self {
+        Self { method: UpdateMethod::LogOdds, localisation_check: false, ..Self::paper() }
+    }
+
+    /// A preset by name (one of [`PRESET_NAMES`]).
+    pub fn preset(name: &str) -> Result<Self, UpdaterError> {
+        match name {
+            "paper" => Ok(Self::paper()),
+            "reference" => Ok(Self::reference()),
+            "always-update" => Ok(Self::always_update()),
+            "no-update" => Ok(Self::no_update()),
+            "log-odds" => Ok(Self::log_odds()),
+            other => Err(UpdaterError::UnknownPreset { name: other.to_string(), known: PRESET_NAMES.join(", ") }),
+        }
+    }
+
+    /// D_th(z) (Appendix A.1), metres.
+    #[inline]
+    pub fn change_distance_m(&self, z: f64) -> f64 {
+        (self.change_slope * z + self.change_intercept_m).min(self.change_max_m)
+    }
+
+    /// tol(z) (§4.3.2), metres.
+    #[inline]
+    pub fn tol_m(&self, z: f64) -> f64 {
+        (self.tol_slope * z + self.tol_intercept_m).min(self.tol_max_m)
+    }
+
+    /// Length of the final chunk skipped by the changed evaluator (eq. 9), metres.
+    #[inline]
+    pub fn skip_changed_m(&self, z: f64) -> f64 {
+        (self.skip_changed_slope * z).max(self.skip_changed_min_m)
+    }
+
+    /// Length of the final chunk skipped by the unchanged evaluator, metres.
+    #[inline]
+    pub fn skip_unchanged_m(&self, z: f64) -> f64 {
+        (self.skip_unchanged_slope * z).max(self.skip_unchanged_min_m)
+    }
+
+    /// Checks every field; called once by [`crate::MapUpdater::new`].
+    pub fn validate(&self) -> Result<(), UpdaterError> {
+        fn bad(field: &'static str, reason: impl Into<String>) -> UpdaterError {
+            UpdaterError::InvalidParam { field, reason: reason.into() }
+        }
+        let non_neg_finite = |field: &'static str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(field, format!("must be finite and >= 0, got {v}")))
+            }
+        };
+        let positive = |field: &'static str, v: f64| {
+            if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, format!("must be > 0, got {v}"))) }
+        };
+        non_neg_finite("gating_min_translation_m", self.gating_min_translation_m)?;
+        non_neg_finite("gating_min_rotation_rad", self.gating_min_rotation_rad)?;
+        non_neg_finite("gating_min_interval_s", self.gating_min_interval_s)?;
+        positive("fast_rotation_rad_s", self.fast_rotation_rad_s)?;
+        non_neg_finite("fast_rotation_pause_s", self.fast_rotation_pause_s)?;
+        non_neg_finite("fast_rotation_pause_m", self.fast_rotation_pause_m)?;
+        positive("max_range_m", self.max_range_m)?;
+        if self.virtual_rays_each_side > 64 {
+            return Err(bad("virtual_rays_each_side", "must be at most 64"));
+        }
+        if !(self.virtual_ray_spacing_beams.is_finite() && self.virtual_ray_spacing_beams > 0.0) {
+            return Err(bad("virtual_ray_spacing_beams", "must be finite and > 0"));
+        }
+        non_neg_finite("virtual_window_rad", self.virtual_window_rad)?;
+        non_neg_finite("change_slope", self.change_slope)?;
+        non_neg_finite("change_intercept_m", self.change_intercept_m)?;
+        positive("change_max_m", self.change_max_m)?;
+        if self.min_change_run == 0 {
+            return Err(bad("min_change_run", "must be >= 1 (1 = no outlier filter)"));
+        }
+        for (field, v) in [("d_eps_min", self.d_eps_min), ("d_eps_max", self.d_eps_max)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(bad(field, format!("must lie in [0, 1], got {v}")));
+            }
+        }
+        if self.d_eps_min > self.d_eps_max {
+            return Err(bad(
+                "d_eps_min",
+                format!("must not exceed d_eps_max ({} > {})", self.d_eps_min, self.d_eps_max),
+            ));
+        }
+        non_neg_finite("tol_slope", self.tol_slope)?;
+        non_neg_finite("tol_intercept_m", self.tol_intercept_m)?;
+        positive("tol_max_m", self.tol_max_m)?;
+        non_neg_finite("skip_changed_slope", self.skip_changed_slope)?;
+        non_neg_finite("skip_changed_min_m", self.skip_changed_min_m)?;
+        non_neg_finite("skip_unchanged_slope", self.skip_unchanged_slope)?;
+        non_neg_finite("skip_unchanged_min_m", self.skip_unchanged_min_m)?;
+        if self.skip_changed_slope >= 1.0 || self.skip_unchanged_slope >= 1.0 {
+            return Err(bad("skip_changed_slope", "skip slopes must be < 1"));
+        }
+        if !(1..=32).contains(&self.buffer_size) {
+            return Err(bad("buffer_size", format!("must lie in 1..=32, got {}", self.buffer_size)));
+        }
+        if !(1..=self.buffer_size).contains(&self.change_threshold) {
+            return Err(bad("change_threshold", format!("must lie in 1..=buffer_size, got {}", self.change_threshold)));
+        }
+        let p = &self.pose_updating;
+        if p.source_beam_step == 0 {
+            return Err(bad("pose_updating.source_beam_step", "must be >= 1"));
+        }
+        positive("pose_updating.max_correspondence_m", p.max_correspondence_m)?;
+        positive("pose_updating.min_correspondence_m", p.min_correspondence_m)?;
+        if !p.max_correspondence_m.is_finite() || p.min_correspondence_m > p.max_correspondence_m {
+            return Err(bad("pose_updating.min_correspondence_m", "must be finite and <= max_correspondence_m"));
+        }
+        if !(p.correspondence_decay > 0.0 && p.correspondence_decay <= 1.0) {
+            return Err(bad("pose_updating.correspondence_decay", "must lie in (0, 1]"));
+        }
+        if p.max_iterations == 0 || p.max_iterations > 1000 {
+            return Err(bad("pose_updating.max_iterations", "must lie in 1..=1000"));
+        }
+        non_neg_finite("pose_updating.convergence_translation_m", p.convergence_translation_m)?;
+        non_neg_finite("pose_updating.convergence_rotation_rad", p.convergence_rotation_rad)?;
+        if p.yaw_offsets_rad.is_empty() || p.yaw_offsets_rad.iter().any(|v| !v.is_finite()) {
+            return Err(bad("pose_updating.yaw_offsets_rad", "must be non-empty and finite"));
+        }
+        if p.position_offsets_m.is_empty() || p.position_offsets_m.iter().any(|v| !v.is_finite()) {
+            return Err(bad("pose_updating.position_offsets_m", "must be non-empty and finite"));
+        }
+        if p.yaw_offsets_rad.len() * p.position_offsets_m.len().pow(2) > 4096 {
+            return Err(bad("pose_updating.yaw_offsets_rad", "at most 4096 hypotheses"));
+        }
+        positive("pose_updating.inlier_distance_m", p.inlier_distance_m)?;
+        if !p.inlier_distance_m.is_finite() {
+            return Err(bad("pose_updating.inlier_distance_m", "must be finite"));
+        }
+        if !(0.0..=1.0).contains(&p.min_inlier_ratio) {
+            return Err(bad("pose_updating.min_inlier_ratio", "must lie in [0, 1]"));
+        }
+        positive("pose_updating.max_rmse_m", p.max_rmse_m)?;
+        non_neg_finite("pose_updating.ambiguity_ratio_margin", p.ambiguity_ratio_margin)?;
+        non_neg_finite("pose_updating.ambiguity_distance_m", p.ambiguity_distance_m)?;
+        non_neg_finite("pose_updating.ambiguity_rotation_rad", p.ambiguity_rotation_rad)?;
+        let l = &self.log_odds;
+        for (field, v) in [
+            ("log_odds.hit_log_odds", l.hit_log_odds),
+            ("log_odds.miss_log_odds", l.miss_log_odds),
+            ("log_odds.prior_occupied_log_odds", l.prior_occupied_log_odds),
+            ("log_odds.prior_free_log_odds", l.prior_free_log_odds),
+            ("log_odds.clamp_log_odds", l.clamp_log_odds),
+            ("log_odds.occupied_threshold", l.occupied_threshold),
+            ("log_odds.free_threshold", l.free_threshold),
+        ] {
+            if !v.is_finite() {
+                return Err(bad(field, format!("must be finite, got {v}")));
+            }
+        }
+        if l.free_threshold >= l.occupied_threshold {
+            return Err(bad("log_odds.free_threshold", "must be below occupied_threshold"));
+        }
+        if l.clamp_log_odds <= 0.0 {
+            return Err(bad("log_odds.clamp_log_odds", "must be > 0"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_validate_and_differ_as_listed() {
+        for name in PRESET_NAMES {
+            UpdaterParams::preset(name).unwrap().validate().unwrap();
+        }
+        assert!(matches!(UpdaterParams::preset("nope"), Err(UpdaterError::UnknownPreset { .. })));
+        let r = UpdaterParams::reference();
+        // 0.013z + 0.15, uncapped.
+        assert!((r.tol_m(100.0) - 1.45).abs() < 1e-12);
+        let p = UpdaterParams::paper();
+        assert!((p.tol_m(100.0) - 0.20).abs() < 1e-12);
+        assert!((p.tol_m(5.0) - 0.15).abs() < 1e-12);
+        // D_th saturates at 0.30.
+        assert!((p.change_distance_m(1.0) - 0.16057).abs() < 1e-12);
+        assert!((p.change_distance_m(30.0) - 0.30).abs() < 1e-12);
+        assert!((p.skip_changed_m(2.0) - 0.15).abs() < 1e-12);
+        assert!((p.skip_changed_m(10.0) - 0.20).abs() < 1e-12);
+        assert!(!UpdaterParams::always_update().localisation_check);
+        assert!(!UpdaterParams::no_update().map_update);
+    }
+
+    #[test]
+    fn validate_rejects_bad_fields() {
+        let mut p = UpdaterParams::paper();
+        p.change_threshold = 11;
+        assert!(matches!(p.validate(), Err(UpdaterError::InvalidParam { field: "change_threshold", .. })));
+        let mut p = UpdaterParams::paper();
+        p.d_eps_min = 0.95;
+        assert!(p.validate().is_err());
+        let mut p = UpdaterParams::paper();
+        p.buffer_size = 40;
+        assert!(p.validate().is_err());
+        let mut p = UpdaterParams::paper();
+        p.change_slope = f64::NAN;
+        assert!(p.validate().is_err());
+    }
+
+    #[test]
+    fn serde_overrides_one_field_and_rejects_unknown() {
+        let p: UpdaterParams =
+            serde_json::from_str(r#"{"buffer_size": 12, "pose_updating": {"max_rmse_m": 0.1}}"#).unwrap();
+        assert_eq!(p.buffer_size, 12);
+        assert_eq!(p.change_threshold, 7);
+        assert_eq!(p.pose_updating.max_rmse_m, 0.1);
+        assert!(serde_json::from_str::<UpdaterParams>(r#"{"bufer_size": 12}"#).is_err());
+    }
+}
