@@ -244,7 +244,7 @@ fn digest(outs: &[StepOutput]) -> u64 {
 
 fn run_default(seed: u64, seconds: u64) -> u64 {
     let w = World::default_warehouse();
-    let mut sim = Simulator::new(&w, SimParams::default(), seed).unwrap();
+    let mut sim = Simulator::new(&w, SimParams::default(), seed).expect("default world builds");
     sim.set_route(Route::default_warehouse().points());
     let outs: Vec<StepOutput> = (0..seconds * 50).map(|_| sim.step()).collect();
     digest(&outs)

@@ -61,7 +61,7 @@ fn missing_file_names_the_file() {
 fn real_map() -> mapkeeper_grid::OccupancyGrid {
     let yaml = repo().join("../shared/maps/aws-small-warehouse/map.yaml");
     let yaml = if yaml.exists() { yaml } else { PathBuf::from("/work/shared/maps/aws-small-warehouse/map.yaml") };
-    mapkeeper_grid::map_io::load_map(&yaml).unwrap()
+    mapkeeper_grid::map_io::load_map(&yaml).expect("the real map loads")
 }
 
 #[test]
