@@ -228,20 +228,33 @@ pub struct IcpRun {
 /// `min_correspondence_m`; converged when a step at the floor is below both convergence
 /// thresholds.
 pub fn icp(source: &[Point2], target: &PointGrid, init: Pose2, p: &PoseUpdatingParams) -> IcpRun {
+    icp_from(source, target, init, p, p.max_correspondence_m, p.max_iterations).0
+}
+
+/// [`icp`] starting at correspondence distance `d_start` for at most `max_iterations`;
+/// also returns the correspondence distance reached, to continue a run later.
+pub fn icp_from(
+    source: &[Point2],
+    target: &PointGrid,
+    init: Pose2,
+    p: &PoseUpdatingParams,
+    d_start: f64,
+    max_iterations: u32,
+) -> (IcpRun, f64) {
     let mut pose = init;
-    let mut d_max = p.max_correspondence_m;
-    for it in 1..=p.max_iterations {
+    let mut d_max = d_start;
+    for it in 1..=max_iterations {
         let (h, g, n) = normal_equations(source, target, &pose, d_max);
         if n < 3 {
-            return IcpRun { pose, iterations: it, converged: false };
+            return (IcpRun { pose, iterations: it, converged: false }, d_max);
         }
         // A little damping keeps a degenerate direction (corridor) from blowing up.
         let damped = h + Matrix3::identity() * (1e-6 * (h.trace() + 1.0));
         let Some(delta) = damped.cholesky().map(|c| c.solve(&(-g))) else {
-            return IcpRun { pose, iterations: it, converged: false };
+            return (IcpRun { pose, iterations: it, converged: false }, d_max);
         };
         if !delta.iter().all(|v| v.is_finite()) {
-            return IcpRun { pose, iterations: it, converged: false };
+            return (IcpRun { pose, iterations: it, converged: false }, d_max);
         }
         pose = Pose2::new(pose.x + delta[0], pose.y + delta[1], wrap_angle(pose.yaw + delta[2]));
         let at_floor = d_max <= p.min_correspondence_m;
@@ -249,11 +262,11 @@ pub fn icp(source: &[Point2], target: &PointGrid, init: Pose2, p: &PoseUpdatingP
             && delta[0].hypot(delta[1]) < p.convergence_translation_m
             && delta[2].abs() < p.convergence_rotation_rad
         {
-            return IcpRun { pose, iterations: it, converged: true };
+            return (IcpRun { pose, iterations: it, converged: true }, d_max);
         }
         d_max = (d_max * p.correspondence_decay).max(p.min_correspondence_m);
     }
-    IcpRun { pose, iterations: p.max_iterations, converged: false }
+    (IcpRun { pose, iterations: max_iterations, converged: false }, d_max)
 }
 
 /// Σ JᵀJ, Σ Jᵀr and the number of used correspondences for the point-to-line residuals at

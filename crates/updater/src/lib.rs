@@ -68,6 +68,6 @@ pub use error::UpdaterError;
 pub use gating::GateReason;
 pub use icp::Fitness;
 pub use localisation_check::Verdict;
-pub use params::{LogOddsParams, PRESET_NAMES, PoseUpdatingParams, UpdateMethod, UpdaterParams};
+pub use params::{PRESET_NAMES, PoseUpdatingParams, UpdateMethod, UpdaterParams};
 pub use pose_updating::{PoseRecovery, RecoveryFailure};
 pub use updater::{MapUpdater, StepOutcome, StepReport, UpdaterStats};

@@ -1,57 +1,46 @@
 //! The naive baseline: plain log-odds occupancy mapping of every gated scan into `M_{i-1}` at
-//! the estimated pose (no localisation check, no buffers, no 1-to-N comparison). It shows what
-//! the paper's safeguards buy.
+//! the estimated pose (no localisation check, no buffers, no 1-to-N comparison), with the grid
+//! crate's [`LogOddsMapper`]. It shows what the paper's safeguards buy.
 //!
-//! A minimal private mapper is used (one `f32` of log-odds per cell, owned for the whole run,
-//! never reallocated per scan): the cells of `M_i` are re-thresholded only where a ray touched
-//! them, so reading out the map costs nothing per scan. Its state is map-sized by construction,
-//! unlike the paper's method.
+//! The mapper's log-odds array is map-sized and owned for the whole run (never reallocated per
+//! scan). After each ray only the cells the ray touched are re-thresholded into `M_i`, with the
+//! mapper's own thresholds, so `M_i` always equals `mapper.to_grid()` without a map-sized copy
+//! per scan.
 
 use crate::cell_update::CellChange;
-use crate::params::LogOddsParams;
+use mapkeeper_grid::mapper::{LogOddsMapper, MapperError, MapperParams};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, traverse};
 use std::ops::ControlFlow;
 
 /// Log-odds occupancy mapping on top of an initial map.
 #[derive(Clone, Debug)]
 pub struct LogOddsBaseline {
-    log_odds: Vec<f32>,
-    params: LogOddsParams,
+    mapper: LogOddsMapper,
+    occ_at: f32,
+    free_at: f32,
+}
+
+fn logit(p: f64) -> f32 {
+    (p / (1.0 - p)).ln() as f32
 }
 
 impl LogOddsBaseline {
-    /// Priors from `initial`: occupied and free cells start at the configured prior log-odds,
-    /// unknown cells at 0.
-    pub fn from_grid(initial: &OccupancyGrid, params: LogOddsParams) -> Self {
-        let log_odds = initial
-            .cells()
-            .iter()
-            .map(|s| match s {
-                CellState::Occupied => params.prior_occupied_log_odds,
-                CellState::Free => params.prior_free_log_odds,
-                CellState::Unknown => 0.0,
-            })
-            .collect();
-        Self { log_odds, params }
+    /// Priors from `initial` (see [`LogOddsMapper::from_grid`]).
+    pub fn from_grid(initial: &OccupancyGrid, params: MapperParams) -> Result<Self, MapperError> {
+        Ok(Self {
+            mapper: LogOddsMapper::from_grid(initial, params)?,
+            occ_at: logit(params.occ_threshold),
+            free_at: logit(params.free_threshold),
+        })
     }
 
     /// Bytes of log-odds state (map-sized).
     pub fn state_bytes(&self) -> usize {
-        self.log_odds.len() * size_of::<f32>()
+        std::mem::size_of_val(self.mapper.log_odds())
     }
 
-    fn state_of(&self, l: f32) -> CellState {
-        if l >= self.params.occupied_threshold {
-            CellState::Occupied
-        } else if l <= self.params.free_threshold {
-            CellState::Free
-        } else {
-            CellState::Unknown
-        }
-    }
-
-    /// Integrates one ray from `from` to `to` (misses along it, a hit in the last cell if
-    /// `endpoint_is_hit`) and re-thresholds the touched cells of `map`, recording changes.
+    /// Integrates one ray from `from` to `to` and re-thresholds the touched cells of `map`,
+    /// recording changes.
     pub fn integrate_ray(
         &mut self,
         map: &mut OccupancyGrid,
@@ -60,16 +49,20 @@ impl LogOddsBaseline {
         endpoint_is_hit: bool,
         changes: &mut Vec<CellChange>,
     ) {
+        self.mapper.integrate_ray(from, to, endpoint_is_hit);
         let g = *map.geometry();
-        let end = g.world_to_cell(to);
-        let clamp = self.params.clamp_log_odds;
-        let (hit, miss) = (self.params.hit_log_odds, self.params.miss_log_odds);
+        let lo = self.mapper.log_odds();
+        let (occ_at, free_at) = (self.occ_at, self.free_at);
         let _ = traverse(&g, from, to, |c| {
             let i = c.iy as usize * g.width() + c.ix as usize;
-            let delta = if endpoint_is_hit && Some(c) == end { hit } else { miss };
-            let l = (self.log_odds[i] + delta).clamp(-clamp, clamp);
-            self.log_odds[i] = l;
-            let s = self.state_of(l);
+            let l = lo[i];
+            let s = if l >= occ_at {
+                CellState::Occupied
+            } else if l <= free_at {
+                CellState::Free
+            } else {
+                CellState::Unknown
+            };
             let before = map.cells()[i];
             if s != before {
                 map.cells_mut()[i] = s;

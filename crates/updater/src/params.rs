@@ -3,6 +3,7 @@
 //! baseline (paper §4 and its parameter table; `spec/10-updater.md`).
 
 use crate::UpdaterError;
+use mapkeeper_grid::mapper::MapperParams;
 use serde::{Deserialize, Serialize};
 
 /// Which algorithm turns `M_{i-1}` into `M_i`.
@@ -46,7 +47,7 @@ pub struct PoseUpdatingParams {
     /// A source point is an inlier when its nearest expected point is closer than this, metres.
     /// Default 0.10.
     pub inlier_distance_m: f64,
-    /// Fitness gate: smallest accepted inlier ratio (inliers / source points). Default 0.6.
+    /// Fitness gate: smallest accepted inlier ratio (inliers / source points). Default 0.7.
     pub min_inlier_ratio: f64,
     /// Fitness gate: largest accepted RMSE over inliers, metres. Default 0.06.
     pub max_rmse_m: f64,
@@ -76,46 +77,12 @@ impl Default for PoseUpdatingParams {
             yaw_offsets_rad: vec![0.0, 0.2, -0.2, 0.4, -0.4, 0.8, -0.8],
             position_offsets_m: vec![0.0, 0.6, -0.6],
             inlier_distance_m: 0.10,
-            min_inlier_ratio: 0.6,
+            min_inlier_ratio: 0.7,
             max_rmse_m: 0.06,
             min_points: 30,
             ambiguity_ratio_margin: 0.02,
             ambiguity_distance_m: 0.3,
             ambiguity_rotation_rad: 0.1,
-        }
-    }
-}
-
-/// Parameters of the log-odds baseline (only used with [`UpdateMethod::LogOdds`]).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct LogOddsParams {
-    /// Log-odds added to the hit cell. Default 0.85.
-    pub hit_log_odds: f32,
-    /// Log-odds added to each traversed cell (negative). Default −0.4.
-    pub miss_log_odds: f32,
-    /// Log-odds of a cell that is occupied in `M_{i-1}` at the start. Default 2.0.
-    pub prior_occupied_log_odds: f32,
-    /// Log-odds of a cell that is free in `M_{i-1}` at the start. Default −2.0.
-    pub prior_free_log_odds: f32,
-    /// Clamp of the log-odds magnitude. Default 3.5.
-    pub clamp_log_odds: f32,
-    /// A cell reads occupied at or above this log-odds. Default 0.6.
-    pub occupied_threshold: f32,
-    /// A cell reads free at or below this log-odds. Default −0.6.
-    pub free_threshold: f32,
-}
-
-impl Default for LogOddsParams {
-    fn default() -> Self {
-        Self {
-            hit_log_odds: 0.85,
-            miss_log_odds: -0.4,
-            prior_occupied_log_odds: 2.0,
-            prior_free_log_odds: -2.0,
-            clamp_log_odds: 3.5,
-            occupied_threshold: 0.6,
-            free_threshold: -0.6,
         }
     }
 }
@@ -216,8 +183,8 @@ pub struct UpdaterParams {
     // --- Pose updating (§4.6) ---
     /// Pose updating (ICP) parameters.
     pub pose_updating: PoseUpdatingParams,
-    /// Log-odds baseline parameters.
-    pub log_odds: LogOddsParams,
+    /// Log-odds baseline parameters (the grid crate's mapper; only with `method = "log-odds"`).
+    pub log_odds: MapperParams,
 }
 
 impl Default for UpdaterParams {
@@ -265,7 +232,7 @@ impl UpdaterParams {
             neighbour_support: false,
             border_reconstruction: true,
             pose_updating: PoseUpdatingParams::default(),
-            log_odds: LogOddsParams::default(),
+            log_odds: MapperParams::default(),
         }
     }
 
@@ -440,26 +407,7 @@ impl UpdaterParams {
         non_neg_finite("pose_updating.ambiguity_ratio_margin", p.ambiguity_ratio_margin)?;
         non_neg_finite("pose_updating.ambiguity_distance_m", p.ambiguity_distance_m)?;
         non_neg_finite("pose_updating.ambiguity_rotation_rad", p.ambiguity_rotation_rad)?;
-        let l = &self.log_odds;
-        for (field, v) in [
-            ("log_odds.hit_log_odds", l.hit_log_odds),
-            ("log_odds.miss_log_odds", l.miss_log_odds),
-            ("log_odds.prior_occupied_log_odds", l.prior_occupied_log_odds),
-            ("log_odds.prior_free_log_odds", l.prior_free_log_odds),
-            ("log_odds.clamp_log_odds", l.clamp_log_odds),
-            ("log_odds.occupied_threshold", l.occupied_threshold),
-            ("log_odds.free_threshold", l.free_threshold),
-        ] {
-            if !v.is_finite() {
-                return Err(bad(field, format!("must be finite, got {v}")));
-            }
-        }
-        if l.free_threshold >= l.occupied_threshold {
-            return Err(bad("log_odds.free_threshold", "must be below occupied_threshold"));
-        }
-        if l.clamp_log_odds <= 0.0 {
-            return Err(bad("log_odds.clamp_log_odds", "must be > 0"));
-        }
+        self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
         Ok(())
     }
 }

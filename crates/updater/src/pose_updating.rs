@@ -5,10 +5,20 @@
 //! ratio, RMSE) and must not be ambiguous; otherwise the answer is "not recovered" — never a
 //! wrong pose silently.
 
-use crate::icp::{Fitness, PointGrid, fitness, icp};
+use crate::icp::{Fitness, PointGrid, fitness, icp_from};
 use crate::params::PoseUpdatingParams;
 use mapkeeper_grid::{OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
+
+/// ICP iterations every hypothesis gets before the best ones are refined.
+const COARSE_ITERATIONS: u32 = 8;
+/// Hypotheses iterated to convergence (and compared for ambiguity).
+const REFINED_HYPOTHESES: usize = 6;
+
+/// Best first: more inliers, then lower RMSE, then hypothesis order (stable sort).
+fn sort_candidates(c: &mut [(Pose2, Fitness, f64, bool)]) {
+    c.sort_by(|a, b| b.1.inlier_ratio.total_cmp(&a.1.inlier_ratio).then(a.1.rmse_m.total_cmp(&b.1.rmse_m)));
+}
 
 /// Result of pose updating.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,7 +71,7 @@ pub struct PoseUpdater {
     source: Vec<Point2>,
     expected: Vec<Point2>,
     grid: PointGrid,
-    candidates: Vec<(Pose2, Fitness)>,
+    candidates: Vec<(Pose2, Fitness, f64, bool)>,
 }
 
 impl PoseUpdater {
@@ -121,20 +131,30 @@ impl PoseUpdater {
                 for &dy in &p.position_offsets_m {
                     let init =
                         Pose2::new(predicted_in_map.x + dx, predicted_in_map.y + dy, predicted_in_map.yaw + dyaw);
-                    let run = icp(&self.source, &self.grid, init, p);
+                    let (run, d) =
+                        icp_from(&self.source, &self.grid, init, p, p.max_correspondence_m, COARSE_ITERATIONS);
                     let (fit, _) = fitness(&self.source, &self.grid, &run.pose, p.inlier_distance_m);
-                    self.candidates.push((run.pose, fit));
+                    self.candidates.push((run.pose, fit, d, run.converged));
                 }
             }
         }
-        // Best first: more inliers, then lower RMSE, then hypothesis order (stable sort).
-        self.candidates
-            .sort_by(|a, b| b.1.inlier_ratio.total_cmp(&a.1.inlier_ratio).then(a.1.rmse_m.total_cmp(&b.1.rmse_m)));
-        let (best_pose, best_fit) = self.candidates[0];
+        // Coarse-to-fine: only the most promising hypotheses are iterated to convergence.
+        sort_candidates(&mut self.candidates);
+        for cand in self.candidates.iter_mut().take(REFINED_HYPOTHESES) {
+            if !cand.3 {
+                let rest = p.max_iterations.saturating_sub(COARSE_ITERATIONS).max(1);
+                let (run, d) = icp_from(&self.source, &self.grid, cand.0, p, cand.2, rest);
+                let (fit, _) = fitness(&self.source, &self.grid, &run.pose, p.inlier_distance_m);
+                *cand = (run.pose, fit, d, run.converged);
+            }
+        }
+        self.candidates.truncate(REFINED_HYPOTHESES);
+        sort_candidates(&mut self.candidates);
+        let (best_pose, best_fit, _, _) = self.candidates[0];
         if best_fit.inlier_ratio < p.min_inlier_ratio || best_fit.rmse_m > p.max_rmse_m {
             return PoseRecovery::NotRecovered { reason: RecoveryFailure::PoorFit { best: best_fit } };
         }
-        for &(pose, fit) in &self.candidates[1..] {
+        for &(pose, fit, _, _) in &self.candidates[1..] {
             if best_fit.inlier_ratio - fit.inlier_ratio > p.ambiguity_ratio_margin {
                 break;
             }

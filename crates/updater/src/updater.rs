@@ -116,8 +116,14 @@ impl MapUpdater {
         if initial_map.geometry().len() >= (1usize << 31) {
             return Err(UpdaterError::BadMap(format!("{} cells exceed the 2^31 limit", initial_map.geometry().len())));
         }
-        let log_odds = (params.method == UpdateMethod::LogOdds)
-            .then(|| LogOddsBaseline::from_grid(&initial_map, params.log_odds.clone()));
+        let log_odds = if params.method == UpdateMethod::LogOdds {
+            Some(
+                LogOddsBaseline::from_grid(&initial_map, params.log_odds)
+                    .map_err(|e| UpdaterError::InvalidParam { field: "log_odds", reason: e.to_string() })?,
+            )
+        } else {
+            None
+        };
         Ok(Self {
             current: initial_map.clone(),
             base: initial_map,
