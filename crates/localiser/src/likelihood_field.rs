@@ -29,10 +29,12 @@ pub struct LikelihoodField {
     off_map_log_p: f32,
 }
 
-/// `ln p(z)` at distance `d_m` from the nearest obstacle.
+/// A beam's score at distance `d_m` from the nearest obstacle:
+/// `likelihood_exponent · ln p(z)`.
 pub fn beam_log_likelihood(params: &FilterParams, d_m: f64) -> f64 {
     let s = params.sigma_hit_m;
-    (params.z_hit * (-(d_m * d_m) / (2.0 * s * s)).exp() + params.z_rand / params.laser_max_range_m).ln()
+    let p = params.z_hit * (-(d_m * d_m) / (2.0 * s * s)).exp() + params.z_rand / params.laser_max_range_m;
+    params.likelihood_exponent * p.ln()
 }
 
 impl LikelihoodField {
@@ -189,7 +191,7 @@ mod tests {
         let p = FilterParams::default();
         let f = LikelihoodField::new(&room(), &p);
         // The wall cell in the map frame is x ∈ [0.5, 0.6).
-        let hit = (0.5f64 + 0.5 / 30.0).ln() as f32;
+        let hit = (0.1 * (0.5f64 + 0.5 / 30.0).ln()) as f32;
         assert!((f.log_p_at(Point2::new(0.55, 0.45)) - hit).abs() < 1e-6);
         // Three cells left of the wall: d = 0.3 m.
         let want = beam_log_likelihood(&p, 0.3) as f32;

@@ -114,6 +114,11 @@ pub struct FilterParams {
     /// Range over which the random term is spread, and beams at or beyond it are not used,
     /// metres. Default 30 m (SICK S300).
     pub laser_max_range_m: f64,
+    /// Exponent applied to each beam's likelihood, i.e. the factor on `Σ ln p(z)` (1 treats the
+    /// beams as independent). Neighbouring beams are strongly correlated, and the plain product
+    /// of 60 beams makes the weights so peaked that one particle takes everything (effective
+    /// sample size 1) and global localisation locks onto the first plausible pose. Default 0.1.
+    pub likelihood_exponent: f64,
     /// How endpoints in unknown cells are scored. Default [`UnknownCells::NearestOccupied`].
     pub unknown_cells: UnknownCells,
     /// The filter updates only after the odometry has moved this far since the last update,
@@ -155,6 +160,7 @@ impl FilterParams {
             sigma_hit_m: 0.2,
             likelihood_max_dist_m: 2.0,
             laser_max_range_m: 30.0,
+            likelihood_exponent: 0.1,
             unknown_cells: UnknownCells::NearestOccupied,
             update_min_d_m: 0.2,
             update_min_a_rad: 0.5,
@@ -209,6 +215,8 @@ impl FilterParams {
         let d = self.likelihood_max_dist_m;
         check("likelihood_max_dist_m", d, d > 0.0, "finite and > 0")?;
         check("laser_max_range_m", self.laser_max_range_m, self.laser_max_range_m > 0.0, "finite and > 0")?;
+        let e = self.likelihood_exponent;
+        check("likelihood_exponent", e, e > 0.0 && e <= 1.0, "in (0, 1]")?;
         check("update_min_d_m", self.update_min_d_m, self.update_min_d_m >= 0.0, "finite and >= 0")?;
         check("update_min_a_rad", self.update_min_a_rad, self.update_min_a_rad >= 0.0, "finite and >= 0")?;
         let ri = self.resample_interval;
