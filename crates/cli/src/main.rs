@@ -19,6 +19,14 @@ struct Cli {
 enum Command {
     /// The hundred-world validation of the paper (§5.3.2) on the embedded default warehouse.
     Validate(cmd::validate::Args),
+    /// The robustness experiments: localisation-check demo, Table 1, lost robot, kidnap suite.
+    Recover(cmd::recover::Args),
+    /// Write a seeded scenario set (worlds, ground-truth maps, route, manifest).
+    Generate(cmd::generate::Args),
+    /// One world end to end: simulate, localise, update; write the updated map and trajectories.
+    Run(cmd::run::Args),
+    /// Combine result folders (e.g. shards of a sweep) into one summary.
+    Merge(cmd::merge::Args),
     /// Simulate a world and write a sensor log, the true trajectory and the ground-truth map.
     Simulate(cmd::simulate::Args),
     /// Build an occupancy map from a sensor log at the logged true poses.
@@ -37,6 +45,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Validate(a) => cmd::validate::run(a),
+        Command::Recover(a) => cmd::recover::run(a),
+        Command::Generate(a) => cmd::generate::run(a),
+        Command::Run(a) => cmd::run::run(a),
+        Command::Merge(a) => cmd::merge::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Map(a) => cmd::map::run(a),
         Command::Localise(a) => cmd::localise::run(a),
