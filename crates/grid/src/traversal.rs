@@ -65,61 +65,103 @@ pub fn traverse_indexed<B, F>(geometry: &GridGeometry, from: Point2, to: Point2,
 where
     F: FnMut(CellCoord, usize) -> ControlFlow<B>,
 {
-    let a = geometry.world_to_grid(from);
-    let b = geometry.world_to_grid(to);
-    if !(a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite()) {
-        return ControlFlow::Continue(());
-    }
-    let (w, h) = (geometry.width(), geometry.height());
-    let Some((t0, t1)) = clip(a, b, w as f64, h as f64) else {
+    let Some(mut walk) = Walk::start(geometry, from, to) else {
         return ControlFlow::Continue(());
     };
-    let d = (b.0 - a.0, b.1 - a.1);
-    let s = (a.0 + t0 * d.0, a.1 + t0 * d.1);
-    let e = (a.0 + t1 * d.0, a.1 + t1 * d.1);
-    let cell_of = |u: f64, n: usize| (u.floor() as i64).clamp(0, n as i64 - 1);
-    let (mut ix, mut iy) = (cell_of(s.0, w), cell_of(s.1, h));
-    let (ex, ey) = (cell_of(e.0, w), cell_of(e.1, h));
-
-    // Parametric distance (in units of the whole segment) to the next x / y boundary.
-    let (mut t_max_x, t_delta_x) = if d.0 != 0.0 {
-        let next = if d.0 > 0.0 { ix as f64 + 1.0 } else { ix as f64 };
-        ((next - s.0) / d.0, 1.0 / d.0.abs())
-    } else {
-        (f64::INFINITY, f64::INFINITY)
-    };
-    let (mut t_max_y, t_delta_y) = if d.1 != 0.0 {
-        let next = if d.1 > 0.0 { iy as f64 + 1.0 } else { iy as f64 };
-        ((next - s.1) / d.1, 1.0 / d.1.abs())
-    } else {
-        (f64::INFINITY, f64::INFINITY)
-    };
-
-    // Exactly |ex − ix| + |ey − iy| steps reach the end cell; the step choice follows the
-    // boundaries, but never moves an axis past its end cell (guards rounding at the ends).
-    let mut remaining_x = (ex - ix).abs();
-    let mut remaining_y = (ey - iy).abs();
-    let step_x = (ex - ix).signum();
-    let step_y = (ey - iy).signum();
-    let stride_y = step_y * w as i64;
-    let mut index = (iy * w as i64 + ix) as usize;
     loop {
-        visit(CellCoord::new(ix as i32, iy as i32), index)?;
-        if remaining_x == 0 && remaining_y == 0 {
+        visit(CellCoord::new(walk.ix as i32, walk.iy as i32), walk.index)?;
+        if !walk.advance() {
             return ControlFlow::Continue(());
         }
-        let go_x = remaining_y == 0 || (remaining_x > 0 && t_max_x <= t_max_y);
-        if go_x {
-            ix += step_x;
-            index = index.wrapping_add_signed(step_x as isize);
-            t_max_x += t_delta_x;
-            remaining_x -= 1;
-        } else {
-            iy += step_y;
-            index = index.wrapping_add_signed(stride_y as isize);
-            t_max_y += t_delta_y;
-            remaining_y -= 1;
+    }
+}
+
+/// The state of one Amanatides–Woo walk over a segment clipped to the grid.
+struct Walk {
+    ix: i64,
+    iy: i64,
+    index: usize,
+    step_x: i64,
+    step_y: i64,
+    stride_y: isize,
+    /// Parametric distance (in units of the whole segment) to the next x / y boundary; infinite
+    /// once that axis has reached its end cell.
+    t_max_x: f64,
+    t_max_y: f64,
+    t_delta_x: f64,
+    t_delta_y: f64,
+    remaining_x: i64,
+    remaining_y: i64,
+    /// Parameter at which the segment leaves the grid (1 if it ends inside).
+    t_exit: f64,
+}
+
+impl Walk {
+    #[inline]
+    fn start(geometry: &GridGeometry, from: Point2, to: Point2) -> Option<Walk> {
+        let a = geometry.world_to_grid(from);
+        let b = geometry.world_to_grid(to);
+        if !(a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite()) {
+            return None;
         }
+        let (w, h) = (geometry.width(), geometry.height());
+        let (t0, t1) = clip(a, b, w as f64, h as f64)?;
+        let d = (b.0 - a.0, b.1 - a.1);
+        let s = (a.0 + t0 * d.0, a.1 + t0 * d.1);
+        let e = (a.0 + t1 * d.0, a.1 + t1 * d.1);
+        let cell_of = |u: f64, n: usize| (u.floor() as i64).clamp(0, n as i64 - 1);
+        let (ix, iy) = (cell_of(s.0, w), cell_of(s.1, h));
+        let (ex, ey) = (cell_of(e.0, w), cell_of(e.1, h));
+        // Exactly |ex − ix| + |ey − iy| steps reach the end cell; the step choice follows the
+        // boundaries, but an axis that has reached its end cell never moves again (this guards
+        // rounding at the ends, so the walk never leaves the grid).
+        let (remaining_x, remaining_y) = ((ex - ix).abs(), (ey - iy).abs());
+        let boundary = |p: f64, i: i64, d: f64, remaining: i64| {
+            if remaining == 0 || d == 0.0 {
+                (f64::INFINITY, f64::INFINITY)
+            } else {
+                let next = if d > 0.0 { i as f64 + 1.0 } else { i as f64 };
+                ((next - p) / d, 1.0 / d.abs())
+            }
+        };
+        let (t_max_x, t_delta_x) = boundary(s.0, ix, d.0, remaining_x);
+        let (t_max_y, t_delta_y) = boundary(s.1, iy, d.1, remaining_y);
+        let step_y = (ey - iy).signum();
+        Some(Walk {
+            ix,
+            iy,
+            index: (iy * w as i64 + ix) as usize,
+            step_x: (ex - ix).signum(),
+            step_y,
+            stride_y: (step_y * w as i64) as isize,
+            t_max_x,
+            t_max_y,
+            t_delta_x,
+            t_delta_y,
+            remaining_x,
+            remaining_y,
+            t_exit: t1,
+        })
+    }
+
+    /// Moves to the next cell; false when the end cell has been visited.
+    #[inline(always)]
+    fn advance(&mut self) -> bool {
+        if self.remaining_x + self.remaining_y == 0 {
+            return false;
+        }
+        if self.t_max_x <= self.t_max_y {
+            self.ix += self.step_x;
+            self.index = self.index.wrapping_add_signed(self.step_x as isize);
+            self.remaining_x -= 1;
+            self.t_max_x = if self.remaining_x == 0 { f64::INFINITY } else { self.t_max_x + self.t_delta_x };
+        } else {
+            self.iy += self.step_y;
+            self.index = self.index.wrapping_add_signed(self.stride_y);
+            self.remaining_y -= 1;
+            self.t_max_y = if self.remaining_y == 0 { f64::INFINITY } else { self.t_max_y + self.t_delta_y };
+        }
+        true
     }
 }
 
@@ -156,58 +198,39 @@ pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f
     let geometry = grid.geometry();
     let (s, c) = angle.sin_cos();
     let end = Point2::new(origin.x + c * max_range_m, origin.y + s * max_range_m);
+    let Some(mut walk) = Walk::start(geometry, origin, end) else {
+        return RayHit { range_m: max_range_m, cell: None, stop: RayStop::LeftGrid };
+    };
     let cells = grid.cells();
-    let mut entered_any = false;
-    let mut last = None;
-    let flow = traverse_indexed(geometry, origin, end, |cell, index| {
-        entered_any = true;
-        last = Some(cell);
-        match cells[index] {
-            CellState::Free => ControlFlow::Continue(()),
-            CellState::Occupied => ControlFlow::Break((cell, RayStop::Occupied)),
-            CellState::Unknown if unknown_blocks => ControlFlow::Break((cell, RayStop::Unknown)),
-            CellState::Unknown => ControlFlow::Continue(()),
+    loop {
+        let stop = match cells.get(walk.index) {
+            Some(CellState::Free) => None,
+            Some(CellState::Occupied) => Some(RayStop::Occupied),
+            Some(CellState::Unknown) if unknown_blocks => Some(RayStop::Unknown),
+            Some(CellState::Unknown) => None,
+            None => break,
+        };
+        if let Some(stop) = stop {
+            let cell = CellCoord::new(walk.ix as i32, walk.iy as i32);
+            return RayHit { range_m: entry_distance(geometry, origin, angle, cell), cell: Some(cell), stop };
         }
-    });
-    match flow {
-        ControlFlow::Break((cell, stop)) => {
-            RayHit { range_m: entry_distance(geometry, origin, angle, cell), cell: Some(cell), stop }
+        if !walk.advance() {
+            break;
         }
-        ControlFlow::Continue(()) => {
-            // Did the segment leave the grid before its end?
-            let end_inside = geometry.world_to_cell(end).is_some_and(|e| geometry.contains(e));
-            if end_inside || !entered_any {
-                if !entered_any {
-                    return RayHit { range_m: max_range_m, cell: None, stop: RayStop::LeftGrid };
-                }
-                RayHit { range_m: max_range_m, cell: None, stop: RayStop::MaxRange }
-            } else {
-                let exit =
-                    last.map_or(max_range_m, |cell| exit_distance(geometry, origin, angle, cell).min(max_range_m));
-                RayHit { range_m: exit, cell: None, stop: RayStop::LeftGrid }
-            }
-        }
+    }
+    if walk.t_exit < 1.0 {
+        RayHit { range_m: walk.t_exit * max_range_m, cell: None, stop: RayStop::LeftGrid }
+    } else {
+        RayHit { range_m: max_range_m, cell: None, stop: RayStop::MaxRange }
     }
 }
 
-/// Distance along the ray from `origin` (direction `angle`) to where it enters `cell`'s square
-/// (0 if it starts inside).
+/// Where the ray enters the cell's square (slab method), metres from its origin, clamped at 0.
 fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> f64 {
-    slab(geometry, origin, angle, cell).0
-}
-
-/// Distance along the ray to where it leaves `cell`'s square.
-fn exit_distance(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> f64 {
-    slab(geometry, origin, angle, cell).1
-}
-
-/// Ray–square intersection interval (slab method) in metres, clamped at 0.
-fn slab(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> (f64, f64) {
     let (u, v) = geometry.world_to_grid(origin);
     let yaw = angle - geometry.origin().yaw;
     let (dy, dx) = yaw.sin_cos();
     let mut t_in = 0.0f64;
-    let mut t_out = f64::INFINITY;
     for (p, d, lo) in [(u, dx, cell.ix as f64), (v, dy, cell.iy as f64)] {
         if d.abs() < 1e-300 {
             continue;
@@ -215,9 +238,8 @@ fn slab(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) ->
         let ta = (lo - p) / d;
         let tb = (lo + 1.0 - p) / d;
         t_in = t_in.max(ta.min(tb));
-        t_out = t_out.min(ta.max(tb));
     }
-    (t_in * geometry.resolution_m(), t_out.max(t_in) * geometry.resolution_m())
+    t_in * geometry.resolution_m()
 }
 
 #[cfg(test)]
