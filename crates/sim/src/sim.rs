@@ -426,6 +426,21 @@ impl Simulator {
         }
     }
 
+    /// Casts every lidar now, at the current pose, without advancing time (for benchmarks and
+    /// tools). It draws from the lidars' noise streams, so it changes later scans of the run.
+    pub fn scan_now(&mut self) -> Vec<LaserScan> {
+        let truth = self.true_pose();
+        let stamp_ns = self.stamp_ns();
+        let filter = QueryFilter::default().exclude_rigid_body(self.robot_body);
+        let query = self.physics.broad_phase.as_query_pipeline(
+            self.physics.narrow_phase.query_dispatcher(),
+            &self.physics.bodies,
+            &self.physics.colliders,
+            filter,
+        );
+        self.lidars.iter_mut().map(|l| l.scan(&query, &truth, stamp_ns)).collect()
+    }
+
     fn drain_events(&mut self, stamp_ns: u64) -> Vec<CollisionEvent> {
         let raw = match self.events.0.lock() {
             Ok(mut v) => std::mem::take(&mut *v),
