@@ -325,42 +325,39 @@ impl JointCounts {
 const FAR: u32 = u32::MAX / 2;
 
 /// Exact L1 (Manhattan) distance transform in cells to the nearest occupied cell of `grid`,
-/// written into `out` (length ν; [`FAR`] where the grid has no occupied cell). Two raster passes
-/// with the 4-neighbour mask, which is exact for the L1 metric.
+/// written into `out` (length ν; [`FAR`] where the grid has no occupied cell). The 4-neighbour
+/// chamfer mask is exact for L1; its passes are run per axis (columns, then rows), O(ν).
 fn manhattan_to_occupied(grid: &OccupancyGrid, out: &mut [u32]) {
     let (w, h) = (grid.geometry().width(), grid.geometry().height());
     for (d, &s) in out.iter_mut().zip(grid.cells()) {
         *d = if s == CellState::Occupied { 0 } else { FAR };
     }
-    // Forward: from the bottom-left, look at the left and lower neighbours.
-    for y in 0..h {
-        let row = y * w;
-        for x in 0..w {
-            let i = row + x;
-            let mut d = out[i];
-            if x > 0 {
-                d = d.min(out[i - 1].saturating_add(1));
-            }
-            if y > 0 {
-                d = d.min(out[i - w].saturating_add(1));
-            }
-            out[i] = d.min(FAR);
+    // L1 is separable: first the distance to the nearest site in the same column (a sweep up,
+    // then down, whole rows at a time), then along each row (a sweep right, then left).
+    for y in 1..h {
+        let (below, rest) = out.split_at_mut(y * w);
+        let (below, row) = (&below[(y - 1) * w..], &mut rest[..w]);
+        for (d, &b) in row.iter_mut().zip(below) {
+            *d = (*d).min(b.saturating_add(1));
         }
     }
-    // Backward: from the top-right, look at the right and upper neighbours.
-    for y in (0..h).rev() {
-        let row = y * w;
-        for x in (0..w).rev() {
-            let i = row + x;
-            let mut d = out[i];
-            if x + 1 < w {
-                d = d.min(out[i + 1].saturating_add(1));
-            }
-            if y + 1 < h {
-                d = d.min(out[i + w].saturating_add(1));
-            }
-            out[i] = d.min(FAR);
+    for y in (0..h.saturating_sub(1)).rev() {
+        let (head, above) = out.split_at_mut((y + 1) * w);
+        let (row, above) = (&mut head[y * w..], &above[..w]);
+        for (d, &a) in row.iter_mut().zip(above) {
+            *d = (*d).min(a.saturating_add(1));
         }
+    }
+    for row in out.chunks_exact_mut(w) {
+        for x in 1..w {
+            row[x] = row[x].min(row[x - 1].saturating_add(1));
+        }
+        for x in (0..w.saturating_sub(1)).rev() {
+            row[x] = row[x].min(row[x + 1].saturating_add(1));
+        }
+    }
+    for d in out.iter_mut() {
+        *d = (*d).min(FAR);
     }
 }
 
