@@ -11,7 +11,7 @@
 //! |z_e − z| from p_i whatever the angle offset.
 
 use crate::UpdaterParams;
-use mapkeeper_grid::{OccupancyGrid, Point2, Pose2, RayStop, cast_ray};
+use mapkeeper_grid::{CellCoord, OccupancyGrid, Point2, Pose2, RayStop, cast_ray};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// The classifier's verdict on one beam.
@@ -41,6 +41,9 @@ pub struct Beam {
     pub angle_rad: f64,
     /// Hit point p_i in the map frame.
     pub hit: Point2,
+    /// Whether the beam's direction crosses a tile that holds a cell buffer (set by the
+    /// updater before the unchanged evaluator; beams that do not are skipped there).
+    pub near_buffer: bool,
     /// The verdict.
     pub class: BeamClass,
 }
@@ -54,6 +57,10 @@ pub struct LidarFrame {
     pub first_beam: usize,
     /// Number of beams of this scan.
     pub beam_count: usize,
+    /// Map-frame direction of beam 0, radians.
+    pub angle0_rad: f64,
+    /// Angle between consecutive beams, radians.
+    pub increment_rad: f64,
 }
 
 /// Counts of one step's classification.
@@ -153,7 +160,13 @@ impl BeamClassifier {
             let lidar_in_map = scan.lidar_in_map(robot_in_map);
             let origin = lidar_in_map.position();
             let lidar = self.lidars.len() as u32;
-            self.lidars.push(LidarFrame { origin, first_beam: self.beams.len(), beam_count: scan.len() });
+            self.lidars.push(LidarFrame {
+                origin,
+                first_beam: self.beams.len(),
+                beam_count: scan.len(),
+                angle0_rad: lidar_in_map.yaw + scan.angle_min_rad,
+                increment_rad: scan.angle_increment_rad,
+            });
             let max_range_m = params.max_range_m.min(scan.range_max_m as f64);
             let (n_e, v) = virtual_rays(params, scan.angle_increment_rad);
             for (i, &r) in scan.ranges_m.iter().enumerate() {
@@ -162,7 +175,14 @@ impl BeamClassifier {
                 let valid = scan.validity_of(r) == BeamValidity::Valid && z < params.max_range_m;
                 if !valid {
                     counts.n_invalid += 1;
-                    self.beams.push(Beam { lidar, range_m: 0.0, angle_rad, hit: origin, class: BeamClass::Invalid });
+                    self.beams.push(Beam {
+                        lidar,
+                        range_m: 0.0,
+                        angle_rad,
+                        hit: origin,
+                        class: BeamClass::Invalid,
+                        near_buffer: false,
+                    });
                     continue;
                 }
                 counts.n_valid += 1;
@@ -182,13 +202,67 @@ impl BeamClassifier {
                     d_th,
                 );
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
-                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class });
+                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer: false });
             }
         }
         self.filter_outliers(params.min_change_run as usize);
         self.mark_near_changes(params.skip_near_changes_beams as usize);
         counts.n_dc = self.beams.iter().filter(|b| b.class == BeamClass::Changed).count();
         counts
+    }
+
+    /// Marks the beams whose direction crosses one of the squares (lower-left cell, side in
+    /// cells) of `tiles` in `grid`'s geometry; the others cannot reach a buffered cell.
+    pub fn mark_near(
+        &mut self,
+        geometry: &mapkeeper_grid::GridGeometry,
+        tiles: impl Iterator<Item = CellCoord> + Clone,
+        side: i32,
+    ) {
+        use std::f64::consts::{PI, TAU};
+        for b in &mut self.beams {
+            b.near_buffer = false;
+        }
+        let tile_m = side as f64 * geometry.resolution_m();
+        for f in &self.lidars {
+            let beams = &mut self.beams[f.first_beam..f.first_beam + f.beam_count];
+            let inc = f.increment_rad.abs();
+            if beams.is_empty() || inc.is_nan() || inc <= 0.0 {
+                continue;
+            }
+            for t in tiles.clone() {
+                let corners = [(0, 0), (side, 0), (0, side), (side, side)]
+                    .map(|(dx, dy)| geometry.grid_to_world((t.ix + dx) as f64, (t.iy + dy) as f64));
+                let centre = geometry.grid_to_world(t.ix as f64 + side as f64 / 2.0, t.iy as f64 + side as f64 / 2.0);
+                if centre.distance(f.origin) <= tile_m {
+                    beams.iter_mut().for_each(|b| b.near_buffer = true);
+                    break;
+                }
+                let ac = (centre.y - f.origin.y).atan2(centre.x - f.origin.x);
+                let half = corners
+                    .iter()
+                    .map(|c| mapkeeper_grid::angle_diff((c.y - f.origin.y).atan2(c.x - f.origin.x), ac).abs())
+                    .fold(0.0, f64::max)
+                    + inc;
+                // Offset of the tile's direction from beam 0, along the scan's sweep, in [0, 2π).
+                let off = if f.increment_rad > 0.0 {
+                    (ac - f.angle0_rad).rem_euclid(TAU)
+                } else {
+                    (f.angle0_rad - ac).rem_euclid(TAU)
+                };
+                for shift in [-TAU, 0.0, TAU] {
+                    let lo = ((off + shift - half) / inc).ceil().max(0.0);
+                    let hi = ((off + shift + half) / inc).floor().min(beams.len() as f64 - 1.0);
+                    if lo <= hi && half < PI {
+                        for b in &mut beams[lo as usize..=hi as usize] {
+                            b.near_buffer = true;
+                        }
+                    } else if half >= PI {
+                        beams.iter_mut().for_each(|b| b.near_buffer = true);
+                    }
+                }
+            }
+        }
     }
 
     /// Reference outlier filter: detected changes survive only in runs of ≥ `min_run` adjacent

@@ -10,7 +10,7 @@
 //! only when it enters a new tile.
 
 use mapkeeper_grid::CellCoord;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 /// The last N_b flags of one cell (N_b ≤ 32), newest in bit 0; 1 = "changed".
@@ -55,7 +55,8 @@ impl RollingBuffer {
     }
 }
 
-/// A multiplicative hasher for `u32` tile keys (deterministic, fast; never iterated into output).
+/// A multiplicative hasher for `u32` keys (cell indices, tile keys): deterministic and fast.
+/// The maps using it are only looked up, never iterated into an output.
 #[derive(Default, Clone, Copy)]
 pub struct TileHasher(u64);
 
@@ -102,7 +103,7 @@ type TileMap = HashMap<u32, TileMask, BuildHasherDefault<TileHasher>>;
 /// The sparse buffers of all cells that hold a "changed" flag, keyed by the cell's linear index.
 #[derive(Clone, Debug, Default)]
 pub struct CellBuffers {
-    buffers: BTreeMap<u32, RollingBuffer>,
+    buffers: HashMap<u32, RollingBuffer, BuildHasherDefault<TileHasher>>,
     tiles: TileMap,
 }
 
@@ -153,9 +154,18 @@ impl CellBuffers {
         TileProbe { tiles: &self.tiles, key: u32::MAX, mask: None }
     }
 
+    /// Side of a tile, cells.
+    pub const TILE_CELLS: i32 = 16;
+
+    /// The lower-left cell of every tile that holds at least one buffer (unordered; callers
+    /// must not let this order reach an output).
+    pub fn tile_origins(&self) -> impl Iterator<Item = CellCoord> + Clone + '_ {
+        self.tiles.keys().map(|&k| CellCoord::new(((k >> 16) as i32) << 4, ((k & 0xffff) as i32) << 4))
+    }
+
     /// Creates an empty buffer for the cell if it has none.
     pub fn ensure(&mut self, index: u32, cell: CellCoord) {
-        if let std::collections::btree_map::Entry::Vacant(e) = self.buffers.entry(index) {
+        if let std::collections::hash_map::Entry::Vacant(e) = self.buffers.entry(index) {
             e.insert(RollingBuffer::default());
             let t = self.tiles.entry(tile_key(cell)).or_default();
             let b = TileMask::bit(cell);

@@ -74,15 +74,15 @@ pub fn all_free_within(grid: &OccupancyGrid, p: Point2, radius_m: f64) -> bool {
     true
 }
 
-/// Appends the changed evaluator's votes for one detected-change beam to `votes`, and makes
-/// sure every voted cell has a buffer (so that the unchanged evaluator sees it this step).
+/// Appends the changed evaluator's votes for one detected-change beam to `votes`. The caller
+/// makes sure every voted cell has a buffer before the unchanged evaluator runs
+/// ([`ensure_buffers`]).
 pub fn evaluate_changed_beam(
     base: &OccupancyGrid,
     origin: Point2,
     hit: Point2,
     z: f64,
     params: &UpdaterParams,
-    buffers: &mut CellBuffers,
     votes: &mut Vec<Vote>,
 ) {
     let g = base.geometry();
@@ -94,7 +94,6 @@ pub fn evaluate_changed_beam(
             let i = c.iy as usize * g.width() + c.ix as usize;
             if cells[i] != CellState::Free && g.cell_center(c).distance_sq(hit) > skip_sq {
                 votes.push(vote(i, true));
-                buffers.ensure(i as u32, c);
             }
             ControlFlow::<()>::Continue(())
         });
@@ -104,7 +103,19 @@ pub fn evaluate_changed_beam(
         && all_free_within(base, hit, params.tol_m(z))
     {
         votes.push(vote(i, true));
-        buffers.ensure(i as u32, c);
+    }
+}
+
+/// Sorts `votes` and creates a buffer for every cell with a "changed" vote.
+pub fn ensure_buffers(votes: &mut [Vote], width: usize, buffers: &mut CellBuffers) {
+    votes.sort_unstable();
+    let mut last = u32::MAX;
+    for &v in votes.iter() {
+        if v & 1 == 1 && v != last {
+            last = v;
+            let i = (v >> 1) as usize;
+            buffers.ensure(i as u32, mapkeeper_grid::CellCoord::new((i % width) as i32, (i / width) as i32));
+        }
     }
 }
 

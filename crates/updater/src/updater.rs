@@ -4,7 +4,7 @@ use crate::UpdaterError;
 use crate::beam_classifier::{BeamClass, BeamClassifier};
 use crate::cell_buffers::CellBuffers;
 use crate::cell_update::{CellChange, CellUpdater};
-use crate::changed_cells::{Vote, evaluate_changed_beam};
+use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam};
 use crate::gating::{GateReason, UpdateGate};
 use crate::localisation_check::{Verdict, localisation_check};
 use crate::log_odds_baseline::LogOddsBaseline;
@@ -271,21 +271,15 @@ impl MapUpdater {
         for b in &self.classifier.beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam(
-                    &self.base,
-                    origin,
-                    b.hit,
-                    b.range_m,
-                    &self.params,
-                    &mut self.buffers,
-                    &mut self.votes,
-                );
+                evaluate_changed_beam(&self.base, origin, b.hit, b.range_m, &self.params, &mut self.votes);
             }
         }
+        ensure_buffers(&mut self.votes, self.base.geometry().width(), &mut self.buffers);
         if !self.buffers.is_empty() {
+            self.classifier.mark_near(self.base.geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
-                if b.class == BeamClass::Unchanged {
+                if b.class == BeamClass::Unchanged && b.near_buffer {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
                     evaluate_unchanged_beam(
                         &self.base,

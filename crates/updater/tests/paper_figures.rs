@@ -52,8 +52,7 @@ fn fig10_final_chunk_is_skipped() {
     let z = hit.x - origin.x;
     let p = UpdaterParams::paper();
     let mut votes = Vec::new();
-    let mut buffers = CellBuffers::new();
-    evaluate_changed_beam(&base, origin, hit, z, &p, &mut buffers, &mut votes);
+    evaluate_changed_beam(&base, origin, hit, z, &p, &mut votes);
     let cells = decode(&votes, 60);
     assert!(cells.contains(&(CellCoord::new(20, 5), true)), "{cells:?}");
     assert!(!cells.iter().any(|(c, _)| c.ix == 40), "wall inside the final chunk must not be flagged: {cells:?}");
@@ -64,7 +63,7 @@ fn fig10_final_chunk_is_skipped() {
     p0.skip_changed_min_m = 0.0;
     p0.skip_changed_slope = 0.0;
     votes.clear();
-    evaluate_changed_beam(&base, origin, hit, z, &p0, &mut buffers, &mut votes);
+    evaluate_changed_beam(&base, origin, hit, z, &p0, &mut votes);
     assert!(decode(&votes, 60).contains(&(CellCoord::new(40, 5), true)));
 }
 
@@ -82,8 +81,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     let p = UpdaterParams::paper();
     let hit_cell_voted = |hit: Point2| {
         let mut votes = Vec::new();
-        let mut buffers = CellBuffers::new();
-        evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p, &mut buffers, &mut votes);
+        evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p, &mut votes);
         let c = g.world_to_cell(hit).unwrap();
         votes.contains(&vote(g.index(c).unwrap(), true))
     };
@@ -103,7 +101,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     p_direct.tol_intercept_m = 1e-6;
     p_direct.tol_slope = 0.0;
     let mut votes = Vec::new();
-    evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p_direct, &mut CellBuffers::new(), &mut votes);
+    evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p_direct, &mut votes);
     assert!(votes.contains(&vote(g.index(g.world_to_cell(hit).unwrap()).unwrap(), true)));
 }
 
