@@ -31,6 +31,7 @@ mod error;
 mod import;
 mod lidar;
 mod odometry;
+mod raycast;
 mod robot;
 mod route;
 pub mod seeds;

@@ -2,12 +2,16 @@
 //! ray-cast scan against the rapier world.
 
 use crate::error::{SimError, params_err};
+use crate::raycast::{StaticCaster, cast_shape};
 use crate::seeds::stream_rng;
+use crate::shape::Shape;
+use mapkeeper_grid::Point2;
 use mapkeeper_grid::Pose2;
 use mapkeeper_sensor::LaserScan;
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+#[cfg(test)]
 use rapier2d::prelude::{QueryPipeline, Ray, Vector};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -302,20 +306,70 @@ impl LidarSim {
         true
     }
 
-    /// One scan from the robot at `robot_in_map`, cast through `query` (which must exclude the
-    /// robot's own collider).
-    pub(crate) fn scan(&mut self, query: &QueryPipeline<'_>, robot_in_map: &Pose2, stamp_ns: u64) -> LaserScan {
+    /// Exact distances of every beam from the robot at `robot_in_map` (`None`: nothing within
+    /// range), written into `out`.
+    pub(crate) fn true_ranges(&self, scene: &Scene<'_>, robot_in_map: &Pose2, out: &mut Vec<Option<f64>>) {
+        let p = &self.params;
+        let lidar = robot_in_map.compose(&p.lidar_in_robot);
+        let (s, c) = lidar.yaw.sin_cos();
+        let max = p.range_max_m;
+        out.clear();
+        if scene.statics.inside(lidar.position()) {
+            out.resize(self.dirs.len(), Some(0.0));
+            return;
+        }
+        for &(dc, ds) in &self.dirs {
+            let (dx, dy) = (c * dc - s * ds, s * dc + c * ds);
+            let mut best = scene.statics.cast(lidar.x, lidar.y, dx, dy, max);
+            for (shape, center, radius) in scene.agents {
+                // Skip agents the ray passes wide of (or that lie behind it).
+                let (rx, ry) = (center.x - lidar.x, center.y - lidar.y);
+                let along = rx * dx + ry * dy;
+                if (rx * dy - ry * dx).abs() > *radius || along < -radius {
+                    continue;
+                }
+                if let Some(t) = cast_shape(shape, lidar.x, lidar.y, dx, dy)
+                    && best.is_none_or(|b| t < b)
+                    && t <= max
+                {
+                    best = Some(t);
+                }
+            }
+            out.push(best.filter(|&t| t < max));
+        }
+    }
+
+    /// True ranges through rapier's query pipeline (the reference the fast caster is checked
+    /// against).
+    #[cfg(test)]
+    pub(crate) fn true_ranges_rapier(&self, query: &QueryPipeline<'_>, robot_in_map: &Pose2) -> Vec<Option<f64>> {
         let p = &self.params;
         let lidar = robot_in_map.compose(&p.lidar_in_robot);
         let (s, c) = lidar.yaw.sin_cos();
         let origin = Vector::new(lidar.x as f32, lidar.y as f32);
-        let max = p.range_max_m as f32;
-        let mut ranges = Vec::with_capacity(self.dirs.len());
-        for &(dc, ds) in &self.dirs {
-            let dir = Vector::new((c * dc - s * ds) as f32, (s * dc + c * ds) as f32);
-            let hit = query.cast_ray(&Ray::new(origin, dir), max, true).map(|(_, toi)| f64::from(toi));
-            ranges.push(self.noise.reading(hit.filter(|&t| t < p.range_max_m), p));
-        }
+        self.dirs
+            .iter()
+            .map(|&(dc, ds)| {
+                let dir = Vector::new((c * dc - s * ds) as f32, (s * dc + c * ds) as f32);
+                query
+                    .cast_ray(&Ray::new(origin, dir), p.range_max_m as f32, true)
+                    .map(|(_, toi)| f64::from(toi))
+                    .filter(|&t| t < p.range_max_m)
+            })
+            .collect()
+    }
+
+    /// One scan from the robot at `robot_in_map`; `scratch` is reused between scans.
+    pub(crate) fn scan(
+        &mut self,
+        scene: &Scene<'_>,
+        robot_in_map: &Pose2,
+        stamp_ns: u64,
+        scratch: &mut Vec<Option<f64>>,
+    ) -> LaserScan {
+        self.true_ranges(scene, robot_in_map, scratch);
+        let p = &self.params;
+        let ranges = scratch.iter().map(|&t| self.noise.reading(t, p)).collect();
         LaserScan {
             stamp_ns,
             lidar_id: self.id,
@@ -327,6 +381,13 @@ impl LidarSim {
             ranges_m: ranges,
         }
     }
+}
+
+/// What the lidars see: the binned static geometry and the agents' current outlines (with a
+/// bounding circle each).
+pub(crate) struct Scene<'a> {
+    pub(crate) statics: &'a StaticCaster,
+    pub(crate) agents: &'a [(Shape, Point2, f64)],
 }
 
 #[cfg(test)]
