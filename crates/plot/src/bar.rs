@@ -9,6 +9,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::PlotError;
+use crate::backend::AnyBackend;
 use crate::render::{self, DrawFail, Extent, Rect, Scale};
 
 /// Bars carry their value as a label above them when the chart has at most this many bars.
@@ -58,14 +59,14 @@ impl BarChart {
     /// Writes the chart as an SVG document of [`crate::SVG_SIZE_PX`] to `path`, atomically.
     pub fn write_svg(&self, path: &Path) -> Result<(), PlotError> {
         let r = self.check(path)?;
-        render::write_svg_with(path, |root, scale| self.draw(root, scale, r))
+        render::write_svg(path, &|root, scale| self.draw(root, scale, r))
     }
 
     /// Writes the chart as an RGB PNG of `width_px` × `height_px` to `path`, atomically.
     /// Each side must be within [`crate::MIN_SIDE_PX`]..=[`crate::MAX_SIDE_PX`].
     pub fn write_png(&self, path: &Path, width_px: u32, height_px: u32) -> Result<(), PlotError> {
         let r = self.check(path)?;
-        render::write_png_with(path, width_px, height_px, |root, scale| self.draw(root, scale, r))
+        render::write_png(path, width_px, height_px, &|root, scale| self.draw(root, scale, r))
     }
 
     /// Validates the group lengths and returns the data rectangle (x spans the categories).
@@ -127,7 +128,7 @@ impl BarChart {
         })
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, scale: Scale, r: Rect) -> Result<(), DrawFail> {
+    fn draw(&self, root: &DrawingArea<AnyBackend<'_>, Shift>, scale: Scale, r: Rect) -> Result<(), DrawFail> {
         root.fill(&WHITE)?;
         let axis = CategoryAxis { names: &self.categories };
         let mut chart = ChartBuilder::on(root)

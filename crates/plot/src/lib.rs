@@ -53,6 +53,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod backend;
 mod bar;
 mod line;
 mod render;

@@ -6,6 +6,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::PlotError;
+use crate::backend::AnyBackend;
 use crate::render::{self, DrawFail, Extent, Rect, Scale};
 
 /// Series with at most this many finite points also get a dot at each point.
@@ -88,14 +89,14 @@ impl LineChart {
     /// Writes the chart as an SVG document of [`crate::SVG_SIZE_PX`] to `path`, atomically.
     pub fn write_svg(&self, path: &Path) -> Result<(), PlotError> {
         let ranges = self.ranges(path)?;
-        render::write_svg_with(path, |root, scale| self.draw(root, scale, ranges))
+        render::write_svg(path, &|root, scale| self.draw(root, scale, ranges))
     }
 
     /// Writes the chart as an RGB PNG of `width_px` × `height_px` to `path`, atomically.
     /// Each side must be within [`crate::MIN_SIDE_PX`]..=[`crate::MAX_SIDE_PX`].
     pub fn write_png(&self, path: &Path, width_px: u32, height_px: u32) -> Result<(), PlotError> {
         let ranges = self.ranges(path)?;
-        render::write_png_with(path, width_px, height_px, |root, scale| self.draw(root, scale, ranges))
+        render::write_png(path, width_px, height_px, &|root, scale| self.draw(root, scale, ranges))
     }
 
     /// The data rectangle: x from the data, y from `y_range` or the data.
@@ -129,7 +130,7 @@ impl LineChart {
         Ok(Rect { x0, x1, y0, y1 })
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, scale: Scale, r: Rect) -> Result<(), DrawFail> {
+    fn draw(&self, root: &DrawingArea<AnyBackend<'_>, Shift>, scale: Scale, r: Rect) -> Result<(), DrawFail> {
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, scale.font(24.0))

@@ -12,6 +12,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::PlotError;
+use crate::backend::AnyBackend;
 
 /// DejaVu Sans, bundled so that bitmaps never depend on system fonts (licence beside it).
 static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
@@ -75,17 +76,17 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<(), PlotError> {
     }
 }
 
+/// What `draw` receives: the whole image area and the scale of its size.
+pub(crate) type DrawFn<'c> = dyn Fn(&DrawingArea<AnyBackend<'_>, Shift>, Scale) -> Result<(), DrawFail> + 'c;
+
 /// Renders with `draw` into an SVG document of `SVG_SIZE_PX` and writes it atomically.
-pub(crate) fn write_svg_with(
-    path: &Path,
-    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>, Scale) -> Result<(), DrawFail>,
-) -> Result<(), PlotError> {
+pub(crate) fn write_svg(path: &Path, draw: &DrawFn<'_>) -> Result<(), PlotError> {
     let (width, height) = SVG_SIZE_PX;
     let draw_err = |e: DrawFail| PlotError::Draw { path: path.to_path_buf(), message: e.0 };
     ensure_font().map_err(|m| draw_err(DrawFail(m)))?;
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        let root = AnyBackend::Svg(SVGBackend::with_string(&mut svg, (width, height))).into_drawing_area();
         draw(&root, Scale::for_size(width, height)).map_err(draw_err)?;
         root.present().map_err(|e| draw_err(e.into()))?;
     }
@@ -94,12 +95,7 @@ pub(crate) fn write_svg_with(
 
 /// Renders with `draw` into an RGB bitmap of `width` × `height` px, encodes it as PNG and
 /// writes it atomically.
-pub(crate) fn write_png_with(
-    path: &Path,
-    width: u32,
-    height: u32,
-    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>, Scale) -> Result<(), DrawFail>,
-) -> Result<(), PlotError> {
+pub(crate) fn write_png(path: &Path, width: u32, height: u32, draw: &DrawFn<'_>) -> Result<(), PlotError> {
     check_size(path, width, height)?;
     let draw_err = |e: DrawFail| PlotError::Draw { path: path.to_path_buf(), message: e.0 };
     ensure_font().map_err(|m| draw_err(DrawFail(m)))?;
@@ -108,7 +104,7 @@ pub(crate) fn write_png_with(
     {
         let backend = BitMapBackend::with_buffer_and_format(&mut rgb, (width, height))
             .map_err(|e| draw_err(DrawFail(e.to_string())))?;
-        let root = backend.into_drawing_area();
+        let root = AnyBackend::Bitmap(backend).into_drawing_area();
         draw(&root, Scale::for_size(width, height)).map_err(draw_err)?;
         root.present().map_err(|e| draw_err(e.into()))?;
     }
@@ -338,11 +334,7 @@ pub(crate) fn legend_corner(
 }
 
 /// The style of legend boxes and "no data" notes shared by both charts.
-pub(crate) fn draw_note<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    scale: Scale,
-    text: &str,
-) -> Result<(), DrawFail> {
+pub(crate) fn draw_note(area: &DrawingArea<AnyBackend<'_>, Shift>, scale: Scale, text: &str) -> Result<(), DrawFail> {
     let (w, h) = area.dim_in_pixel();
     let style = scale.font(16.0).color(&RGBColor(110, 110, 110)).pos(Pos::new(HPos::Center, VPos::Center));
     area.draw(&Text::new(text.to_owned(), (w as i32 / 2, h as i32 / 2), style))?;
