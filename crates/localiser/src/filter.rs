@@ -150,6 +150,31 @@ fn log_add_exp(a: f64, b: f64) -> f64 {
     if m == f64::NEG_INFINITY { m } else { m + ((a - m).exp() + (b - m).exp()).ln() }
 }
 
+/// Normalises log-weights into `weights` (log-sum-exp, no underflow); NaN entries count as zero
+/// weight. Returns the effective sample size `1 / Σ wᵢ²` and `ln Σ exp(log_w)`, or the
+/// degeneracy if no weight is positive.
+pub(crate) fn normalise_log_weights(log_w: &[f64], weights: &mut Vec<f64>) -> Result<(f64, f64), Degeneracy> {
+    let nan_count = log_w.iter().filter(|v| v.is_nan()).count();
+    let max = log_w.iter().copied().filter(|v| !v.is_nan()).fold(f64::NEG_INFINITY, f64::max);
+    if !max.is_finite() {
+        // All −∞/NaN (or +∞, which only a broken table could produce).
+        return Err(if nan_count > 0 {
+            Degeneracy::NonFiniteWeights { nan_count }
+        } else {
+            Degeneracy::AllWeightsZero
+        });
+    }
+    weights.clear();
+    weights.extend(log_w.iter().map(|&lw| if lw.is_nan() { 0.0 } else { (lw - max).exp() }));
+    let sum: f64 = weights.iter().sum();
+    let mut sum_sq = 0.0;
+    for w in weights.iter_mut() {
+        *w /= sum;
+        sum_sq += *w * *w;
+    }
+    Ok((1.0 / sum_sq, max + sum.ln()))
+}
+
 impl Localiser {
     /// A filter on `map`, its random stream seeded from `rng_seed`. Parameters are validated
     /// here (and only here). The filter starts globally initialised (`max_particles` uniform over
@@ -375,45 +400,27 @@ impl Localiser {
         self.odom_at_filter = Some(robot_in_odom);
         self.force_update = false;
 
-        // Correction, in the log domain: ln wᵢ ← ln wᵢ + Σ ln p(z | xᵢ).
+        // Correction, in the log domain: ln wᵢ ← ln wᵢ + e·Σ ln p(z | xᵢ).
         self.log_w.clear();
-        let mut nan_count = 0usize;
-        let mut max_lw = f64::NEG_INFINITY;
         for (p, &w) in self.particles.iter().zip(&self.weights) {
-            let mut lw = w.ln() + self.field.log_likelihood(p, &self.beams);
-            if lw.is_nan() {
-                nan_count += 1;
-                lw = f64::NEG_INFINITY;
-            }
-            max_lw = max_lw.max(lw);
-            self.log_w.push(lw);
+            self.log_w.push(w.ln() + self.field.log_likelihood(p, &self.beams));
         }
         let beams = self.beams.len();
-        if max_lw == f64::NEG_INFINITY || !max_lw.is_finite() {
-            // Degenerate: report, recover explicitly, do not resample.
-            let kind =
-                if nan_count > 0 { Degeneracy::NonFiniteWeights { nan_count } } else { Degeneracy::AllWeightsZero };
-            let n = self.particles.len();
-            self.weights.clear();
-            self.weights.resize(n, 1.0 / n as f64);
-            self.ess = n as f64;
-            self.refresh_estimate();
-            let outcome = UpdateOutcome::Degenerate { kind, recovery: Recovery::UniformWeights };
-            return self.report(outcome, beams, skipped, false, 0.0);
-        }
-        let mut sum = 0.0;
-        for (w, &lw) in self.weights.iter_mut().zip(&self.log_w) {
-            *w = (lw - max_lw).exp();
-            sum += *w;
-        }
-        let mut sum_sq = 0.0;
-        for w in &mut self.weights {
-            *w /= sum;
-            sum_sq += *w * *w;
-        }
-        self.ess = 1.0 / sum_sq;
-        // Average likelihood Σ w_prev·p(z|x) for augmented MCL, as a log.
-        let ln_avg = max_lw + sum.ln();
+        let (ess, ln_avg) = match normalise_log_weights(&self.log_w, &mut self.weights) {
+            Ok(v) => v,
+            Err(kind) => {
+                // Degenerate: report, recover explicitly, do not resample.
+                let n = self.particles.len();
+                self.weights.clear();
+                self.weights.resize(n, 1.0 / n as f64);
+                self.ess = n as f64;
+                self.refresh_estimate();
+                let outcome = UpdateOutcome::Degenerate { kind, recovery: Recovery::UniformWeights };
+                return self.report(outcome, beams, skipped, false, 0.0);
+            }
+        };
+        self.ess = ess;
+        // ln_avg: the average likelihood Σ w_prev·p(z|x) for augmented MCL, as a log.
         let mut inject = 0.0;
         if self.params.recovery_enabled() {
             if self.ln_w_slow == f64::NEG_INFINITY {
@@ -473,5 +480,31 @@ impl Localiser {
         let n = self.particles.len();
         self.weights.clear();
         self.weights.resize(n, 1.0 / n as f64);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalisation_reports_degeneracy() {
+        let mut w = Vec::new();
+        let (ess, ln_sum) = normalise_log_weights(&[0.0, 3f64.ln()], &mut w).unwrap();
+        assert!((w[0] - 0.25).abs() < 1e-15 && (w[1] - 0.75).abs() < 1e-15);
+        assert!((ess - 1.0 / 0.625).abs() < 1e-12 && (ln_sum - 4f64.ln()).abs() < 1e-12);
+        // Huge negative log-weights do not underflow.
+        let (ess, _) = normalise_log_weights(&[-5000.0, -5000.0, f64::NEG_INFINITY], &mut w).unwrap();
+        assert!((ess - 2.0).abs() < 1e-12 && w[2] == 0.0);
+        // A NaN among finite ones is a zero weight.
+        normalise_log_weights(&[f64::NAN, -1.0], &mut w).unwrap();
+        assert_eq!(w, vec![0.0, 1.0]);
+        let ninf = f64::NEG_INFINITY;
+        assert_eq!(normalise_log_weights(&[ninf, ninf], &mut w), Err(Degeneracy::AllWeightsZero));
+        assert_eq!(
+            normalise_log_weights(&[f64::NAN, ninf, f64::NAN], &mut w),
+            Err(Degeneracy::NonFiniteWeights { nan_count: 2 })
+        );
+        assert_eq!(normalise_log_weights(&[], &mut w), Err(Degeneracy::AllWeightsZero));
     }
 }
