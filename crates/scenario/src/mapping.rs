@@ -1,0 +1,103 @@
+//! The initial map M_1: the project's own log-odds occupancy mapper fed with noisy simulated
+//! scans along an exploration route at the simulator's true poses (people moving), standing in
+//! for the paper's SLAM Toolbox run by teleoperation.
+
+use crate::ScenarioError;
+use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid};
+use mapkeeper_sim::seeds::stream_seed;
+use mapkeeper_sim::{Route, SimParams, Simulator, World};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the M_1 exploration run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MappingParams {
+    /// The log-odds mapper.
+    pub mapper: MapperParams,
+    /// Integrate every k-th scan tick (≥ 1). Default 2 (6.25 Hz with the S300 pair).
+    pub scan_stride: u32,
+    /// The run stops after this much simulated time even if the route is not done, seconds.
+    /// Default 400.
+    pub max_sim_time_s: f64,
+}
+
+impl Default for MappingParams {
+    fn default() -> Self {
+        Self { mapper: MapperParams::default(), scan_stride: 2, max_sim_time_s: 400.0 }
+    }
+}
+
+impl MappingParams {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        self.mapper.validate()?;
+        if self.scan_stride == 0 {
+            return Err(ScenarioError::InvalidParam { name: "scan_stride", problem: "must be ≥ 1".into() });
+        }
+        if !(self.max_sim_time_s.is_finite() && self.max_sim_time_s > 0.0) {
+            return Err(ScenarioError::InvalidParam {
+                name: "max_sim_time_s",
+                problem: format!("must be a finite time > 0 s, got {}", self.max_sim_time_s),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// What the exploration run produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InitialMap {
+    /// M_1.
+    pub map: OccupancyGrid,
+    /// Scans integrated.
+    pub scans: u64,
+    /// Simulated time, seconds.
+    pub sim_time_s: f64,
+    /// Whether the exploration route was completed.
+    pub route_done: bool,
+}
+
+/// Builds M_1 in `world` by driving `route` (simulator seeded from `seed`, stream `"mapping"`).
+/// Invalid beams (no return, dropouts) are not integrated.
+pub fn build_initial_map(
+    world: &World,
+    route: &Route,
+    geometry: &GridGeometry,
+    sim_params: &SimParams,
+    params: &MappingParams,
+    seed: u64,
+) -> Result<InitialMap, ScenarioError> {
+    params.validate()?;
+    let mut mapper = LogOddsMapper::new(*geometry, params.mapper)?;
+    let mut sim = Simulator::new(world, sim_params.clone(), stream_seed(seed, "mapping"))?;
+    sim.set_route(route.points());
+    let max_ticks = (params.max_sim_time_s * 1e9 / sim_params.tick_ns as f64).ceil() as u64;
+    let mut scan_ticks = 0u64;
+    let mut scans = 0u64;
+    let mut route_done = false;
+    while sim.tick() < max_ticks {
+        let out = sim.step();
+        if !out.scans.is_empty() {
+            scan_ticks += 1;
+            if scan_ticks.is_multiple_of(u64::from(params.scan_stride)) {
+                let robot = out.truth.pose_in_map;
+                for scan in &out.scans {
+                    let lidar = scan.lidar_in_map(&robot);
+                    let origin = lidar.position();
+                    for i in 0..scan.len() {
+                        if let Some(hit) = scan.hit_point(&lidar, i) {
+                            mapper.integrate_ray(origin, hit, true);
+                        }
+                    }
+                    scans += 1;
+                }
+            }
+        }
+        if out.route_done {
+            route_done = true;
+            break;
+        }
+    }
+    Ok(InitialMap { map: mapper.to_grid(), scans, sim_time_s: sim.stamp_ns() as f64 / 1e9, route_done })
+}

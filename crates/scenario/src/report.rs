@@ -1,0 +1,329 @@
+//! The files of a validation folder and of a scenario set.
+//!
+//! Validation folder: `worlds.csv`, `summary.json`, `report.md`, `edits.json`, and per seed
+//! `seed-S/maps/{M,G}_iii.{yaml,pgm}` (M_1, G_1 and the saved worlds) and
+//! `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
+//!
+//! Scenario set (`generate`): `manifest.json`, `route.toml`, `worlds/W_iii.toml`,
+//! `ground_truth/G_iii.{yaml,pgm}`. Same seed ⇒ byte-identical files.
+
+use crate::ScenarioError;
+use crate::generator::WorldChain;
+use crate::output::StagedDir;
+use crate::validation::{SeedRun, Summary, WorldRow};
+use mapkeeper_grid::GridGeometry;
+use mapkeeper_grid::map_io::save_map;
+use mapkeeper_sensor::tum::format_tum;
+use mapkeeper_sim::{Route, ground_truth_map};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// The columns of `worlds.csv`, in order.
+pub const WORLDS_CSV_COLUMNS: &[&str] = &[
+    "seed",
+    "world",
+    "edits",
+    "movable_items",
+    "cc_static",
+    "ms_static",
+    "opdf_static",
+    "cc_updated",
+    "ms_updated",
+    "opdf_updated",
+    "err_mean_static_m",
+    "err_max_static_m",
+    "rmse_static_m",
+    "trace_mean_static",
+    "trace_std_static",
+    "lambda_max_mean_static",
+    "lambda_max_std_static",
+    "err_mean_updated_m",
+    "err_max_updated_m",
+    "rmse_updated_m",
+    "trace_mean_updated",
+    "trace_std_updated",
+    "lambda_max_mean_updated",
+    "lambda_max_std_updated",
+    "processed_scans",
+    "verdict_update",
+    "verdict_suspend",
+    "verdict_lost",
+    "recovered",
+    "cells_changed",
+    "cell_changes",
+    "max_state_bytes",
+    "median_scan_us",
+    "collisions",
+    "sim_time_s",
+    "distance_m",
+    "route_done",
+];
+
+fn csv_row(w: &WorldRow) -> String {
+    let f = |v: f64| format!("{v:.6}");
+    let (s, u) = (&w.loc_static, &w.loc_updated);
+    let cols: Vec<String> = vec![
+        w.seed.to_string(),
+        w.world.to_string(),
+        w.edits.to_string(),
+        w.movable_items.to_string(),
+        f(w.static_map.cc),
+        f(w.static_map.ms),
+        f(w.static_map.opdf),
+        f(w.updated_map.cc),
+        f(w.updated_map.ms),
+        f(w.updated_map.opdf),
+        f(s.mean_error_m),
+        f(s.max_error_m),
+        f(s.rmse_m),
+        f(s.mean_trace),
+        f(s.std_trace),
+        f(s.mean_lambda_max),
+        f(s.std_lambda_max),
+        f(u.mean_error_m),
+        f(u.max_error_m),
+        f(u.rmse_m),
+        f(u.mean_trace),
+        f(u.std_trace),
+        f(u.mean_lambda_max),
+        f(u.std_lambda_max),
+        w.updater.processed.to_string(),
+        w.updater.update.to_string(),
+        w.updater.suspend.to_string(),
+        w.updater.lost.to_string(),
+        w.updater.recovered.to_string(),
+        w.cells_changed.to_string(),
+        w.updater.cell_changes.to_string(),
+        w.updater.max_state_bytes.to_string(),
+        format!("{:.1}", w.median_scan_us),
+        w.collisions.to_string(),
+        format!("{:.3}", w.sim_time_s),
+        format!("{:.3}", w.distance_m),
+        w.route_done.to_string(),
+    ];
+    cols.join(",")
+}
+
+/// `worlds.csv`: one row per world and seed, seeds in the given order.
+pub fn worlds_csv(runs: &[SeedRun]) -> String {
+    let mut s = WORLDS_CSV_COLUMNS.join(",");
+    s.push('\n');
+    for r in runs {
+        for w in &r.rows {
+            s.push_str(&csv_row(w));
+            s.push('\n');
+        }
+    }
+    s
+}
+
+fn json<T: Serialize>(what: &str, v: &T) -> Result<String, ScenarioError> {
+    serde_json::to_string_pretty(v)
+        .map(|mut s| {
+            s.push('\n');
+            s
+        })
+        .map_err(|e| ScenarioError::Serialise { what: what.into(), message: e.to_string() })
+}
+
+/// `summary.json` text.
+pub fn summary_json(summary: &Summary) -> Result<String, ScenarioError> {
+    json("summary.json", summary)
+}
+
+/// The paper's published figures the report compares with (Table 1, Table 2 and the §5.3.2
+/// claims).
+const PAPER_CLAIMS: &str = "\
+The paper (Stefanini et al., Sensors 2023) reports for the hundred simulated worlds (§5.3.2,
+Fig. 24-26) only plots and these qualitative claims: M_i/G_i is above M_1/G_i for every
+metric in every world; localising on M_{i-1} gives lower position errors and lower covariance
+trace and λmax than on M_1. Its published tables (real lab and Table 1) give the size of the
+effect:
+
+| paper table | CC static → updated | MS static → updated | OPDF static → updated |
+|---|---|---|---|
+| Table 2, lab W_2 (M_1/G_2 → M_2/G_2) | 69.69 → 78.95 | 54.63 → 74.57 | 84.61 → 97.25 |
+| Table 2, lab W_3 | 63.77 → 68.80 | 51.44 → 72.58 | 78.92 → 95.37 |
+| Table 2, lab W_4 | 60.87 → 67.14 | 50.45 → 70.26 | 82.18 → 94.33 |
+| Table 1, always-update → with localisation check (M_2/G_2) | 66.86 → 70.03 | 55.11 → 61.24 | 90.40 → 95.87 |
+";
+
+/// `report.md`: the results beside the paper's claims.
+pub fn report_md(summary: &Summary) -> String {
+    let mut s = String::new();
+    let q = &summary.map_quality;
+    let l = &summary.localisation;
+    let _ = writeln!(s, "# Hundred-world validation: results beside the paper\n");
+    let _ = writeln!(
+        s,
+        "Seeds {:?}, {} worlds, updater preset `{}`, {} world runs, {:.0} s simulated, wall time {:.1} s ({}).\n",
+        summary.seeds,
+        summary.worlds,
+        summary.preset,
+        summary.rows,
+        summary.sim_time_s,
+        summary.wall_time_s,
+        summary.tool
+    );
+    let _ = writeln!(s, "## Map quality (Fig. 24)\n");
+    let _ = writeln!(
+        s,
+        "M_1/G_1 (the initial map built by the log-odds mapper against the ground truth of W_1): \
+         CC {:.2}, MS {:.2}, OPDF {:.2}.\n",
+        summary.initial_map.cc, summary.initial_map.ms, summary.initial_map.opdf
+    );
+    let _ = writeln!(
+        s,
+        "| metric | M_1/G_i mean | M_i/G_i mean | M_1/G_N | M_N/G_N | worlds with M_i better | paper claim |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    for (name, m) in [("CC (%)", &q.cc), ("MS (%)", &q.ms), ("OPDF (%)", &q.opdf)] {
+        let _ = writeln!(
+            s,
+            "| {name} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | updated better in every world |",
+            m.static_mean,
+            m.updated_mean,
+            m.static_last,
+            m.updated_last,
+            100.0 * m.updated_better_fraction
+        );
+    }
+    let _ = writeln!(s, "\n## Localisation (Fig. 25-26)\n");
+    let _ = writeln!(
+        s,
+        "| map used by the localiser | mean error (m) | mean max error (m) | largest error (m) | RMSE (m) | mean trace(P) | mean λmax(P) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    for (name, v) in [("static M_1", &l.static_map), ("updated M_{i-1}", &l.updated_map)] {
+        let _ = writeln!(
+            s,
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.6} | {:.6} |",
+            v.mean_error_m, v.mean_max_error_m, v.max_error_m, v.rmse_m, v.mean_trace, v.mean_lambda_max
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nWorlds where the updated map gave the lower mean error: {:.0} %; the lower mean covariance trace: {:.0} % \
+         (paper: lower errors and lower uncertainty with the updated map).\n",
+        100.0 * l.updated_better_fraction,
+        100.0 * l.updated_lower_trace_fraction
+    );
+    let u = &summary.updater;
+    let _ = writeln!(s, "## Updater (Fig. 27)\n");
+    let _ = writeln!(
+        s,
+        "Processed scans {}, verdicts Update {} / Suspend {} / Lost {} (recovered {}), cell changes {}, largest \
+         state {} bytes, median time per processed scan {:.0} µs (0 = not measured). Robot collisions: {}. Routes \
+         completed: {} of {}.\n",
+        u.processed_scans,
+        u.update,
+        u.suspend,
+        u.lost,
+        u.recovered,
+        u.cell_changes,
+        u.max_state_bytes,
+        u.median_scan_us,
+        summary.collisions,
+        summary.routes_completed,
+        summary.rows
+    );
+    let _ = writeln!(s, "## The paper's figures\n");
+    s.push_str(PAPER_CLAIMS);
+    let _ = writeln!(
+        s,
+        "\nDifferences of setting: the paper's M_1 and G_i came from SLAM Toolbox; here M_1 comes from the \
+         project's log-odds mapper at true poses and G_i is rasterised exactly from the world's geometry (cells \
+         inside obstacles unknown, as in the paper's Fig. 23). See `docs/evaluation.md`."
+    );
+    s
+}
+
+/// Writes the whole validation folder into `dir`.
+pub fn write_validation(dir: &StagedDir, runs: &[SeedRun], summary: &Summary) -> Result<(), ScenarioError> {
+    dir.write("worlds.csv", worlds_csv(runs).as_bytes())?;
+    dir.write("summary.json", summary_json(summary)?.as_bytes())?;
+    dir.write("report.md", report_md(summary).as_bytes())?;
+    let edits: Vec<_> = runs.iter().map(|r| (r.seed, &r.edits)).collect();
+    dir.write("edits.json", json("edits.json", &edits)?.as_bytes())?;
+    for r in runs {
+        let base = format!("seed-{}", r.seed);
+        save_map(&r.initial_map, &dir.file(&format!("{base}/maps/M_001.yaml"))?)?;
+        save_map(&r.initial_ground_truth, &dir.file(&format!("{base}/maps/G_001.yaml"))?)?;
+        for w in &r.saved {
+            save_map(&w.map, &dir.file(&format!("{base}/maps/M_{:03}.yaml", w.world))?)?;
+            save_map(&w.ground_truth, &dir.file(&format!("{base}/maps/G_{:03}.yaml", w.world))?)?;
+            if let Some(t) = &w.trajectories {
+                for (name, poses) in [("true", &t.truth), ("chain", &t.chain), ("baseline", &t.baseline)] {
+                    dir.write(
+                        &format!("{base}/trajectories/W_{:03}_{name}.tum", w.world),
+                        format_tum(poses).as_bytes(),
+                    )?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The manifest of a scenario set.
+#[derive(Clone, Debug, Serialize)]
+pub struct Manifest {
+    /// Always "mapkeeper-scenario-set".
+    pub format: String,
+    /// Producer and version.
+    pub tool: String,
+    /// The seed.
+    pub seed: u64,
+    /// Number of worlds.
+    pub worlds: usize,
+    /// Map resolution, metres.
+    pub resolution_m: f64,
+    /// The route file.
+    pub route: String,
+    /// One entry per world.
+    pub files: Vec<ManifestWorld>,
+}
+
+/// A world's files in the manifest.
+#[derive(Clone, Debug, Serialize)]
+pub struct ManifestWorld {
+    /// i.
+    pub index: usize,
+    /// The world file.
+    pub world: String,
+    /// The ground-truth map YAML (its PGM beside it).
+    pub ground_truth: String,
+    /// The edits that made it from the previous world.
+    pub edits: Vec<crate::generator::Edit>,
+}
+
+/// Writes a scenario set into `dir`.
+pub fn write_scenario_set(
+    dir: &StagedDir,
+    chain: &WorldChain,
+    route: &Route,
+    seed: u64,
+    geometry: &GridGeometry,
+) -> Result<Manifest, ScenarioError> {
+    dir.write("route.toml", route.to_toml_string()?.as_bytes())?;
+    let mut files = Vec::with_capacity(chain.worlds.len());
+    for (k, w) in chain.worlds.iter().enumerate() {
+        let i = k + 1;
+        let wf = format!("worlds/W_{i:03}.toml");
+        let gf = format!("ground_truth/G_{i:03}.yaml");
+        dir.write(&wf, w.to_toml_string()?.as_bytes())?;
+        save_map(&ground_truth_map(w, geometry), &dir.file(&gf)?)?;
+        files.push(ManifestWorld { index: i, world: wf, ground_truth: gf, edits: chain.edits[k].clone() });
+    }
+    let manifest = Manifest {
+        format: "mapkeeper-scenario-set".into(),
+        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+        seed,
+        worlds: chain.worlds.len(),
+        resolution_m: geometry.resolution_m(),
+        route: "route.toml".into(),
+        files,
+    };
+    dir.write("manifest.json", json("manifest.json", &manifest)?.as_bytes())?;
+    Ok(manifest)
+}

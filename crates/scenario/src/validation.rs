@@ -1,0 +1,487 @@
+//! The hundred-world validation (paper §5.3.2) for one seed, and the summary over seeds.
+//!
+//! For a seed: generate W_1 … W_N; build M_1 in W_1 (exploration run) and report M_1/G_1; then
+//! for i = 2 … N run the closed loop in W_i with the chain localiser and the updater on M_{i-1}
+//! and the baseline localiser on M_1, and score M_1/G_i (static) and M_i/G_i (updated) with
+//! CC, MS and OPDF. The chain of worlds is sequential; seeds are independent, so the caller may
+//! run them in parallel and merge them in seed order ([`summarise`]).
+
+use crate::ScenarioError;
+use crate::generator::{Edit, GeneratorParams, generate_worlds};
+use crate::mapping::{MappingParams, build_initial_map};
+use crate::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
+use mapkeeper_grid::metrics::{MapMetrics, MetricParams, map_metrics};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2};
+use mapkeeper_sim::{Route, World, ground_truth_map};
+use mapkeeper_updater::UpdaterParams;
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the validation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ValidationParams {
+    /// Number of worlds N (W_1 … W_N, ≥ 2). Default 100.
+    pub worlds: usize,
+    /// Name of the updater preset in `runner.updater` (recorded in the outputs). Default "paper".
+    pub preset: String,
+    /// Map resolution, metres per cell. Default 0.05.
+    pub resolution_m: f64,
+    /// The route driven in every W_i (i ≥ 2). Default [`Route::default_warehouse`].
+    pub route: Route,
+    /// The exploration route in W_1 for M_1. Default [`Route::exploration_warehouse`].
+    pub exploration_route: Route,
+    /// The closed loop.
+    pub runner: RunnerParams,
+    /// The scenario generator.
+    pub generator: GeneratorParams,
+    /// The M_1 exploration run.
+    pub mapping: MappingParams,
+    /// The map-quality metrics.
+    pub metrics: MetricParams,
+    /// Worlds whose maps (M_i, G_i) and trajectories are kept for the outputs. Default
+    /// [2, 50, 100] (those ≤ `worlds`).
+    pub saved_worlds: Vec<usize>,
+}
+
+impl Default for ValidationParams {
+    fn default() -> Self {
+        Self {
+            worlds: 100,
+            preset: "paper".into(),
+            resolution_m: 0.05,
+            route: Route::default_warehouse(),
+            exploration_route: Route::exploration_warehouse(),
+            runner: RunnerParams::default(),
+            generator: GeneratorParams::default(),
+            mapping: MappingParams::default(),
+            metrics: MetricParams::default(),
+            saved_worlds: vec![2, 50, 100],
+        }
+    }
+}
+
+impl ValidationParams {
+    /// Defaults with `worlds` worlds and the updater preset `preset`.
+    pub fn new(worlds: usize, preset: &str) -> Result<Self, ScenarioError> {
+        let mut p = Self { worlds, preset: preset.to_string(), ..Self::default() };
+        p.runner.updater = UpdaterParams::preset(preset)?;
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// A shortened route (the first `length_m` metres of the default tour and straight back),
+    /// for quick tests.
+    pub fn short_route(length_m: f64) -> Route {
+        let r = Route::default_warehouse().points();
+        let mut pts = vec![r[0]];
+        let mut left = length_m;
+        for w in r.windows(2) {
+            let d = w[0].distance(w[1]);
+            if d >= left {
+                let t = left / d;
+                pts.push(Point2::new(w[0].x + t * (w[1].x - w[0].x), w[0].y + t * (w[1].y - w[0].y)));
+                break;
+            }
+            pts.push(w[1]);
+            left -= d;
+        }
+        Route::new(&pts)
+    }
+
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        if self.worlds < 2 {
+            return Err(ScenarioError::InvalidParam {
+                name: "worlds",
+                problem: format!("need at least 2 worlds, got {}", self.worlds),
+            });
+        }
+        if !(self.resolution_m.is_finite() && self.resolution_m > 0.0) {
+            return Err(ScenarioError::InvalidParam {
+                name: "resolution_m",
+                problem: format!("must be a finite length > 0 m, got {}", self.resolution_m),
+            });
+        }
+        if self.route.waypoints.is_empty() || self.exploration_route.waypoints.is_empty() {
+            return Err(ScenarioError::InvalidParam { name: "route", problem: "routes need waypoints".into() });
+        }
+        self.runner.validate()?;
+        self.generator.validate()?;
+        self.mapping.validate()?;
+        self.metrics.validate()?;
+        Ok(())
+    }
+}
+
+/// CC, MS and OPDF of one comparison, percent.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Scores {
+    /// Cross-correlation.
+    pub cc: f64,
+    /// Map score.
+    pub ms: f64,
+    /// Occupied picture-distance function.
+    pub opdf: f64,
+}
+
+impl From<MapMetrics> for Scores {
+    fn from(m: MapMetrics) -> Self {
+        Scores { cc: m.cc, ms: m.ms, opdf: m.opdf }
+    }
+}
+
+/// One world of one seed: a row of `worlds.csv`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WorldRow {
+    /// The run seed.
+    pub seed: u64,
+    /// i in W_i.
+    pub world: usize,
+    /// Edits that made W_i from W_{i-1}.
+    pub edits: usize,
+    /// Movable items in W_i.
+    pub movable_items: usize,
+    /// M_1 / G_i.
+    pub static_map: Scores,
+    /// M_i / G_i.
+    pub updated_map: Scores,
+    /// The baseline localiser on M_1.
+    pub loc_static: LocStats,
+    /// The chain localiser on M_{i-1}.
+    pub loc_updated: LocStats,
+    /// The updater's verdicts and work.
+    pub updater: UpdaterCounts,
+    /// Cells that differ between M_{i-1} and M_i.
+    pub cells_changed: u64,
+    /// Contacts of the robot that began in this world.
+    pub collisions: u64,
+    /// Simulated time, seconds.
+    pub sim_time_s: f64,
+    /// Distance driven, metres.
+    pub distance_m: f64,
+    /// Whether the route was completed.
+    pub route_done: bool,
+    /// Median updater time per processed scan, microseconds (0 without a clock).
+    pub median_scan_us: f64,
+}
+
+/// Maps and trajectories of a saved world.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SavedWorld {
+    /// i in W_i.
+    pub world: usize,
+    /// M_i.
+    pub map: OccupancyGrid,
+    /// G_i.
+    pub ground_truth: OccupancyGrid,
+    /// True, chain and baseline trajectories.
+    pub trajectories: Option<Trajectories>,
+}
+
+/// Everything one seed produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeedRun {
+    /// The run seed.
+    pub seed: u64,
+    /// M_1.
+    pub initial_map: OccupancyGrid,
+    /// G_1.
+    pub initial_ground_truth: OccupancyGrid,
+    /// M_1 / G_1.
+    pub initial_scores: Scores,
+    /// One row per world i = 2 … N.
+    pub rows: Vec<WorldRow>,
+    /// The edits per world (index 0 = W_1, empty).
+    pub edits: Vec<Vec<Edit>>,
+    /// Saved worlds, in world order.
+    pub saved: Vec<SavedWorld>,
+    /// Updater time per processed scan over all worlds, microseconds (empty without a clock).
+    pub scan_times_us: Vec<u32>,
+}
+
+fn median_u32(v: &mut [u32]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_unstable();
+    let n = v.len();
+    if n % 2 == 1 { f64::from(v[n / 2]) } else { (f64::from(v[n / 2 - 1]) + f64::from(v[n / 2])) / 2.0 }
+}
+
+/// Runs the validation for one seed. `progress(i)` is called after each world i (and with 1
+/// after M_1).
+pub fn run_seed(
+    params: &ValidationParams,
+    seed: u64,
+    clock: &dyn Clock,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SeedRun, ScenarioError> {
+    params.validate()?;
+    let w1 = World::default_warehouse();
+    run_seed_in(&w1, params, seed, clock, progress)
+}
+
+/// [`run_seed`] from a given W_1.
+pub fn run_seed_in(
+    w1: &World,
+    params: &ValidationParams,
+    seed: u64,
+    clock: &dyn Clock,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SeedRun, ScenarioError> {
+    params.validate()?;
+    let geometry: GridGeometry = w1.default_map_geometry(params.resolution_m)?;
+    let chain = generate_worlds(w1, &params.route, params.worlds, seed, &params.generator)?;
+    let m1 = build_initial_map(w1, &params.exploration_route, &geometry, &params.runner.sim, &params.mapping, seed)?;
+    let g1 = ground_truth_map(w1, &geometry);
+    let initial_scores = Scores::from(map_metrics(&m1.map, &g1, &params.metrics)?);
+    progress(1);
+    let mut rows = Vec::with_capacity(params.worlds - 1);
+    let mut saved = Vec::new();
+    let mut all_times = Vec::new();
+    let mut prev = m1.map.clone();
+    for (k, world) in chain.worlds.iter().enumerate().skip(1) {
+        let i = k + 1;
+        let keep = params.saved_worlds.contains(&i);
+        let mut rp = params.runner.clone();
+        rp.record_trajectories = keep;
+        let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
+        let run = run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?;
+        let gi = ground_truth_map(world, &geometry);
+        let static_map = Scores::from(map_metrics(&m1.map, &gi, &params.metrics)?);
+        let updated_map = Scores::from(map_metrics(&run.map, &gi, &params.metrics)?);
+        let mut times = run.scan_times_us.clone();
+        let median_scan_us = median_u32(&mut times);
+        all_times.extend_from_slice(&run.scan_times_us);
+        rows.push(WorldRow {
+            seed,
+            world: i,
+            edits: chain.edits[k].len(),
+            movable_items: world.movable.len(),
+            static_map,
+            updated_map,
+            loc_static: run.baseline,
+            loc_updated: run.chain,
+            updater: run.updater,
+            cells_changed: run.cells_changed,
+            collisions: run.collisions,
+            sim_time_s: run.sim_time_s,
+            distance_m: run.distance_m,
+            route_done: run.route_done,
+            median_scan_us,
+        });
+        if keep {
+            saved.push(SavedWorld {
+                world: i,
+                map: run.map.clone(),
+                ground_truth: gi,
+                trajectories: run.trajectories.clone(),
+            });
+        }
+        prev = run.map;
+        progress(i);
+    }
+    Ok(SeedRun {
+        seed,
+        initial_map: m1.map,
+        initial_ground_truth: g1,
+        initial_scores,
+        rows,
+        edits: chain.edits,
+        saved,
+        scan_times_us: all_times,
+    })
+}
+
+/// Static-vs-updated figures of one map metric.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MetricSummary {
+    /// Mean of M_1/G_i over all worlds and seeds, percent.
+    pub static_mean: f64,
+    /// Mean of M_i/G_i, percent.
+    pub updated_mean: f64,
+    /// Share of world rows where M_i/G_i > M_1/G_i.
+    pub updated_better_fraction: f64,
+    /// Mean M_i/G_i over the last world of each seed (W_N), percent.
+    pub updated_last: f64,
+    /// Mean M_1/G_i over the last world of each seed, percent.
+    pub static_last: f64,
+}
+
+/// Map-quality section of the summary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MapQuality {
+    /// Cross-correlation.
+    pub cc: MetricSummary,
+    /// Map score.
+    pub ms: MetricSummary,
+    /// OPDF.
+    pub opdf: MetricSummary,
+}
+
+/// One localiser's figures over all worlds and seeds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LocSummary {
+    /// Mean over worlds of the per-world mean position error, metres.
+    pub mean_error_m: f64,
+    /// Largest position error seen, metres.
+    pub max_error_m: f64,
+    /// Mean of the per-world max error, metres.
+    pub mean_max_error_m: f64,
+    /// Root mean square over worlds of the per-world RMSE, metres.
+    pub rmse_m: f64,
+    /// Mean covariance trace.
+    pub mean_trace: f64,
+    /// Mean λmax.
+    pub mean_lambda_max: f64,
+}
+
+/// Localisation section of the summary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Localisation {
+    /// Baseline localiser on M_1.
+    pub static_map: LocSummary,
+    /// Chain localiser on M_{i-1}.
+    pub updated_map: LocSummary,
+    /// Share of world rows where the chain's mean error is below the baseline's.
+    pub updated_better_fraction: f64,
+    /// Share of world rows where the chain's mean covariance trace is below the baseline's.
+    pub updated_lower_trace_fraction: f64,
+}
+
+/// Updater section of the summary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct UpdaterSummary {
+    /// Median updater time per processed scan over all worlds and seeds, microseconds (0 when
+    /// not measured).
+    pub median_scan_us: f64,
+    /// Largest updater state seen, bytes.
+    pub max_state_bytes: u64,
+    /// Processed scans.
+    pub processed_scans: u64,
+    /// Valid beams processed.
+    pub beams: u64,
+    /// Verdicts Update.
+    pub update: u64,
+    /// Verdicts Suspend.
+    pub suspend: u64,
+    /// Verdicts Lost.
+    pub lost: u64,
+    /// Successful pose recoveries.
+    pub recovered: u64,
+    /// Cell state changes applied.
+    pub cell_changes: u64,
+}
+
+/// `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Producer and version.
+    pub tool: String,
+    /// The seeds, in order.
+    pub seeds: Vec<u64>,
+    /// N.
+    pub worlds: usize,
+    /// The updater preset.
+    pub preset: String,
+    /// Wall time of the whole run, seconds (0 when not measured).
+    pub wall_time_s: f64,
+    /// M_1/G_1, mean over seeds.
+    pub initial_map: Scores,
+    /// Map quality.
+    pub map_quality: MapQuality,
+    /// Localisation.
+    pub localisation: Localisation,
+    /// Updater.
+    pub updater: UpdaterSummary,
+    /// Contacts of the robot over all worlds and seeds.
+    pub collisions: u64,
+    /// Worlds whose route was completed, of all world rows.
+    pub routes_completed: usize,
+    /// World rows.
+    pub rows: usize,
+    /// Simulated time over all worlds and seeds, seconds.
+    pub sim_time_s: f64,
+    /// The parameters.
+    pub params: ValidationParams,
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { 0.0 } else { s / n as f64 }
+}
+
+fn frac(v: impl Iterator<Item = bool>) -> f64 {
+    let (t, n) = v.fold((0usize, 0usize), |(t, n), b| (t + usize::from(b), n + 1));
+    if n == 0 { 0.0 } else { t as f64 / n as f64 }
+}
+
+fn metric_summary(runs: &[SeedRun], f: impl Fn(&Scores) -> f64) -> MetricSummary {
+    let rows = || runs.iter().flat_map(|r| r.rows.iter());
+    let last = || runs.iter().filter_map(|r| r.rows.last());
+    MetricSummary {
+        static_mean: mean(rows().map(|w| f(&w.static_map))),
+        updated_mean: mean(rows().map(|w| f(&w.updated_map))),
+        updated_better_fraction: frac(rows().map(|w| f(&w.updated_map) > f(&w.static_map))),
+        updated_last: mean(last().map(|w| f(&w.updated_map))),
+        static_last: mean(last().map(|w| f(&w.static_map))),
+    }
+}
+
+fn loc_summary(runs: &[SeedRun], f: impl Fn(&WorldRow) -> &LocStats) -> LocSummary {
+    let rows = || runs.iter().flat_map(|r| r.rows.iter()).map(&f);
+    LocSummary {
+        mean_error_m: mean(rows().map(|s| s.mean_error_m)),
+        max_error_m: rows().map(|s| s.max_error_m).fold(0.0, f64::max),
+        mean_max_error_m: mean(rows().map(|s| s.max_error_m)),
+        rmse_m: mean(rows().map(|s| s.rmse_m * s.rmse_m)).sqrt(),
+        mean_trace: mean(rows().map(|s| s.mean_trace)),
+        mean_lambda_max: mean(rows().map(|s| s.mean_lambda_max)),
+    }
+}
+
+/// The summary over seeds (in the given order). `wall_time_s` is supplied by the caller.
+pub fn summarise(params: &ValidationParams, runs: &[SeedRun], wall_time_s: f64) -> Summary {
+    let rows = || runs.iter().flat_map(|r| r.rows.iter());
+    let mut times: Vec<u32> = runs.iter().flat_map(|r| r.scan_times_us.iter().copied()).collect();
+    let sum_u = |f: fn(&UpdaterCounts) -> u64| rows().map(|w| f(&w.updater)).sum::<u64>();
+    Summary {
+        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+        seeds: runs.iter().map(|r| r.seed).collect(),
+        worlds: params.worlds,
+        preset: params.preset.clone(),
+        wall_time_s,
+        initial_map: Scores {
+            cc: mean(runs.iter().map(|r| r.initial_scores.cc)),
+            ms: mean(runs.iter().map(|r| r.initial_scores.ms)),
+            opdf: mean(runs.iter().map(|r| r.initial_scores.opdf)),
+        },
+        map_quality: MapQuality {
+            cc: metric_summary(runs, |s| s.cc),
+            ms: metric_summary(runs, |s| s.ms),
+            opdf: metric_summary(runs, |s| s.opdf),
+        },
+        localisation: Localisation {
+            static_map: loc_summary(runs, |w| &w.loc_static),
+            updated_map: loc_summary(runs, |w| &w.loc_updated),
+            updated_better_fraction: frac(rows().map(|w| w.loc_updated.mean_error_m < w.loc_static.mean_error_m)),
+            updated_lower_trace_fraction: frac(rows().map(|w| w.loc_updated.mean_trace < w.loc_static.mean_trace)),
+        },
+        updater: UpdaterSummary {
+            median_scan_us: median_u32(&mut times),
+            max_state_bytes: rows().map(|w| w.updater.max_state_bytes).max().unwrap_or(0),
+            processed_scans: sum_u(|u| u.processed),
+            beams: sum_u(|u| u.beams),
+            update: sum_u(|u| u.update),
+            suspend: sum_u(|u| u.suspend),
+            lost: sum_u(|u| u.lost),
+            recovered: sum_u(|u| u.recovered),
+            cell_changes: sum_u(|u| u.cell_changes),
+        },
+        collisions: rows().map(|w| w.collisions).sum(),
+        routes_completed: rows().filter(|w| w.route_done).count(),
+        rows: rows().count(),
+        sim_time_s: rows().map(|w| w.sim_time_s).sum(),
+        params: params.clone(),
+    }
+}
