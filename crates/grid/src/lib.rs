@@ -26,12 +26,14 @@ pub mod map_io;
 pub mod mapper;
 pub mod metrics;
 mod pose;
+mod ray_caster;
 pub mod render;
 mod traversal;
 
 pub use distance::DistanceField;
 pub use grid::{CellCoord, CellState, GridGeometry, MAX_CELLS, MAX_SIDE, OccupancyGrid};
 pub use pose::{Point2, Pose2, angle_diff, wrap_angle};
+pub use ray_caster::RayCaster;
 pub use traversal::{RayHit, RayStop, cast_ray, traverse, traverse_indexed};
 
 /// Errors about grids themselves (file errors have their own type).

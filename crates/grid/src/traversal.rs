@@ -226,7 +226,7 @@ pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f
 }
 
 /// Where the ray enters the cell's square (slab method), metres from its origin, clamped at 0.
-fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> f64 {
+pub(crate) fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64, cell: CellCoord) -> f64 {
     let (u, v) = geometry.world_to_grid(origin);
     let yaw = angle - geometry.origin().yaw;
     let (dy, dx) = yaw.sin_cos();

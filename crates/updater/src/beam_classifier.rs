@@ -11,7 +11,7 @@
 //! |z_e − z| from p_i whatever the angle offset.
 
 use crate::UpdaterParams;
-use mapkeeper_grid::{CellCoord, OccupancyGrid, Point2, Pose2, RayStop, cast_ray};
+use mapkeeper_grid::{CellCoord, Point2, Pose2, RayCaster, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// The classifier's verdict on one beam.
@@ -102,7 +102,7 @@ pub fn virtual_rays(params: &UpdaterParams, increment_rad: f64) -> (i32, f64) {
 /// `angle_rad + l·v·increment_rad` exceeds `d_th`. Unknown cells block the rays.
 #[allow(clippy::too_many_arguments)]
 pub fn detects_change(
-    base: &OccupancyGrid,
+    base: &RayCaster,
     origin: Point2,
     angle_rad: f64,
     increment_rad: f64,
@@ -120,7 +120,7 @@ pub fn detects_change(
         // 0, -1, +1, -2, +2, ...
         let l = if k % 2 == 0 { -(k / 2) } else { (k + 1) / 2 };
         let a = angle_rad + l as f64 * v * increment_rad;
-        let ray = cast_ray(base, origin, a, len, true);
+        let ray = base.cast(origin, a, len);
         if truncated && ray.stop == RayStop::MaxRange {
             continue; // z_e > z + D_th: too far whatever the angle.
         }
@@ -143,7 +143,7 @@ impl BeamClassifier {
     /// the robot at `robot_in_map`.
     pub fn classify(
         &mut self,
-        base: &OccupancyGrid,
+        base: &RayCaster,
         robot_in_map: &Pose2,
         scans: &[LaserScan],
         params: &UpdaterParams,

@@ -11,7 +11,7 @@ use crate::log_odds_baseline::LogOddsBaseline;
 use crate::params::{UpdateMethod, UpdaterParams};
 use crate::pose_updating::{PoseRecovery, PoseUpdater};
 use crate::unchanged_cells::evaluate_unchanged_beam;
-use mapkeeper_grid::{OccupancyGrid, Pose2};
+use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
 use mapkeeper_sensor::LaserScan;
 
 /// What happened to one step.
@@ -95,7 +95,8 @@ pub struct UpdaterStats {
 #[derive(Clone, Debug)]
 pub struct MapUpdater {
     params: UpdaterParams,
-    base: OccupancyGrid,
+    /// `M_{i-1}` with its clearance field for the classifier's ray casts.
+    base: RayCaster,
     current: OccupancyGrid,
     gate: UpdateGate,
     classifier: BeamClassifier,
@@ -126,7 +127,7 @@ impl MapUpdater {
         };
         Ok(Self {
             current: initial_map.clone(),
-            base: initial_map,
+            base: RayCaster::new(&initial_map, true),
             params,
             gate: UpdateGate::new(),
             classifier: BeamClassifier::new(),
@@ -152,7 +153,7 @@ impl MapUpdater {
 
     /// `M_{i-1}`, the map given at construction (never modified).
     pub fn initial_map(&self) -> &OccupancyGrid {
-        &self.base
+        self.base.map()
     }
 
     /// Running totals.
@@ -271,18 +272,18 @@ impl MapUpdater {
         for b in &self.classifier.beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam(&self.base, origin, b.hit, b.range_m, &self.params, &mut self.votes);
+                evaluate_changed_beam(self.base.map(), origin, b.hit, b.range_m, &self.params, &mut self.votes);
             }
         }
-        ensure_buffers(&mut self.votes, self.base.geometry().width(), &mut self.buffers);
+        ensure_buffers(&mut self.votes, self.base.map().geometry().width(), &mut self.buffers);
         if !self.buffers.is_empty() {
-            self.classifier.mark_near(self.base.geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
+            self.classifier.mark_near(self.base.map().geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
                 if b.class == BeamClass::Unchanged && b.near_buffer {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
                     evaluate_unchanged_beam(
-                        &self.base,
+                        self.base.map(),
                         origin,
                         b.hit,
                         b.range_m,
@@ -295,7 +296,7 @@ impl MapUpdater {
         }
         self.cell_updater.apply(
             &mut self.votes,
-            &self.base,
+            self.base.map(),
             &mut self.current,
             &mut self.buffers,
             &self.params,

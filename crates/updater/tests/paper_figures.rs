@@ -35,8 +35,9 @@ fn fig8_one_to_n_prevents_false_change_at_removed_obstacle_edge() {
     let z = cast_ray(&world, origin, a, 10.0, true).range_m + 0.005;
     let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
     let d_th = UpdaterParams::paper().change_distance_m(z);
-    assert!(detects_change(&base, origin, a, inc, hit, z, 0, 0.5, 30.0, d_th), "1-to-1 flags a change");
-    assert!(!detects_change(&base, origin, a, inc, hit, z, 1, 0.5, 30.0, d_th), "1-to-N does not");
+    let caster = mapkeeper_grid::RayCaster::new(&base, true);
+    assert!(detects_change(&caster, origin, a, inc, hit, z, 0, 0.5, 30.0, d_th), "1-to-1 flags a change");
+    assert!(!detects_change(&caster, origin, a, inc, hit, z, 1, 0.5, 30.0, d_th), "1-to-N does not");
 }
 
 /// Fig. 10 / eq. 9: only cells whose centre is further than max(0.02 z, 0.15 m) from p_i are
