@@ -28,5 +28,7 @@ pub use error::ScenarioError;
 pub use generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
 pub use mapping::{InitialMap, MappingParams, build_initial_map};
 pub use output::StagedDir;
-pub use runner::{Clock, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world};
+pub use runner::{
+    Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
+};
 pub use validation::{Scores, SeedRun, Summary, ValidationParams, WorldRow, run_seed, run_seed_in, summarise};

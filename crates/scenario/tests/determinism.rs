@@ -1,0 +1,56 @@
+//! Determinism contract: the same seed gives bit-identical summaries (wall time and timings
+//! are not measured here: no clock) and maps, whatever the number of threads running seeds.
+
+use mapkeeper_scenario::report::{summary_json, worlds_csv};
+use mapkeeper_scenario::{NoClock, SeedRun, ValidationParams, run_seed, summarise};
+use rayon::prelude::*;
+
+fn params() -> ValidationParams {
+    let mut p = ValidationParams::new(3, "paper").unwrap();
+    p.route = ValidationParams::short_route(12.0);
+    p.exploration_route = ValidationParams::short_route(20.0);
+    p.saved_worlds = vec![2, 3];
+    p
+}
+
+fn run_on(threads: usize, seeds: &[u64]) -> Vec<SeedRun> {
+    let p = params();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    pool.install(|| seeds.par_iter().map(|&s| run_seed(&p, s, &NoClock, &|_| {}).unwrap()).collect())
+}
+
+#[test]
+fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
+    let p = params();
+    let a = run_on(1, &[5, 6]);
+    let b = run_on(2, &[5, 6]);
+    let (sa, sb) = (summarise(&p, &a, 0.0), summarise(&p, &b, 0.0));
+    assert_eq!(summary_json(&sa).unwrap(), summary_json(&sb).unwrap());
+    assert_eq!(worlds_csv(&a), worlds_csv(&b));
+    for (ra, rb) in a.iter().zip(&b) {
+        assert_eq!(ra.initial_map, rb.initial_map);
+        assert_eq!(ra.saved.len(), 2);
+        for (wa, wb) in ra.saved.iter().zip(&rb.saved) {
+            assert_eq!(wa.map, wb.map, "M_{} differs", wa.world);
+            assert_eq!(wa.trajectories, wb.trajectories);
+        }
+    }
+    // Different seeds differ.
+    assert_ne!(a[0].rows[0].loc_updated, a[1].rows[0].loc_updated);
+}
+
+#[test]
+fn baseline_on_its_own_thread_gives_the_same_run() {
+    use mapkeeper_scenario::{RunInputs, RunnerParams, run_world};
+    use mapkeeper_sim::{World, ground_truth_map};
+    let world = World::default_warehouse();
+    let g = ground_truth_map(&world, &world.default_map_geometry(0.05).unwrap());
+    let route = ValidationParams::short_route(8.0);
+    let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g };
+    let mut p = RunnerParams { record_trajectories: true, ..RunnerParams::default() };
+    let a = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
+    p.parallel_baseline = false;
+    let b = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
+    assert_eq!(a, b);
+    assert!(a.baseline.updates > 0);
+}
