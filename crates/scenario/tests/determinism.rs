@@ -6,7 +6,7 @@ use mapkeeper_scenario::{NoClock, SeedRun, ValidationParams, run_seed, summarise
 use rayon::prelude::*;
 
 fn params() -> ValidationParams {
-    let mut p = ValidationParams::new(3, "paper").unwrap();
+    let mut p = ValidationParams::new(3, "paper").expect("valid params");
     p.route = ValidationParams::short_route(12.0);
     p.exploration_route = ValidationParams::short_route(20.0);
     p.saved_worlds = vec![2, 3];
@@ -15,8 +15,8 @@ fn params() -> ValidationParams {
 
 fn run_on(threads: usize, seeds: &[u64]) -> Vec<SeedRun> {
     let p = params();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    pool.install(|| seeds.par_iter().map(|&s| run_seed(&p, s, &NoClock, &|_| {}).unwrap()).collect())
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+    pool.install(|| seeds.par_iter().map(|&s| run_seed(&p, s, &NoClock, &|_| {}).expect("run")).collect())
 }
 
 #[test]
