@@ -20,6 +20,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod atomic;
 mod distance;
 mod grid;
 pub mod map_io;
@@ -30,6 +31,7 @@ mod ray_caster;
 pub mod render;
 mod traversal;
 
+pub use atomic::write_atomic;
 pub use distance::DistanceField;
 pub use grid::{CellCoord, CellState, GridGeometry, MAX_CELLS, MAX_SIDE, OccupancyGrid};
 pub use pose::{Point2, Pose2, angle_diff, wrap_angle};

@@ -193,17 +193,9 @@ pub fn save_map(grid: &OccupancyGrid, yaml_path: &Path) -> Result<(), MapIoError
     write_atomic(yaml_path, yaml.as_bytes())
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+/// Writes `bytes` to `path` atomically ([`crate::write_atomic`]), naming the file on error.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), MapIoError> {
-    let io = |source| MapIoError::Io { path: path.to_path_buf(), source };
-    let name = path.file_name().map_or_else(|| "file".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    {
-        let mut f = std::fs::File::create(&tmp).map_err(io)?;
-        f.write_all(bytes).map_err(io)?;
-        f.sync_all().map_err(io)?;
-    }
-    std::fs::rename(&tmp, path).map_err(io)
+    crate::write_atomic(path, bytes).map_err(|source| MapIoError::Io { path: path.to_path_buf(), source })
 }
 
 fn classify(px: Pixel, meta: &MapYaml) -> CellState {

@@ -29,7 +29,6 @@
 
 use crate::GridError;
 use crate::grid::{CellState, OccupancyGrid};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// An RGB colour.
@@ -212,25 +211,9 @@ pub fn render_diff(a: &OccupancyGrid, b: &OccupancyGrid) -> Result<RgbImage, Gri
     Ok(RgbImage::from_cells(a, |i| diff_colour(ca[i], cb[i])))
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` atomically ([`crate::write_atomic`]), naming the file on error.
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    let io = |source| RenderError::Io { path: path.to_path_buf(), source };
-    let file_name = path.file_name().ok_or_else(|| io(std::io::Error::other("not a file path")))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(".tmp");
-    let tmp = path.with_file_name(tmp_name);
-    let result = (|| {
-        let mut file = std::fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(e));
-    }
-    Ok(())
+    crate::write_atomic(path, bytes).map_err(|source| RenderError::Io { path: path.to_path_buf(), source })
 }
 
 #[cfg(test)]

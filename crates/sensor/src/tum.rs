@@ -60,11 +60,21 @@ pub fn format_tum(poses: &[StampedPose]) -> String {
 
 /// Writes a TUM file atomically (temporary name, then rename).
 pub fn write_tum(path: &Path, poses: &[StampedPose]) -> Result<(), TumError> {
-    let io = |source| TumError::Io { path: path.to_path_buf(), source };
-    let name = path.file_name().map_or_else(|| "trajectory".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    std::fs::write(&tmp, format_tum(poses)).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    write_tum_with_comment(path, "", poses)
+}
+
+/// [`write_tum`] with extra `#` comment lines first (provenance: seed, inputs); `comment` may
+/// hold several lines.
+pub fn write_tum_with_comment(path: &Path, comment: &str, poses: &[StampedPose]) -> Result<(), TumError> {
+    let mut text = String::new();
+    for line in comment.lines() {
+        text.push_str("# ");
+        text.push_str(line);
+        text.push('\n');
+    }
+    text.push_str(&format_tum(poses));
+    mapkeeper_grid::write_atomic(path, text.as_bytes())
+        .map_err(|source| TumError::Io { path: path.to_path_buf(), source })
 }
 
 /// Reads a TUM file: 8 numbers a line, `#` comment and blank lines skipped. The rotation must be

@@ -1,10 +1,9 @@
 //! `mapkeeper localise`: the particle-filter localiser over a recorded sensor log.
 
 use anyhow::Context;
-use mapkeeper_grid::{Pose2, angle_diff, map_io};
+use mapkeeper_grid::{Pose2, angle_diff, map_io, write_atomic};
 use mapkeeper_localiser::{Covariance3, FilterParams, Localiser, UpdateOutcome};
-use mapkeeper_sensor::{LaserScan, OdometryReading, SensorLog, TruePose};
-use std::io::Write;
+use mapkeeper_sensor::{LaserScan, OdometryReading, SensorLog, StampedPose, interpolate, write_tum_with_comment};
 use std::path::{Path, PathBuf};
 
 /// Initial covariance for `--init` and truth initialisation: AMCL's defaults, σ = 0.5 m in x
@@ -84,35 +83,6 @@ fn seconds(ns: u64) -> String {
     format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
 }
 
-/// The true pose at `t_ns`: linear interpolation between the surrounding records (yaw along the
-/// shorter arc), the nearest record outside their span. `truth` is sorted by time.
-fn truth_at(truth: &[TruePose], t_ns: u64) -> Option<Pose2> {
-    let i = truth.partition_point(|p| p.stamp_ns <= t_ns);
-    match (i.checked_sub(1).and_then(|j| truth.get(j)), truth.get(i)) {
-        (Some(a), Some(b)) if b.stamp_ns > a.stamp_ns => {
-            let f = (t_ns - a.stamp_ns) as f64 / (b.stamp_ns - a.stamp_ns) as f64;
-            let (pa, pb) = (a.pose_in_map, b.pose_in_map);
-            Some(Pose2::new(
-                pa.x + f * (pb.x - pa.x),
-                pa.y + f * (pb.y - pa.y),
-                mapkeeper_grid::wrap_angle(pa.yaw + f * angle_diff(pb.yaw, pa.yaw)),
-            ))
-        }
-        (Some(a), _) => Some(a.pose_in_map),
-        (None, Some(b)) => Some(b.pose_in_map),
-        (None, None) => None,
-    }
-}
-
-/// Writes `contents` to `path` via a temporary file in the same folder and a rename.
-fn write_atomically(path: &Path, contents: &[u8]) -> anyhow::Result<()> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    let mut f = std::fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-    f.write_all(contents).and_then(|()| f.sync_all()).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
-}
-
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let params = match &args.params {
@@ -136,7 +106,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // the stable sort only protects against interleaving).
     let mut odom: Vec<OdometryReading> = log.odometry().copied().collect();
     odom.sort_by_key(|o| o.stamp_ns);
-    let mut truth: Vec<TruePose> = log.truth().copied().collect();
+    let mut truth: Vec<StampedPose> =
+        log.truth().map(|t| StampedPose { stamp_ns: t.stamp_ns, pose: t.pose_in_map }).collect();
     truth.sort_by_key(|t| t.stamp_ns);
     let mut scans: Vec<&LaserScan> = log.scans().collect();
     scans.sort_by_key(|s| s.stamp_ns);
@@ -147,7 +118,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut filter = Localiser::new(&map, params, args.seed).context("cannot build the localiser")?;
     let init = match (args.init, scans.first()) {
         (Some(p), _) => Some((p, "--init")),
-        (None, Some(s)) => truth_at(&truth, s.stamp_ns).map(|p| (p, "truth")),
+        (None, Some(s)) => interpolate(&truth, s.stamp_ns).map(|p| (p, "truth")),
         (None, None) => None,
     };
     let init_text = match init {
@@ -158,12 +129,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => "global".to_owned(),
     };
 
-    let mut tum = format!(
-        "# mapkeeper localise: seed {}, log {}, map {}, init {init_text}\n",
+    let comment = format!(
+        "mapkeeper localise: seed {}, log {}, map {}, init {init_text}",
         args.seed,
         log_path.display(),
         args.map.display()
     );
+    let mut estimates: Vec<StampedPose> = Vec::with_capacity(scans.len());
     let mut csv = String::from("time_s,trace,lambda_max,particles,ess\n");
     let (mut updates, mut sensor_updates, mut degenerate, mut no_odom, mut no_beams) = (0, 0, 0, 0, 0);
     let (mut sq_pos, mut sq_yaw, mut n_err) = (0.0, 0.0, 0usize);
@@ -194,18 +166,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         let e = r.estimate;
         let p = e.pose_in_map;
-        let (qz, qw) = (0.5 * p.yaw).sin_cos();
-        tum.push_str(&format!("{} {:.6} {:.6} 0 0 0 {qz:.9} {qw:.9}\n", seconds(t), p.x, p.y));
+        estimates.push(StampedPose { stamp_ns: t, pose: p });
         let trace = e.covariance[0][0] + e.covariance[1][1] + e.covariance[2][2];
         csv.push_str(&format!("{},{trace:.9e},{:.9e},{},{:.3}\n", seconds(t), e.lambda_max(), r.particles, r.ess));
-        if let Some(tp) = truth_at(&truth, t) {
+        if let Some(tp) = interpolate(&truth, t) {
             sq_pos += p.distance(&tp).powi(2);
             sq_yaw += angle_diff(p.yaw, tp.yaw).powi(2);
             n_err += 1;
         }
     }
-    write_atomically(&tum_path, tum.as_bytes())?;
-    write_atomically(&csv_path, csv.as_bytes())?;
+    write_tum_with_comment(&tum_path, &comment, &estimates)?;
+    write_atomic(&csv_path, csv.as_bytes()).with_context(|| format!("cannot write {}", csv_path.display()))?;
 
     println!(
         "{updates} updates ({sensor_updates} sensor updates, {degenerate} degenerate and recovered, {no_beams} without usable beams); \
@@ -240,18 +211,6 @@ mod tests {
     fn seconds_are_exact() {
         assert_eq!(seconds(0), "0.000000000");
         assert_eq!(seconds(12_000_000_345), "12.000000345");
-    }
-
-    #[test]
-    fn truth_is_interpolated_across_the_seam() {
-        let t = |ns, x, yaw| TruePose { stamp_ns: ns, pose_in_map: Pose2::new(x, 0.0, yaw) };
-        let truth = [t(100, 0.0, 3.0), t(200, 1.0, -3.0)];
-        let p = truth_at(&truth, 150).unwrap();
-        assert!((p.x - 0.5).abs() < 1e-12);
-        assert!((p.yaw.abs() - std::f64::consts::PI).abs() < 1e-9, "{}", p.yaw);
-        assert_eq!(truth_at(&truth, 50).unwrap().x, 0.0);
-        assert_eq!(truth_at(&truth, 250).unwrap().x, 1.0);
-        assert!(truth_at(&[], 5).is_none());
     }
 
     #[test]

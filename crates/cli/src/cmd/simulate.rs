@@ -2,10 +2,9 @@
 //! trajectory and the ground-truth map.
 
 use anyhow::Context;
-use mapkeeper_grid::map_io;
-use mapkeeper_sensor::{LogHeader, LogRecord, LogWriter};
+use mapkeeper_grid::{map_io, write_atomic};
+use mapkeeper_sensor::{LogHeader, LogRecord, LogWriter, StampedPose, write_tum};
 use mapkeeper_sim::{Route, SimParams, Simulator, World, ground_truth_map};
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 /// Arguments of `mapkeeper simulate`.
@@ -90,7 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut log = LogWriter::create(&log_path, &LogHeader::new(meta))?;
     let ticks = (max_s * 1e9 / params.tick_ns as f64).round() as u64;
     let bar = indicatif::ProgressBar::new(ticks);
-    let mut tum = String::new();
+    let mut truth: Vec<StampedPose> = Vec::new();
     let mut collisions = Vec::new();
     let mut distance = 0.0;
     let mut last = sim.true_pose();
@@ -107,15 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let p = out.truth.pose_in_map;
         distance += p.distance(&last);
         last = p;
-        let (qz, qw) = ((p.yaw / 2.0).sin(), (p.yaw / 2.0).cos());
-        let _ = writeln!(
-            tum,
-            "{}.{:09} {:.6} {:.6} 0 0 0 {qz:.9} {qw:.9}",
-            out.stamp_ns / 1_000_000_000,
-            out.stamp_ns % 1_000_000_000,
-            p.x,
-            p.y
-        );
+        truth.push(StampedPose { stamp_ns: out.stamp_ns, pose: p });
         collisions.extend(out.collisions);
         if k % 500 == 0 {
             bar.set_position(k);
@@ -128,8 +119,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     log.finish()?;
-    map_io::write_atomic(&args.out.join("truth.tum"), tum.as_bytes())?;
-    map_io::write_atomic(&args.out.join("world.toml"), world.to_toml_string()?.as_bytes())?;
+    write_tum(&args.out.join("truth.tum"), &truth)?;
+    let world_path = args.out.join("world.toml");
+    write_atomic(&world_path, world.to_toml_string()?.as_bytes())
+        .with_context(|| format!("cannot write {}", world_path.display()))?;
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05)?);
     map_io::save_map(&g, &args.out.join("ground_truth.yaml"))?;
     let seconds = sim.stamp_ns() as f64 / 1e9;
@@ -142,7 +135,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "route_done": route_done,
         "collisions": collisions,
     });
-    map_io::write_atomic(&args.out.join("summary.json"), serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    let summary_path = args.out.join("summary.json");
+    write_atomic(&summary_path, serde_json::to_string_pretty(&summary)?.as_bytes())
+        .with_context(|| format!("cannot write {}", summary_path.display()))?;
     let started = collisions.iter().filter(|c| c.started).count();
     println!(
         "simulated {seconds:.1} s of '{}' (seed {}): {distance:.1} m driven, {scans} scans, {started} collisions{}; wrote {}",
