@@ -1,11 +1,17 @@
-//! Grid traversal throughput on a map of the default warehouse's size (280 × 418 cells at
-//! 0.05 m) with walls and box outlines: rays cast from poses in the aisles to the first occupied
-//! cell, 30 m range, as the updater and the log-odds mapper cast them.
+//! Grid traversal throughput at 0.05 m on two maps of the warehouse the paper simulated:
 //!
-//! `cargo bench -p mapkeeper-grid --bench traversal` — the figure to read is the throughput in
-//! rays/s (target ≥ 10 M rays/s on one core).
+//! - `synthetic`: 280 × 418 cells, the walls, a long rack outline and 14 box outlines (few
+//!   obstacles, so rays are long: ~150 cells on average);
+//! - `aws`: the real ROS map of the AWS small warehouse (`tests/data/maps/`, 286 × 423 cells),
+//!   whose racks are rows of posts, as a 2D lidar sees them.
+//!
+//! Rays are cast from four poses in the aisles in 1082 directions (a dual-S300 scan's worth) to
+//! the first occupied or unknown cell, 30 m range, as the updater and the mapper cast them.
+//! `cargo bench -p mapkeeper-grid --bench traversal`; read the throughput in rays/s (target ≥ 10 M
+//! rays/s on one core) and, for maps whose rays differ in length, in cells/s.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use mapkeeper_grid::map_io;
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, RayCaster, cast_ray, traverse};
 use std::hint::black_box;
 use std::ops::ControlFlow;
@@ -50,10 +56,25 @@ fn rays() -> Vec<(Point2, f64)> {
     v
 }
 
+fn aws_map() -> OccupancyGrid {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/maps/aws-small-warehouse/map.yaml");
+    map_io::load_map(&path).expect("the AWS warehouse map in tests/data loads")
+}
+
 fn bench(c: &mut Criterion) {
-    let map = warehouse();
+    for (name, map) in [("synthetic", warehouse()), ("aws", aws_map())] {
+        bench_map(c, name, &map);
+    }
+}
+
+fn bench_map(c: &mut Criterion, name: &str, map: &OccupancyGrid) {
+    let map = map.clone();
     let rays = rays();
-    let mut group = c.benchmark_group("traversal");
+    for &(o, _) in rays.iter().step_by(1082) {
+        assert_eq!(map.get_world(o), Some(CellState::Free), "{name}: ray origin {o:?} is not in free space");
+    }
+    let mut group = c.benchmark_group(format!("traversal_{name}"));
     group.throughput(Throughput::Elements(rays.len() as u64));
     group.bench_function("cast_ray_to_first_occupied_30m", |b| {
         b.iter(|| {
@@ -96,8 +117,12 @@ fn bench(c: &mut Criterion) {
             n
         })
         .sum();
-    eprintln!("traversal: {} rays, {:.1} cells per ray on average", ends.len(), cells as f64 / ends.len() as f64);
-    let mut group = c.benchmark_group("traversal_cells");
+    eprintln!(
+        "traversal_{name}: {} rays, {:.1} cells per ray on average",
+        ends.len(),
+        cells as f64 / ends.len() as f64
+    );
+    let mut group = c.benchmark_group(format!("traversal_cells_{name}"));
     group.throughput(Throughput::Elements(cells as u64));
     group.bench_function("traverse_segments", |b| {
         b.iter(|| {
