@@ -2,6 +2,8 @@
 //! synthesised by ray casting a "current world" grid.
 #![allow(dead_code, clippy::unwrap_used)]
 
+pub mod bench_scene;
+
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, RayStop, cast_ray};
 use mapkeeper_sensor::LaserScan;
 
