@@ -8,7 +8,7 @@
 //!   pinned at N particles, clustering) for several N; the particle count at which one update
 //!   takes 10 ms is interpolated from these medians.
 //!
-//! `CARGO_TARGET_DIR=/work/target-localiser cargo bench -p mapkeeper-localiser --bench localiser`
+//! `cargo bench -p mapkeeper-localiser --bench localiser`
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, cast_ray};

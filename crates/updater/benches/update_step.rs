@@ -3,7 +3,7 @@
 //! boxes changed between `M_{i-1}` and the current world (scans synthesised by ray casting the
 //! current world). Also prints the updater's state bytes after 10,000 processed scans.
 //!
-//! Run: `CARGO_TARGET_DIR=/work/target-updater cargo bench -p mapkeeper-updater --bench update_step`
+//! Run: `cargo bench -p mapkeeper-updater --bench update_step`
 #![allow(missing_docs, clippy::unwrap_used)]
 
 #[path = "../tests/common/mod.rs"]
