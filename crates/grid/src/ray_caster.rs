@@ -12,7 +12,7 @@
 use crate::distance::DistanceField;
 use crate::grid::{CellCoord, CellState, OccupancyGrid};
 use crate::pose::Point2;
-use crate::traversal::{RayHit, RayStop, cast_ray, entry_distance};
+use crate::traversal::{RayHit, RayStop, cast_ray, entry_distance, floor_i64};
 
 /// Jumps shorter than this many cells are not worth restarting the walk for.
 const MIN_JUMP_CELLS: f64 = 12.0;
@@ -100,8 +100,8 @@ impl RayCaster {
         let mut t_entry = t_in;
         loop {
             let (u, v) = (u0 + t_entry * du, v0 + t_entry * dv);
-            let mut ix = (u.floor() as i64).clamp(0, w - 1);
-            let mut iy = (v.floor() as i64).clamp(0, h - 1);
+            let mut ix = floor_i64(u).clamp(0, w - 1);
+            let mut iy = floor_i64(v).clamp(0, h - 1);
             let boundary = |i: i64, p0: f64, d: f64| {
                 if d > 0.0 {
                     (i as f64 + 1.0 - p0) / d

@@ -109,7 +109,7 @@ impl Walk {
         let d = (b.0 - a.0, b.1 - a.1);
         let s = (a.0 + t0 * d.0, a.1 + t0 * d.1);
         let e = (a.0 + t1 * d.0, a.1 + t1 * d.1);
-        let cell_of = |u: f64, n: usize| (u.floor() as i64).clamp(0, n as i64 - 1);
+        let cell_of = |u: f64, n: usize| floor_i64(u).clamp(0, n as i64 - 1);
         let (ix, iy) = (cell_of(s.0, w), cell_of(s.1, h));
         let (ex, ey) = (cell_of(e.0, w), cell_of(e.1, h));
         // Exactly |ex − ix| + |ey − iy| steps reach the end cell; the step choice follows the
@@ -163,6 +163,14 @@ impl Walk {
         }
         true
     }
+}
+
+/// `x.floor() as i64` for finite `x` within the i64 range, without a libm call (the baseline
+/// x86-64 target has no rounding instruction, so `floor` is a function call in hot loops).
+#[inline(always)]
+pub(crate) fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((t as f64) > x) as i64
 }
 
 /// Why a [`cast_ray`] stopped.
@@ -348,6 +356,13 @@ mod tests {
         assert!(collect(&g, Point2::new(f64::NAN, 2.5), Point2::new(2.5, 2.5)).is_empty());
         // Along the grid's top border (v = h exactly) the last row is used.
         assert_eq!(collect(&g, Point2::new(0.5, 4.0), Point2::new(1.5, 4.0)).len(), 2);
+    }
+
+    #[test]
+    fn floor_without_libm() {
+        for x in [-2.5, -2.0, -1e-12, 0.0, 1e-12, 0.999_999, 1.0, 3.7, -0.5, 1e15 + 0.5] {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
     }
 
     #[test]
