@@ -7,7 +7,11 @@
 //! occupied) when its buffer holds at least `change_threshold` "changed" flags (with the
 //! `reference` neighbour-support rule if enabled), and flips back when it holds at least
 //! `change_threshold` "unchanged" flags. When a cell becomes free, its unknown 8-neighbours in
-//! `M_i` are set occupied so that a partly removed obstacle keeps a closed border.
+//! `M_i` are set occupied so that a partly removed obstacle keeps a closed border — but only
+//! unknown cells that are an obstacle's interior in `M_{i-1}`: an unknown region enclosed by
+//! occupied cells (no free 4-neighbour, not on the map's edge). Unknown space that was simply
+//! never observed (shadows behind rack posts, frontiers of a mapped `M_1`) is not an obstacle;
+//! when the robot sees into it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
 use crate::cell_buffers::{CellBuffers, RollingBuffer};
@@ -26,10 +30,12 @@ pub struct CellChange {
     pub to: CellState,
 }
 
-/// Reusable scratch of the cells update.
-#[derive(Clone, Debug, Default)]
+/// Reusable scratch of the cells update, and which unknown cells of `M_{i-1}` are obstacle
+/// interiors (computed once per `M_{i-1}`).
+#[derive(Clone, Debug)]
 pub struct CellUpdater {
     flagged: Vec<(u32, RollingBuffer)>,
+    interior: Vec<bool>,
 }
 
 /// The state a cell flips to when changed, given its state in `M_{i-1}`.
@@ -39,6 +45,18 @@ pub fn flipped(base: CellState) -> CellState {
 }
 
 impl CellUpdater {
+    /// A cells update for `base` = `M_{i-1}`: finds the unknown regions enclosed by occupied
+    /// cells (4-connected components of unknown cells with no free 4-neighbour that do not
+    /// touch the map's edge), the only cells border reconstruction may set occupied.
+    pub fn new(base: &OccupancyGrid) -> Self {
+        Self { flagged: Vec::new(), interior: enclosed_unknown(base) }
+    }
+
+    /// Whether the unknown cell at `index` of `M_{i-1}` is an obstacle's interior.
+    pub fn is_interior(&self, index: usize) -> bool {
+        self.interior.get(index).copied().unwrap_or(false)
+    }
+
     /// Reduces `votes` (sorted in place), pushes one flag per cell into `buffers`, applies the
     /// flip rule to `current` (`M_i`) and appends every state change to `changes`.
     pub fn apply(
@@ -96,6 +114,7 @@ impl CellUpdater {
                         for n in cell.neighbours8() {
                             if let Some(j) = g.index(n)
                                 && current.cells()[j] == CellState::Unknown
+                                && self.is_interior(j)
                             {
                                 current.cells_mut()[j] = CellState::Occupied;
                                 changes.push(CellChange { cell: n, from: CellState::Unknown, to: CellState::Occupied });
@@ -108,5 +127,88 @@ impl CellUpdater {
                 changes.push(CellChange { cell, from: now, to: base_state });
             }
         }
+    }
+}
+
+/// Marks the unknown cells of `map` that lie in a 4-connected unknown region with no free
+/// 4-neighbour and no cell on the map's edge.
+fn enclosed_unknown(map: &OccupancyGrid) -> Vec<bool> {
+    let g = map.geometry();
+    let (w, h) = (g.width(), g.height());
+    let cells = map.cells();
+    let mut interior = vec![false; cells.len()];
+    let mut seen = vec![false; cells.len()];
+    let mut component = Vec::new();
+    let mut stack = Vec::new();
+    for start in 0..cells.len() {
+        if seen[start] || cells[start] != CellState::Unknown {
+            continue;
+        }
+        component.clear();
+        stack.push(start);
+        seen[start] = true;
+        let mut enclosed = true;
+        while let Some(i) = stack.pop() {
+            component.push(i);
+            let (x, y) = (i % w, i / w);
+            if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                enclosed = false;
+            }
+            let neighbours = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                match cells[j] {
+                    CellState::Free => enclosed = false,
+                    CellState::Unknown if !seen[j] => {
+                        seen[j] = true;
+                        stack.push(j);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if enclosed {
+            for &i in &component {
+                interior[i] = true;
+            }
+        }
+    }
+    interior
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapkeeper_grid::{GridGeometry, Pose2};
+
+    /// Regression (spurious wedges behind rack posts in the validation): border reconstruction
+    /// may only grow into unknown regions enclosed by an obstacle, not into unobserved space.
+    #[test]
+    fn only_enclosed_unknown_regions_are_interiors() {
+        // 8 × 5 map: a box outline with an unknown interior at x 1..=3, and an unknown shadow
+        // at x 5..=6 that touches free space.
+        let g = GridGeometry::new(8, 5, 0.1, Pose2::IDENTITY).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for x in 1..=3 {
+            for y in 1..=3 {
+                let edge = x == 1 || x == 3 || y == 1 || y == 3;
+                m.set(CellCoord::new(x, y), if edge { CellState::Occupied } else { CellState::Unknown });
+            }
+        }
+        for x in 5..=6 {
+            m.set(CellCoord::new(x, 2), CellState::Unknown);
+        }
+        let u = CellUpdater::new(&m);
+        assert!(u.is_interior(g.index(CellCoord::new(2, 2)).unwrap()));
+        assert!(!u.is_interior(g.index(CellCoord::new(5, 2)).unwrap()));
+        assert!(!u.is_interior(g.index(CellCoord::new(6, 2)).unwrap()));
+        // Unknown on the map's edge is never an interior.
+        let mut edge = OccupancyGrid::filled(g, CellState::Occupied);
+        edge.set(CellCoord::new(0, 2), CellState::Unknown);
+        assert!(!CellUpdater::new(&edge).is_interior(g.index(CellCoord::new(0, 2)).unwrap()));
     }
 }

@@ -132,7 +132,7 @@ impl MapUpdater {
             gate: UpdateGate::new(),
             classifier: BeamClassifier::new(),
             buffers: CellBuffers::new(),
-            cell_updater: CellUpdater::default(),
+            cell_updater: CellUpdater::new(&initial_map),
             votes: Vec::new(),
             pose_updater: PoseUpdater::new(),
             log_odds,

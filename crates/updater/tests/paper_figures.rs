@@ -120,7 +120,7 @@ fn fig14_border_reconstruction() {
     }
     let mut current = base.clone();
     let mut buffers = CellBuffers::new();
-    let mut up = CellUpdater::default();
+    let mut up = CellUpdater::new(&base);
     let p = UpdaterParams::paper();
     let target = CellCoord::new(3, 4);
     let idx = g.index(target).unwrap();
