@@ -1,0 +1,60 @@
+//! End-to-end test of `mapkeeper run` (one world: generate two worlds, then run W_2 on G_1),
+//! as the real binary in a temporary folder.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mapkeeper-run-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn mapkeeper(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(args).output().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn run_one_world_end_to_end() {
+    let dir = scratch("one");
+    let gen_dir = dir.join("gen");
+    let out = mapkeeper(&["generate", "--worlds", "2", "--seed", "3", "--out", s(&gen_dir)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // A short route keeps the test quick: the first 15 m of the default tour.
+    std::fs::write(
+        dir.join("route.toml"),
+        "format = \"mapkeeper-route\"\nversion = 1\nwaypoints = [[-3.65, -2.3], [-3.65, 7.3], [-3.65, 2.0]]\n",
+    )
+    .unwrap();
+    let run_dir = dir.join("run");
+    let (world, map, route) =
+        (gen_dir.join("worlds/W_002.toml"), gen_dir.join("ground_truth/G_001.yaml"), dir.join("route.toml"));
+    let args = ["run", "--world", s(&world), "--map", s(&map), "--route", s(&route), "--out", s(&run_dir)];
+    let out = mapkeeper(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for f in ["map.yaml", "map.pgm", "true.tum", "chain.tum", "baseline.tum", "run.json"] {
+        assert!(run_dir.join(f).is_file(), "{f} missing");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run_dir.join("run.json")).unwrap()).unwrap();
+    assert_eq!(json["route_done"], true);
+    assert_eq!(json["collisions"], 0);
+    assert!(json["chain"]["mean_error_m"].as_f64().unwrap() < 0.1);
+    assert!(json["updater"]["processed"].as_u64().unwrap() > 50);
+    let tum = std::fs::read_to_string(run_dir.join("true.tum")).unwrap();
+    assert!(tum.lines().filter(|l| !l.starts_with('#')).all(|l| l.split_whitespace().count() == 8));
+    // The output folder is not overwritten without --force; a bad map path names the file.
+    let again = mapkeeper(&args);
+    assert!(!again.status.success());
+    let mut bad = args.to_vec();
+    bad[4] = "/nonexistent/map.yaml";
+    let out = mapkeeper(&bad);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/map.yaml"));
+}
