@@ -106,7 +106,19 @@ impl AgentState {
     }
 
     /// Moves the agent by one step of `dt_s`, unless the robot (a circle) is in the way.
+    #[cfg(test)]
     pub(crate) fn advance(&mut self, dt_s: f64, robot: Point2, robot_radius: f64, p: &AgentParams) {
+        self.advance_near(
+            dt_s,
+            &RobotView { position: robot, yaw: 0.0, radius: robot_radius, half_extents: None, corridor: None },
+            p,
+        );
+    }
+
+    /// Moves the agent by one step of `dt_s`, unless the robot (a circle) is in the way or the
+    /// step would take the agent into the robot's braking corridor.
+    pub(crate) fn advance_near(&mut self, dt_s: f64, robot: &RobotView, p: &AgentParams) {
+        let robot_radius = robot.radius;
         if self.pause_s > 0.0 {
             self.pause_s = (self.pause_s - dt_s).max(0.0);
             return;
@@ -117,11 +129,19 @@ impl AgentState {
         let dist = dx.hypot(dy);
         if dist > 1e-12 {
             let dir = (dx / dist, dy / dist);
-            let (rx, ry) = (robot.x - pos.x, robot.y - pos.y);
+            let (rx, ry) = (robot.position.x - pos.x, robot.position.y - pos.y);
             let t = rx * dir.0 + ry * dir.1;
             let lateral = (rx * dir.1 - ry * dir.0).abs();
-            let contact = self.radius + robot_radius;
-            if t > 0.0 && t < contact + p.lookahead_m && lateral < contact + p.clearance_m {
+            // The robot's footprint measured across and along this agent's way.
+            let (r_across, r_along) = match robot.half_extents {
+                Some((hl, hw)) => {
+                    let (sn, cs) = (dir.1.atan2(dir.0) - robot.yaw).sin_cos();
+                    ((hl * sn).abs() + (hw * cs).abs(), (hl * cs).abs() + (hw * sn).abs())
+                }
+                None => (robot_radius, robot_radius),
+            };
+            if t > 0.0 && t < r_along + self.radius + p.lookahead_m && lateral < r_across + self.radius + p.clearance_m
+            {
                 self.blocked_s += dt_s;
                 if self.blocked_s >= p.give_way_s {
                     // Turn back.
@@ -132,8 +152,22 @@ impl AgentState {
                 return;
             }
         }
-        self.blocked_s = 0.0;
         let step = self.speed * dt_s;
+        if dist > 1e-12
+            && let Some(c) = &robot.corridor
+        {
+            let next = Point2::new(pos.x + step.min(dist) * dx / dist, pos.y + step.min(dist) * dy / dist);
+            if c.blocks(pos, next, self.radius + p.clearance_m) {
+                self.blocked_s += dt_s;
+                if self.blocked_s >= p.give_way_s {
+                    self.blocked_s = 0.0;
+                    std::mem::swap(&mut self.from, &mut self.target);
+                    self.step_dir = -self.step_dir;
+                }
+                return;
+            }
+        }
+        self.blocked_s = 0.0;
         if step >= dist {
             self.pose = Pose2::new(target.x, target.y, self.pose.yaw);
             self.from = self.target;
@@ -146,6 +180,54 @@ impl AgentState {
         } else {
             self.pose = Pose2::new(pos.x + step * dx / dist, pos.y + step * dy / dist, dy.atan2(dx));
         }
+    }
+}
+
+/// What an agent knows of the robot.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RobotView {
+    /// The robot's centre.
+    pub(crate) position: Point2,
+    /// The robot's heading, radians.
+    pub(crate) yaw: f64,
+    /// Radius of the circle bounding the robot, metres.
+    pub(crate) radius: f64,
+    /// Half length and half width of the robot's rectangle (`None`: use the circle).
+    pub(crate) half_extents: Option<(f64, f64)>,
+    /// The stretch of floor the robot needs to brake, when it moves.
+    pub(crate) corridor: Option<Corridor>,
+}
+
+/// The rectangle ahead of a moving robot that it sweeps before it can stop: from its rear
+/// (`-behind_m`) to `ahead_m` along `dir`, `half_width_m` either side of its centre line.
+/// People do not step into it (they wait, as they would for a forklift).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Corridor {
+    pub(crate) origin: Point2,
+    pub(crate) dir: (f64, f64),
+    pub(crate) behind_m: f64,
+    pub(crate) ahead_m: f64,
+    pub(crate) half_width_m: f64,
+}
+
+impl Corridor {
+    /// (along, |lateral|) of `p`.
+    fn coords(&self, p: Point2) -> (f64, f64) {
+        let (rx, ry) = (p.x - self.origin.x, p.y - self.origin.y);
+        (rx * self.dir.0 + ry * self.dir.1, (rx * self.dir.1 - ry * self.dir.0).abs())
+    }
+
+    fn inside(&self, p: Point2, grow: f64) -> (bool, f64) {
+        let (t, lat) = self.coords(p);
+        (t > -self.behind_m - grow && t < self.ahead_m + grow && lat < self.half_width_m + grow, lat)
+    }
+
+    /// Whether a step of a circle of radius `grow` from `from` to `to` enters the corridor or,
+    /// inside it, moves towards its centre line.
+    pub(crate) fn blocks(&self, from: Point2, to: Point2, grow: f64) -> bool {
+        let (was_in, lat0) = self.inside(from, grow);
+        let (is_in, lat1) = self.inside(to, grow);
+        is_in && (!was_in || lat1 < lat0)
     }
 }
 
@@ -197,5 +279,39 @@ mod tests {
         }
         // Turned back after 3 s: now heading for (0, 0), which it is at, then (5, 0) again...
         assert!(s.pose.x <= 1e-9 || s.target == 0);
+    }
+
+    #[test]
+    fn people_do_not_step_into_a_moving_robots_braking_corridor() {
+        // Robot at the origin driving +x; corridor 2 m ahead, 0.34 m either side.
+        let c = Corridor {
+            origin: Point2::new(0.0, 0.0),
+            dir: (1.0, 0.0),
+            behind_m: 0.4,
+            ahead_m: 2.0,
+            half_width_m: 0.34,
+        };
+        // Stepping in from the side: refused.
+        assert!(c.blocks(Point2::new(1.0, 0.62), Point2::new(1.0, 0.58), 0.25));
+        // Walking along beside it, or away from it: fine.
+        assert!(!c.blocks(Point2::new(1.0, 0.7), Point2::new(1.1, 0.7), 0.25));
+        assert!(!c.blocks(Point2::new(1.0, 0.3), Point2::new(1.0, 0.35), 0.25));
+        // Beyond the corridor's end: fine.
+        assert!(!c.blocks(Point2::new(2.5, 0.5), Point2::new(2.5, 0.0), 0.2));
+        // An agent in a robot's corridor is kept from walking, then turns back.
+        let a = person(Motion::Loop { waypoints: vec![[1.0, 1.0], [1.0, -1.0]] });
+        let mut s = AgentState::new(&a, 1);
+        let view = RobotView {
+            position: Point2::new(0.0, 0.0),
+            yaw: 0.0,
+            radius: 0.5,
+            half_extents: Some((0.375, 0.34)),
+            corridor: Some(c),
+        };
+        let p = AgentParams::default();
+        for _ in 0..25 {
+            s.advance_near(0.02, &view, &p);
+        }
+        assert!(s.pose.y >= 0.59 + 0.05, "stopped at the corridor's edge: {:?}", s.pose);
     }
 }

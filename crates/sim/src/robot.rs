@@ -109,6 +109,9 @@ pub struct FollowerParams {
     pub agent_lookahead_m: f64,
     /// Lateral clearance kept from agents, metres (default 0.05).
     pub agent_clearance_m: f64,
+    /// With an agent inside the clearance but clear of the robot's footprint, drive no faster
+    /// than this, m/s (default 0.2).
+    pub creep_speed_mps: f64,
 }
 
 impl Default for FollowerParams {
@@ -122,6 +125,7 @@ impl Default for FollowerParams {
             face_travel_direction: true,
             agent_lookahead_m: 0.5,
             agent_clearance_m: 0.05,
+            creep_speed_mps: 0.2,
         }
     }
 }
@@ -143,6 +147,7 @@ impl FollowerParams {
             ("corner_angle_deg", self.corner_angle_deg),
             ("agent_lookahead_m", self.agent_lookahead_m),
             ("agent_clearance_m", self.agent_clearance_m),
+            ("creep_speed_mps", self.creep_speed_mps),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("{name} must be finite and ≥ 0, got {v}"));
@@ -151,6 +156,10 @@ impl FollowerParams {
         Ok(())
     }
 }
+
+/// Margin below which an agent beside the robot's path counts as in the way whatever the
+/// clearance setting, metres (the physics engine reports contacts a little before touching).
+const CONTACT_SKIN_M: f64 = 0.02;
 
 /// A circle bounding an agent, for the "is the way blocked" test.
 #[derive(Clone, Copy, Debug)]
@@ -206,7 +215,15 @@ impl Follower {
     }
 
     /// The desired motion from `pose`, given the robot's parameters and the agents nearby.
-    pub(crate) fn desire(&mut self, pose: &Pose2, speed: f64, p: &RobotParams, agents: &[Obstruction]) -> Desire {
+    ///
+    /// The way is blocked when an agent is in the corridor ahead along the route, or along the
+    /// robot's current velocity (they differ while it cuts a corner), within the braking
+    /// distance plus `agent_lookahead_m`; an agent only in the `agent_clearance_m` band of that
+    /// corridor slows the robot to `creep_speed_mps`. An agent closer than the robot's bounding
+    /// circle plus its own radius and `agent_clearance_m` stops the robot from turning (its
+    /// corners sweep that circle).
+    pub(crate) fn desire(&mut self, pose: &Pose2, vel: (f64, f64), p: &RobotParams, agents: &[Obstruction]) -> Desire {
+        let speed = vel.0.hypot(vel.1);
         let f = &p.follower;
         let pos = pose.position();
         // Advance past reached waypoints.
@@ -259,18 +276,44 @@ impl Follower {
         let mut v = p.max_speed_mps.min((2.0 * a * stop_dist).sqrt()).max(0.05_f64.min(p.max_speed_mps));
         let travel_yaw = dir.1.atan2(dir.0);
         // Agents in the corridor ahead.
-        let (across, along) = p.half_extents(angle_diff(travel_yaw, pose.yaw));
-        let reach = along + speed * speed / (2.0 * p.max_accel_mps2) + f.agent_lookahead_m;
-        let blocked = agents.iter().any(|o| {
-            let (rx, ry) = (o.center.x - pos.x, o.center.y - pos.y);
-            let t = rx * dir.0 + ry * dir.1;
-            let lateral = (rx * dir.1 - ry * dir.0).abs();
-            t > 0.0 && t < reach + o.radius && lateral < across + o.radius + f.agent_clearance_m
-        });
+        let braking = speed * speed / (2.0 * p.max_accel_mps2) + f.agent_lookahead_m;
+        // Agents in a corridor along `d`, with a lateral clearance of `margin`.
+        let in_corridor_with = |d: (f64, f64), margin: f64| {
+            let (across, along) = p.half_extents(angle_diff(d.1.atan2(d.0), pose.yaw));
+            agents.iter().any(|o| {
+                let (rx, ry) = (o.center.x - pos.x, o.center.y - pos.y);
+                let t = rx * d.0 + ry * d.1;
+                let lateral = (rx * d.1 - ry * d.0).abs();
+                t > 0.0 && t < along + braking + o.radius && lateral < across + o.radius + margin
+            })
+        };
+        // Only the clearance band is occupied: creep past instead of waiting for ever for an
+        // agent that waits for the robot.
+        let mut creep = false;
+        let mut in_corridor = |d: (f64, f64)| {
+            if in_corridor_with(d, CONTACT_SKIN_M) {
+                true
+            } else if in_corridor_with(d, f.agent_clearance_m) {
+                creep = true;
+                false
+            } else {
+                false
+            }
+        };
+        let bounding = p.length_m.hypot(p.width_m) / 2.0;
+        let too_close: Vec<&Obstruction> =
+            agents.iter().filter(|o| o.center.distance(pos) < bounding + o.radius + f.agent_clearance_m).collect();
+        let mut blocked = in_corridor(dir);
+        if speed > 0.05 {
+            blocked |= in_corridor((vel.0 / speed, vel.1 / speed));
+        }
         if blocked {
             v = 0.0;
+        } else if creep {
+            v = v.min(f.creep_speed_mps);
         }
         let yaw = match p.drive {
+            _ if !too_close.is_empty() => None,
             DriveKind::Omni if !f.face_travel_direction => None,
             _ => Some(travel_yaw),
         };
@@ -304,16 +347,16 @@ mod tests {
         let p = RobotParams::default();
         let mut f = Follower::default();
         f.set_route(vec![Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)]);
-        let d = f.desire(&Pose2::new(0.0, 0.5, 0.0), 0.0, &p, &[]);
+        let d = f.desire(&Pose2::new(0.0, 0.5, 0.0), (0.0, 0.0), &p, &[]);
         // Past the first waypoint (0.5 m away > tolerance? no: 0.5 > 0.15, so it drives there first).
         assert!(d.vel.1 < 0.0);
-        let d = f.desire(&Pose2::new(0.05, 0.0, 0.0), 1.0, &p, &[]);
+        let d = f.desire(&Pose2::new(0.05, 0.0, 0.0), (1.0, 0.0), &p, &[]);
         assert_eq!(f.target, 1);
         assert!((d.vel.0 - 1.5).abs() < 1e-9 && d.vel.1.abs() < 1e-9);
         // Near the goal the speed follows √(2·a·d).
-        let d = f.desire(&Pose2::new(9.9, 0.0, 0.0), 0.3, &p, &[]);
+        let d = f.desire(&Pose2::new(9.9, 0.0, 0.0), (0.3, 0.0), &p, &[]);
         assert!((d.vel.0 - (2.0 * 0.48 * 0.1f64).sqrt()).abs() < 1e-9);
-        f.desire(&Pose2::new(9.99, 0.0, 0.0), 0.0, &p, &[]);
+        f.desire(&Pose2::new(9.99, 0.0, 0.0), (0.0, 0.0), &p, &[]);
         assert!(f.done());
     }
 
@@ -323,10 +366,10 @@ mod tests {
         let mut f = Follower::default();
         f.set_route(vec![Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)]);
         let ahead = [Obstruction { center: Point2::new(1.0, 0.1), radius: 0.25 }];
-        assert!(f.desire(&Pose2::new(0.05, 0.0, 0.0), 0.0, &p, &ahead).blocked);
+        assert!(f.desire(&Pose2::new(0.05, 0.0, 0.0), (0.0, 0.0), &p, &ahead).blocked);
         let beside = [Obstruction { center: Point2::new(1.0, 0.7), radius: 0.25 }];
-        assert!(!f.desire(&Pose2::new(0.05, 0.0, 0.0), 0.0, &p, &beside).blocked);
+        assert!(!f.desire(&Pose2::new(0.05, 0.0, 0.0), (0.0, 0.0), &p, &beside).blocked);
         let behind = [Obstruction { center: Point2::new(-0.8, 0.0), radius: 0.25 }];
-        assert!(!f.desire(&Pose2::new(0.05, 0.0, 0.0), 0.0, &p, &behind).blocked);
+        assert!(!f.desire(&Pose2::new(0.05, 0.0, 0.0), (0.0, 0.0), &p, &behind).blocked);
     }
 }

@@ -1,7 +1,7 @@
 //! The simulator: a rapier world with the robot, the static and movable geometry and the
 //! agents, stepped on an integer tick clock; lidars, odometry and the true pose are its outputs.
 
-use crate::agents::{AgentParams, AgentState};
+use crate::agents::{AgentParams, AgentState, Corridor, RobotView};
 use crate::error::{SimError, params_err};
 use crate::lidar::{LidarParams, LidarSim, Scene};
 use crate::odometry::{Odometry, OdometryParams};
@@ -343,8 +343,7 @@ impl Simulator {
         let rp = &self.params.robot;
         let obstructions: Vec<Obstruction> =
             self.agents.iter().map(|(s, _)| Obstruction { center: s.pose.position(), radius: s.radius }).collect();
-        let speed = self.cmd_vel.0.hypot(self.cmd_vel.1);
-        let desire = self.follower.desire(pose, speed, rp, &obstructions);
+        let desire = self.follower.desire(pose, self.cmd_vel, rp, &obstructions);
         self.blocked = desire.blocked;
         let dv_max = rp.max_accel_mps2 * dt;
         match rp.drive {
@@ -368,7 +367,10 @@ impl Simulator {
             }
         }
         let want_omega = match desire.yaw {
-            Some(y) if desire.vel.0.hypot(desire.vel.1) > 1e-6 || rp.drive == DriveKind::SkidSteer => {
+            // Also while waiting for an agent: facing the way narrows the robot's footprint.
+            Some(y)
+                if desire.vel.0.hypot(desire.vel.1) > 1e-6 || desire.blocked || rp.drive == DriveKind::SkidSteer =>
+            {
                 let err = angle_diff(y, pose.yaw);
                 let braking = (2.0 * rp.max_yaw_accel_radps2 * err.abs()).sqrt();
                 (rp.follower.yaw_gain * err)
@@ -381,6 +383,32 @@ impl Simulator {
         self.cmd_omega += (want_omega - self.cmd_omega).clamp(-dw_max, dw_max);
     }
 
+    /// What the agents know of the robot: its bounding circle and, when it moves, the corridor
+    /// it sweeps before it can stop (its footprint across the direction of travel, its braking
+    /// distance plus `agent_lookahead_m` ahead).
+    fn robot_view(&self, pose: &Pose2) -> RobotView {
+        let rp = &self.params.robot;
+        let speed = self.cmd_vel.0.hypot(self.cmd_vel.1);
+        let corridor = (speed > 0.05).then(|| {
+            let dir = (self.cmd_vel.0 / speed, self.cmd_vel.1 / speed);
+            let (across, along) = rp.half_extents(angle_diff(dir.1.atan2(dir.0), pose.yaw));
+            Corridor {
+                origin: pose.position(),
+                dir,
+                behind_m: along,
+                ahead_m: along + speed * speed / (2.0 * rp.max_accel_mps2) + rp.follower.agent_lookahead_m,
+                half_width_m: across,
+            }
+        });
+        RobotView {
+            position: pose.position(),
+            yaw: pose.yaw,
+            radius: self.robot_radius,
+            half_extents: Some((rp.length_m / 2.0, rp.width_m / 2.0)),
+            corridor,
+        }
+    }
+
     /// Advances one physics tick and returns what the robot's sensors produced.
     pub fn step(&mut self) -> StepOutput {
         let dt = self.params.tick_ns as f64 / 1e9;
@@ -390,9 +418,9 @@ impl Simulator {
             b.set_linvel(Vector::new(self.cmd_vel.0 as f32, self.cmd_vel.1 as f32), true);
             b.set_angvel(self.cmd_omega as f32, true);
         }
-        let robot_pos = pose.position();
+        let view = self.robot_view(&pose);
         for (state, body) in &mut self.agents {
-            state.advance(dt, robot_pos, self.robot_radius, &self.params.agents);
+            state.advance_near(dt, &view, &self.params.agents);
             if let Some(b) = self.physics.bodies.get_mut(*body) {
                 b.set_next_kinematic_position(rapier_pose(&state.pose));
             }

@@ -9,6 +9,7 @@
 
 use crate::UpdaterParams;
 use crate::cell_buffers::CellBuffers;
+use crate::hit_index::HitIndex;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, traverse};
 use std::ops::ControlFlow;
 
@@ -76,13 +77,15 @@ pub fn all_free_within(grid: &OccupancyGrid, p: Point2, radius_m: f64) -> bool {
 
 /// Appends the changed evaluator's votes for one detected-change beam to `votes`. The caller
 /// makes sure every voted cell has a buffer before the unchanged evaluator runs
-/// ([`ensure_buffers`]).
+/// ([`ensure_buffers`]). `hits` holds the step's measured hit points for the hit clearance
+/// (`UpdaterParams::removal_hit_clearance_m`; an empty index disables it).
 pub fn evaluate_changed_beam(
     base: &OccupancyGrid,
     origin: Point2,
     hit: Point2,
     z: f64,
     params: &UpdaterParams,
+    hits: &HitIndex,
     votes: &mut Vec<Vote>,
 ) {
     let g = base.geometry();
@@ -90,10 +93,18 @@ pub fn evaluate_changed_beam(
     let skip = params.skip_changed_m(z);
     if let Some(p_th) = threshold_point(origin, hit, z, skip) {
         let skip_sq = skip * skip;
+        let min_sin = params.removal_min_incidence_rad.sin();
+        let (dx, dy) = (hit.x - origin.x, hit.y - origin.y);
         let _ = traverse(g, origin, p_th, |c| {
             let i = c.iy as usize * g.width() + c.ix as usize;
-            if cells[i] != CellState::Free && g.cell_center(c).distance_sq(hit) > skip_sq {
-                votes.push(vote(i, true));
+            if cells[i] != CellState::Free {
+                let centre = g.cell_center(c);
+                if centre.distance_sq(hit) > skip_sq
+                    && !hits.any_within(centre)
+                    && !crate::grazing::is_grazing(base, c, dx, dy, min_sin)
+                {
+                    votes.push(vote(i, true));
+                }
             }
             ControlFlow::<()>::Continue(())
         });

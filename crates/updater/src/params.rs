@@ -169,6 +169,21 @@ pub struct UpdaterParams {
     /// Beams within ±this many beams of a detected change are not evaluated as unchanged.
     /// Default 0 (reference 2).
     pub skip_near_changes_beams: u32,
+    /// Hit clearance of the removal vote (a project addition, not in the paper): a cell crossed
+    /// by a detected-change ray gets no "changed" (removed) vote when a beam of the same step
+    /// hit a surface closer than this to the cell's centre, metres; 0 disables the rule. It
+    /// stops rays at grazing incidence from eroding the edge cells of walls when the pose is a
+    /// fraction of a cell off. Default 0.10 (reference 0).
+    pub removal_hit_clearance_m: f64,
+    /// Free-pass votes (a project addition, not in the paper): cells free in `M_{i-1}` that a
+    /// detected-change beam crossed get an "unchanged" vote, as the unchanged evaluator gives
+    /// them for agreeing beams (see the `free_pass` module). Default `true` (reference `false`).
+    pub free_pass_votes: bool,
+    /// Grazing gate of the removal vote (a project addition, not in the paper): a cell on the
+    /// boundary of a wall of `M_{i-1}` gets no "changed" (removed) vote from a ray that meets
+    /// the wall at less than this angle (see the `grazing` module), radians; 0 disables the
+    /// gate. Default 20° (0.349; reference 0).
+    pub removal_min_incidence_rad: f64,
 
     // --- Cells update (§4.5) ---
     /// Run the map update at all; `false` is the `no-update` ablation (M_1 kept). Default `true`.
@@ -229,6 +244,9 @@ impl UpdaterParams {
             skip_unchanged_slope: 0.02,
             skip_unchanged_min_m: 0.0,
             skip_near_changes_beams: 0,
+            removal_hit_clearance_m: 0.20,
+            free_pass_votes: true,
+            removal_min_incidence_rad: 20f64.to_radians(),
             map_update: true,
             buffer_size: 10,
             change_threshold: 7,
@@ -254,6 +272,9 @@ impl UpdaterParams {
             tol_intercept_m: 0.15,
             tol_max_m: f64::INFINITY,
             skip_near_changes_beams: 2,
+            removal_hit_clearance_m: 0.0,
+            free_pass_votes: false,
+            removal_min_incidence_rad: 0.0,
             neighbour_support: true,
             ..Self::paper()
         }
@@ -327,6 +348,13 @@ impl UpdaterParams {
             if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, format!("must be > 0, got {v}"))) }
         };
         non_neg_finite("gating_min_translation_m", self.gating_min_translation_m)?;
+        non_neg_finite("removal_hit_clearance_m", self.removal_hit_clearance_m)?;
+        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.removal_min_incidence_rad) {
+            return Err(bad(
+                "removal_min_incidence_rad",
+                format!("must be within 0..=pi/2, got {}", self.removal_min_incidence_rad),
+            ));
+        }
         non_neg_finite("gating_min_rotation_rad", self.gating_min_rotation_rad)?;
         non_neg_finite("gating_min_interval_s", self.gating_min_interval_s)?;
         positive("fast_rotation_rad_s", self.fast_rotation_rad_s)?;

@@ -5,7 +5,9 @@ use crate::beam_classifier::{BeamClass, BeamClassifier};
 use crate::cell_buffers::CellBuffers;
 use crate::cell_update::{CellChange, CellUpdater};
 use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam};
+use crate::free_pass::evaluate_free_pass;
 use crate::gating::{GateReason, UpdateGate};
+use crate::hit_index::HitIndex;
 use crate::localisation_check::{Verdict, localisation_check};
 use crate::log_odds_baseline::LogOddsBaseline;
 use crate::params::{UpdateMethod, UpdaterParams};
@@ -103,6 +105,7 @@ pub struct MapUpdater {
     buffers: CellBuffers,
     cell_updater: CellUpdater,
     votes: Vec<Vote>,
+    hits: HitIndex,
     pose_updater: PoseUpdater,
     log_odds: Option<LogOddsBaseline>,
     /// (robot_in_map, robot_in_odom) at the last step that passed the localisation check.
@@ -134,6 +137,7 @@ impl MapUpdater {
             buffers: CellBuffers::new(),
             cell_updater: CellUpdater::new(&initial_map),
             votes: Vec::new(),
+            hits: HitIndex::new(),
             pose_updater: PoseUpdater::new(),
             log_odds,
             last_good: None,
@@ -179,6 +183,7 @@ impl MapUpdater {
         self.classifier.beams.capacity() * size_of::<crate::beam_classifier::Beam>()
             + self.classifier.lidars.capacity() * size_of::<crate::beam_classifier::LidarFrame>()
             + self.votes.capacity() * size_of::<Vote>()
+            + self.hits.capacity_bytes()
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
@@ -269,10 +274,25 @@ impl MapUpdater {
             }
             return;
         }
-        for b in &self.classifier.beams {
+        let beams = &self.classifier.beams;
+        if self.params.removal_hit_clearance_m > 0.0 && beams.iter().any(|b| b.class == BeamClass::Changed) {
+            let valid = beams.iter().filter(|b| b.class != BeamClass::Invalid).map(|b| b.hit);
+            self.hits.rebuild(self.params.removal_hit_clearance_m, valid);
+        } else {
+            self.hits.rebuild(0.0, std::iter::empty());
+        }
+        for b in beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam(self.base.map(), origin, b.hit, b.range_m, &self.params, &mut self.votes);
+                evaluate_changed_beam(
+                    self.base.map(),
+                    origin,
+                    b.hit,
+                    b.range_m,
+                    &self.params,
+                    &self.hits,
+                    &mut self.votes,
+                );
             }
         }
         ensure_buffers(&mut self.votes, self.base.map().geometry().width(), &mut self.buffers);
@@ -280,6 +300,18 @@ impl MapUpdater {
             self.classifier.mark_near(self.base.map().geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
+                if self.params.free_pass_votes && b.class == BeamClass::Changed && b.near_buffer {
+                    let origin = self.classifier.lidars[b.lidar as usize].origin;
+                    evaluate_free_pass(
+                        self.base.map(),
+                        origin,
+                        b.hit,
+                        b.range_m,
+                        &self.params,
+                        &mut probe,
+                        &mut self.votes,
+                    );
+                }
                 if b.class == BeamClass::Unchanged && b.near_buffer {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
                     evaluate_unchanged_beam(

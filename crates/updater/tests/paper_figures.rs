@@ -10,6 +10,7 @@ use mapkeeper_updater::beam_classifier::detects_change;
 use mapkeeper_updater::cell_buffers::CellBuffers;
 use mapkeeper_updater::cell_update::CellUpdater;
 use mapkeeper_updater::changed_cells::{evaluate_changed_beam, vote};
+use mapkeeper_updater::hit_index::HitIndex;
 use mapkeeper_updater::{MapUpdater, StepOutcome, UpdaterParams, Verdict};
 
 fn decode(votes: &[u32], width: usize) -> Vec<(CellCoord, bool)> {
@@ -53,7 +54,7 @@ fn fig10_final_chunk_is_skipped() {
     let z = hit.x - origin.x;
     let p = UpdaterParams::paper();
     let mut votes = Vec::new();
-    evaluate_changed_beam(&base, origin, hit, z, &p, &mut votes);
+    evaluate_changed_beam(&base, origin, hit, z, &p, &HitIndex::new(), &mut votes);
     let cells = decode(&votes, 60);
     assert!(cells.contains(&(CellCoord::new(20, 5), true)), "{cells:?}");
     assert!(!cells.iter().any(|(c, _)| c.ix == 40), "wall inside the final chunk must not be flagged: {cells:?}");
@@ -64,7 +65,7 @@ fn fig10_final_chunk_is_skipped() {
     p0.skip_changed_min_m = 0.0;
     p0.skip_changed_slope = 0.0;
     votes.clear();
-    evaluate_changed_beam(&base, origin, hit, z, &p0, &mut votes);
+    evaluate_changed_beam(&base, origin, hit, z, &p0, &HitIndex::new(), &mut votes);
     assert!(decode(&votes, 60).contains(&(CellCoord::new(40, 5), true)));
 }
 
@@ -82,7 +83,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     let p = UpdaterParams::paper();
     let hit_cell_voted = |hit: Point2| {
         let mut votes = Vec::new();
-        evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p, &mut votes);
+        evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p, &HitIndex::new(), &mut votes);
         let c = g.world_to_cell(hit).unwrap();
         votes.contains(&vote(g.index(c).unwrap(), true))
     };
@@ -102,7 +103,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     p_direct.tol_intercept_m = 1e-6;
     p_direct.tol_slope = 0.0;
     let mut votes = Vec::new();
-    evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p_direct, &mut votes);
+    evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p_direct, &HitIndex::new(), &mut votes);
     assert!(votes.contains(&vote(g.index(g.world_to_cell(hit).unwrap()).unwrap(), true)));
 }
 

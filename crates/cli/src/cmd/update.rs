@@ -70,7 +70,7 @@ fn merge(base: &mut toml::Value, over: toml::Value) {
 }
 
 /// The preset, overridden by the TOML file if any, validated.
-fn load_params(preset: &str, file: Option<&Path>) -> anyhow::Result<UpdaterParams> {
+pub fn load_params(preset: &str, file: Option<&Path>) -> anyhow::Result<UpdaterParams> {
     let params =
         UpdaterParams::preset(preset).with_context(|| format!("--preset (known: {})", PRESET_NAMES.join(", ")))?;
     let params = match file {
