@@ -15,7 +15,7 @@
 //! | `fig27b_updater_memory` | Fig. 27 (b) (memory) | largest updater state |
 //!
 //! With one seed the bands are the spread over the route within the world (the paper's
-//! "(μ, σ)"); with several seeds a line is the mean over seeds of the per-world value and its
+//! "(μ, σ)", clipped at 0); with several seeds a line is the mean over seeds of the per-world value and its
 //! band the range (min-max) over seeds.
 
 use crate::ScenarioError;
@@ -86,8 +86,9 @@ fn value_series(name: &str, record: &ValidationRecord, f: &dyn Fn(&WorldRow) -> 
     }
 }
 
-/// A per-world mean with a spread over the route: with one seed, mean ± std; with several,
-/// the mean over seeds of the per-world means and their min-max band.
+/// A per-world mean of a non-negative quantity with a spread over the route: with one seed,
+/// mean ± std (clipped at 0); with several, the mean over seeds of the per-world means and
+/// their min-max band.
 fn spread_series(
     name: &str,
     record: &ValidationRecord,
@@ -99,8 +100,11 @@ fn spread_series(
     }
     let m = per_world(record, mean_of);
     let sd = per_world(record, std_of);
-    let data: Vec<(f64, f64, f64)> = m.iter().zip(&sd).map(|((x, a), (_, b))| (*x, mean(a), mean(b))).collect();
-    Series::mean_std(name, &data)
+    let points = m.iter().map(|(x, a)| (*x, mean(a))).collect();
+    // The quantities are non-negative: the band is clipped at 0.
+    let band =
+        m.iter().zip(&sd).map(|((x, a), (_, b))| (*x, (mean(a) - mean(b)).max(0.0), mean(a) + mean(b))).collect();
+    Series::new(name, points).with_band(band)
 }
 
 /// The x-axis label, saying what the bands are.
@@ -199,15 +203,22 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
     } else {
         ("Fig. 27 (a) Updater time per scan: not measured", Series::new("updater (not timed)", Vec::new()))
     };
+    let from_zero = |chart: LineChart| {
+        let points = chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+        let bands = chart.series.iter().flat_map(|s| s.band.iter().flatten().map(|b| b.2));
+        let hi = points.chain(bands).filter(|v| v.is_finite()).fold(0.0, f64::max);
+        if hi > 0.0 { chart.with_y_range(0.0, hi * 1.08) } else { chart }
+    };
     out.push(Figure {
         stem: "fig27a_updater_time",
         paper: "Fig. 27 (a)",
         caption: "Median updater time per processed scan (µs, wall clock, one core), per world (the paper: CPU %)"
             .into(),
-        chart: LineChart::new(title, x1.as_str(), "time per scan (µs)").with_series(time).with_integer_x(),
+        chart: from_zero(LineChart::new(title, x1.as_str(), "time per scan (µs)").with_series(time).with_integer_x()),
     });
     let chart = LineChart::new("Fig. 27 (b) Updater state memory (largest)", x1.as_str(), "state (kB)")
         .with_series(value_series("updater", record, &|w| w.updater.max_state_bytes as f64 / 1000.0));
+    let chart = from_zero(chart);
     out.push(Figure {
         stem: "fig27b_updater_memory",
         paper: "Fig. 27 (b)",
