@@ -9,6 +9,7 @@
 
 use crate::UpdaterParams;
 use crate::cell_buffers::CellBuffers;
+use crate::grazing;
 use crate::hit_index::HitIndex;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, traverse};
 use std::ops::ControlFlow;
@@ -21,6 +22,9 @@ pub type Vote = u32;
 pub fn vote(index: usize, changed: bool) -> Vote {
     ((index as u32) << 1) | changed as u32
 }
+
+/// Free cells in a row a ray must cross after a withheld vote before it votes again.
+const SHADOW_CLEAR_CELLS: u32 = 3;
 
 /// The point p_th at `skip_m` before `hit` on the segment from `origin` (None if the whole
 /// beam is shorter than the chunk).
@@ -95,15 +99,38 @@ pub fn evaluate_changed_beam(
         let skip_sq = skip * skip;
         let min_sin = params.removal_min_incidence_rad.sin();
         let (dx, dy) = (hit.x - origin.x, hit.y - origin.y);
+        // Set when the ray crossed a non-free cell whose vote the hit clearance or the grazing
+        // gate withheld; the run of non-free cells behind it gets no vote either (the ray is not
+        // trusted to have passed the surface), until the ray has crossed SHADOW_CLEAR_CELLS free
+        // cells in a row (a one-cell gap between two stacked boxes does not clear it).
+        let mut shadowed = false;
+        let mut free_run = 0u32;
+        let inv_len = 1.0 / dx.hypot(dy).max(1e-12);
+        let max_off = params.removal_max_offset_cells * g.resolution_m();
+        // The ray's incidence on the x faces and on the y faces of the cells (|sin| to the face).
+        let (sin_x, sin_y) = (dx.abs() * inv_len, dy.abs() * inv_len);
         let _ = traverse(g, origin, p_th, |c| {
             let i = c.iy as usize * g.width() + c.ix as usize;
-            if cells[i] != CellState::Free {
+            if cells[i] == CellState::Free {
+                free_run += 1;
+                if free_run >= SHADOW_CLEAR_CELLS {
+                    shadowed = false;
+                }
+                return ControlFlow::Continue(());
+            }
+            free_run = 0;
+            if !shadowed {
                 let centre = g.cell_center(c);
-                if centre.distance_sq(hit) > skip_sq
-                    && !hits.any_within(centre)
-                    && !crate::grazing::is_grazing(base, c, dx, dy, min_sin)
-                {
-                    votes.push(vote(i, true));
+                let off = ((centre.x - origin.x) * dy - (centre.y - origin.y) * dx).abs() * inv_len;
+                if centre.distance_sq(hit) > skip_sq && off <= max_off {
+                    if hits.any_within(centre)
+                        || grazing::meets_a_free_face_grazing(base, c, sin_x, sin_y, min_sin)
+                        || grazing::is_grazing(base, c, dx, dy, min_sin)
+                    {
+                        shadowed = true;
+                    } else {
+                        votes.push(vote(i, true));
+                    }
                 }
             }
             ControlFlow::<()>::Continue(())

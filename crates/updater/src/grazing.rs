@@ -73,6 +73,18 @@ pub fn is_grazing(map: &OccupancyGrid, cell: CellCoord, dx: f64, dy: f64, min_si
     cross < min_sin
 }
 
+/// Whether `cell` (non-free) has a free 4-neighbour across a face that a ray with incidence
+/// `sin_x` on x faces and `sin_y` on y faces (|sin| of the angle between the ray and the face)
+/// meets at less than `min_sin`. This catches what the line fit cannot: a ray skimming one face
+/// of an obstacle's corner cell, entering the obstacle through the corner.
+pub fn meets_a_free_face_grazing(map: &OccupancyGrid, cell: CellCoord, sin_x: f64, sin_y: f64, min_sin: f64) -> bool {
+    if min_sin <= 0.0 {
+        return false;
+    }
+    let free = |dx: i32, dy: i32| map.get(CellCoord::new(cell.ix + dx, cell.iy + dy)) == Some(CellState::Free);
+    (sin_x < min_sin && (free(1, 0) || free(-1, 0))) || (sin_y < min_sin && (free(0, 1) || free(0, -1)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,6 +116,27 @@ mod tests {
         assert!(!is_grazing(&m, c, 1.0, 0.0, 0.0));
         assert!(!is_grazing(&m, CellCoord::new(20, 5), 1.0, 0.0, s));
         assert!(!is_grazing(&m, CellCoord::new(20, 15), 1.0, 0.0, s));
+    }
+
+    #[test]
+    fn a_ray_skimming_one_face_of_a_corner_cell_is_grazing() {
+        let g = GridGeometry::new(20, 20, 0.05, Pose2::IDENTITY).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        // Box [5, 10) × [5, 10): corner cell (9, 5) has free neighbours at +x and -y.
+        for y in 5..10 {
+            for x in 5..10 {
+                m.set(CellCoord::new(x, y), CellState::Unknown);
+            }
+        }
+        let s = 20f64.to_radians().sin();
+        let c = CellCoord::new(9, 5);
+        // Going up (+y) almost along the right face: grazing on the x face.
+        assert!(meets_a_free_face_grazing(&m, c, 0.04, 0.999, s));
+        // Diagonal through the corner: steep on both faces.
+        assert!(!meets_a_free_face_grazing(&m, c, 0.707, 0.707, s));
+        // An interior cell has no free face.
+        assert!(!meets_a_free_face_grazing(&m, CellCoord::new(7, 7), 0.04, 0.999, s));
+        assert!(!meets_a_free_face_grazing(&m, c, 0.04, 0.999, 0.0));
     }
 
     #[test]

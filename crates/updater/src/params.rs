@@ -184,6 +184,11 @@ pub struct UpdaterParams {
     /// the wall at less than this angle (see the `grazing` module), radians; 0 disables the
     /// gate. Default 20° (0.349; reference 0).
     pub removal_min_incidence_rad: f64,
+    /// Core of the removal ray (a project addition, not in the paper): a cell gets a "changed"
+    /// (removed) vote only if the ray passes within this many cells of its centre, so a ray
+    /// that clips a corner of the cell does not vote it; `inf` disables. Default 0.35
+    /// (reference `inf`).
+    pub removal_max_offset_cells: f64,
 
     // --- Cells update (§4.5) ---
     /// Run the map update at all; `false` is the `no-update` ablation (M_1 kept). Default `true`.
@@ -247,6 +252,7 @@ impl UpdaterParams {
             removal_hit_clearance_m: 0.20,
             free_pass_votes: true,
             removal_min_incidence_rad: 20f64.to_radians(),
+            removal_max_offset_cells: 0.35,
             map_update: true,
             buffer_size: 10,
             change_threshold: 7,
@@ -275,6 +281,7 @@ impl UpdaterParams {
             removal_hit_clearance_m: 0.0,
             free_pass_votes: false,
             removal_min_incidence_rad: 0.0,
+            removal_max_offset_cells: f64::INFINITY,
             neighbour_support: true,
             ..Self::paper()
         }
@@ -349,6 +356,7 @@ impl UpdaterParams {
         };
         non_neg_finite("gating_min_translation_m", self.gating_min_translation_m)?;
         non_neg_finite("removal_hit_clearance_m", self.removal_hit_clearance_m)?;
+        positive("removal_max_offset_cells", self.removal_max_offset_cells)?;
         if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.removal_min_incidence_rad) {
             return Err(bad(
                 "removal_min_incidence_rad",

@@ -55,6 +55,7 @@ fn without_additions() -> UpdaterParams {
         removal_hit_clearance_m: 0.0,
         removal_min_incidence_rad: 0.0,
         free_pass_votes: false,
+        removal_max_offset_cells: f64::INFINITY,
         ..UpdaterParams::paper()
     }
 }
@@ -109,4 +110,47 @@ fn added_box_face_is_not_smeared_towards_the_robot() {
     assert!(in_front(plain.map()) >= 5, "without free-pass votes the face smears: {}", in_front(plain.map()));
     assert_eq!(in_front(paper.map()), 0);
     assert!(face(paper.map()) >= 15, "the face is in the map: {} of 20 cells", face(paper.map()));
+}
+
+/// The shadow of a withheld vote: a ray that enters a box through its corner while skimming
+/// the box's side (the grazing gate withholds the corner's vote) gives no vote to the box's
+/// inside, nor, across a one-cell gap, to a box stacked on it (entered through its face, not a
+/// corner); a gap of three free cells ends the shadow.
+#[test]
+fn a_withheld_vote_shadows_the_obstacle_behind_it() {
+    use mapkeeper_grid::{GridGeometry, Point2};
+    use mapkeeper_updater::changed_cells::evaluate_changed_beam;
+    use mapkeeper_updater::hit_index::HitIndex;
+    for (gap, expect_votes_in_b) in [(1, false), (3, true)] {
+        let g = GridGeometry::new(40, 80, 0.05, Pose2::IDENTITY).unwrap();
+        let mut base = OccupancyGrid::filled(g, CellState::Free);
+        // Box A: cells x 10..=20, y 20..=35; box B, wider (x 10..=26), above it after `gap` free
+        // rows.
+        let b0 = 36 + gap;
+        let mut put_box = |x0: i32, x1: i32, y0: i32, y1: i32| {
+            for x in x0..=x1 {
+                for y in y0..=y1 {
+                    let edge = x == x0 || x == x1 || y == y0 || y == y1;
+                    base.set(CellCoord::new(x, y), if edge { CellState::Occupied } else { CellState::Unknown });
+                }
+            }
+        };
+        put_box(10, 20, 20, 35);
+        put_box(10, 26, b0, b0 + 15);
+        // Nearly vertical, inside the right column of both boxes' outlines (x = 20 is the right
+        // face; the ray runs in x ∈ [1.0, 1.05), entering A at its bottom-right corner cell).
+        let origin = Point2::new(1.03, 0.2);
+        let hit = Point2::new(1.02, 3.9);
+        let z = origin.distance(hit);
+        let mut votes = Vec::new();
+        evaluate_changed_beam(&base, origin, hit, z, &UpdaterParams::paper(), &HitIndex::new(), &mut votes);
+        let voted: Vec<CellCoord> = votes.iter().map(|v| g.coord((v >> 1) as usize)).collect();
+        assert!(!voted.iter().any(|c| (20..=35).contains(&c.iy)), "gap {gap}: box A voted: {voted:?}");
+        let in_b = voted.iter().any(|c| (b0..=b0 + 15).contains(&c.iy));
+        assert_eq!(in_b, expect_votes_in_b, "gap {gap}: {voted:?}");
+        // Without the additions the ray votes box A's cells.
+        votes.clear();
+        evaluate_changed_beam(&base, origin, hit, z, &without_additions(), &HitIndex::new(), &mut votes);
+        assert!(votes.iter().any(|v| (20..=35).contains(&g.coord((v >> 1) as usize).iy)));
+    }
 }

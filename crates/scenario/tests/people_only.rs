@@ -1,0 +1,62 @@
+//! The paper's claim about dynamic obstacles (§4.5): people walking about, in a world that did
+//! not change, leave the map as it was. The runs use the world's own ground truth G as M_{i-1}
+//! (so every change is a spurious one), the default route, and people only (the other robot
+//! removed). The `paper` preset's additions to the removal vote bring the changes from 744
+//! cells (additions off, measured on seed 1) to a few dozen.
+#![allow(clippy::unwrap_used)]
+
+use mapkeeper_grid::CellState;
+use mapkeeper_scenario::{NoClock, RunInputs, RunnerParams, run_world};
+use mapkeeper_sim::{AgentKind, Motion, Route, World, ground_truth_map};
+
+/// Runs the default route among people only, on the world's ground truth; returns (cells
+/// changed, free cells that became occupied).
+fn run(pauses: bool, seed: u64) -> (usize, usize) {
+    let mut world = World::default_warehouse();
+    world.agents.retain(|a| a.kind == AgentKind::Person);
+    assert!(world.agents.len() >= 4);
+    if !pauses {
+        for a in &mut world.agents {
+            if let Motion::RandomWalk { max_pause_s, .. } = &mut a.motion {
+                *max_pause_s = 0.0;
+            }
+        }
+    }
+    let geometry = world.default_map_geometry(0.05).unwrap();
+    let g = ground_truth_map(&world, &geometry);
+    let route = Route::default_warehouse();
+    let params = RunnerParams { run_baseline: false, ..RunnerParams::default() };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g };
+    let r = run_world(&inputs, &params, seed, "people-only", &NoClock).unwrap();
+    assert!(r.route_done, "seed {seed}");
+    assert_eq!(r.collisions, 0, "seed {seed}");
+    let changed: Vec<usize> = (0..g.cells().len()).filter(|&i| g.cells()[i] != r.map.cells()[i]).collect();
+    let new_occupied =
+        changed.iter().filter(|&&i| g.cells()[i] == CellState::Free && r.map.cells()[i] == CellState::Occupied).count();
+    (changed.len(), new_occupied)
+}
+
+/// People who do not pause at their waypoints still stop for the robot (up to 3 s, then turn
+/// back) right in its view; apart from such a waiting person nothing enters the map. The cells
+/// that change otherwise are obstacle cells that rays skimming a box side at long range (with
+/// the localiser's yaw error) still reach.
+#[test]
+fn walking_people_leave_little_trace() {
+    for seed in [1u64, 2] {
+        let (changed, new_occupied) = run(false, seed);
+        eprintln!("seed {seed}, no pauses: {changed} cells changed, {new_occupied} free -> occupied");
+        assert!(new_occupied <= 20, "seed {seed}: {new_occupied} free cells became occupied");
+        assert!(changed <= 60, "seed {seed}: {changed} cells changed");
+    }
+}
+
+/// People who stand still for up to 4 s in the robot's view are semi-static obstacles by the
+/// paper's rule (7 "changed" flags of the last 10): they enter the map and leave it only if the
+/// robot sees the spot free again. Pinned so that a change in that behaviour is noticed.
+#[test]
+fn people_standing_still_in_view_can_enter_the_map() {
+    let (changed, new_occupied) = run(true, 1);
+    eprintln!("seed 1, with pauses: {changed} cells changed, {new_occupied} free -> occupied");
+    assert!(new_occupied > 0 && new_occupied <= 40, "{new_occupied}");
+    assert!(changed <= 90, "{changed}");
+}
