@@ -188,6 +188,7 @@ pub struct UpdaterParams {
     /// (removed) vote only if the ray passes within this many cells of its centre, so a ray
     /// that clips a corner of the cell does not vote it; `inf` disables. Default 0.35
     /// (reference `inf`).
+    #[serde(with = "inf_as_text")]
     pub removal_max_offset_cells: f64,
 
     // --- Cells update (§4.5) ---
@@ -453,7 +454,9 @@ impl UpdaterParams {
 
 /// Serde of a limit where `inf` means "none": JSON has no infinity (serde_json would write
 /// `null` and could not read it back), so `inf` is written as the string `"inf"`; read back
-/// are numbers (TOML's `inf` too), `"inf"` / `"infinity"` (any case) and `null`.
+/// are numbers (TOML's `inf` too), `"inf"` / `"infinity"` (any case) and `null`. Every field
+/// that may hold `inf` carries `#[serde(with = "inf_as_text")]` (the test
+/// `infinite_limits_survive_json` catches one that does not, in any preset).
 mod inf_as_text {
     use serde::{Deserialize, Deserializer, Serializer};
 
@@ -523,7 +526,8 @@ mod tests {
 
     #[test]
     fn infinite_limits_survive_json() {
-        for p in [UpdaterParams::paper(), UpdaterParams::reference()] {
+        for name in PRESET_NAMES {
+            let p = UpdaterParams::preset(name).unwrap();
             let json = serde_json::to_string(&p).unwrap();
             assert_eq!(serde_json::from_str::<UpdaterParams>(&json).unwrap(), p, "{json}");
         }
