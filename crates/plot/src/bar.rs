@@ -193,6 +193,7 @@ impl BarChart {
             let items = self.bars(r).map(|(_, _, _, b)| b);
             chart
                 .configure_series_labels()
+                .legend_area_size(scale.px(30.0))
                 .position(render::legend_corner(r, legend_w, legend_h, items))
                 .label_font(scale.font(14.0))
                 .background_style(WHITE.mix(0.85))

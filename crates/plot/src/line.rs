@@ -64,6 +64,8 @@ pub struct LineChart {
     pub series: Vec<Series>,
     /// Fixed y axis range `(lo, hi)` with `lo < hi`, both finite; `None` for automatic.
     pub y_range: Option<(f64, f64)>,
+    /// Put x ticks on integers only (x is a count or an index, e.g. the world number).
+    pub x_integer: bool,
 }
 
 impl LineChart {
@@ -83,6 +85,13 @@ impl LineChart {
     #[must_use]
     pub fn with_y_range(mut self, lo: f64, hi: f64) -> Self {
         self.y_range = Some((lo, hi));
+        self
+    }
+
+    /// This chart with x ticks on integers only.
+    #[must_use]
+    pub fn with_integer_x(mut self) -> Self {
+        self.x_integer = true;
         self
     }
 
@@ -139,8 +148,12 @@ impl LineChart {
             .y_label_area_size(scale.px(64.0))
             .build_cartesian_2d(r.x0..r.x1, r.y0..r.y1)?;
         let tick = |v: &f64| render::format_tick(*v);
+        // Asking for no more labels than there are integers in the range makes plotters pick
+        // a step of 1 or more, so every tick is an integer.
+        let x_labels = if self.x_integer { integers_in(r.x0, r.x1).clamp(1, 10) } else { 10 };
         chart
             .configure_mesh()
+            .x_labels(x_labels)
             .x_desc(self.x_label.as_str())
             .y_desc(self.y_label.as_str())
             .x_label_formatter(&tick)
@@ -208,6 +221,7 @@ impl LineChart {
             });
             chart
                 .configure_series_labels()
+                .legend_area_size(scale.px(30.0))
                 .position(render::legend_corner(r, legend_w, legend_h, items))
                 .label_font(scale.font(14.0))
                 .background_style(WHITE.mix(0.85))
@@ -219,10 +233,33 @@ impl LineChart {
     }
 }
 
+/// How many integers lie in `[lo, hi]` (saturating; 0 for an empty or non-finite range).
+fn integers_in(lo: f64, hi: f64) -> usize {
+    if !(lo.is_finite() && hi.is_finite()) || hi < lo.ceil() {
+        return 0;
+    }
+    let n = hi.floor() - lo.ceil() + 1.0;
+    if n >= usize::MAX as f64 { usize::MAX } else { n as usize }
+}
+
 fn finite((x, y): (f64, f64)) -> bool {
     x.is_finite() && y.is_finite()
 }
 
 fn finite_band((x, lo, hi): (f64, f64, f64)) -> bool {
     x.is_finite() && lo.is_finite() && hi.is_finite()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integers_in_a_range_are_counted() {
+        assert_eq!(integers_in(1.98, 3.02), 2);
+        assert_eq!(integers_in(2.0, 2.0), 1);
+        assert_eq!(integers_in(2.1, 2.9), 0);
+        assert_eq!(integers_in(-0.5, 99.5), 100);
+        assert_eq!(integers_in(f64::NAN, 1.0), 0);
+    }
 }

@@ -271,3 +271,25 @@ fn bad_requests_are_errors_naming_the_file() {
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn integer_x_axis_has_integer_ticks_only() {
+    let dir = temp_dir("integer-x");
+    let path = dir.join("two-worlds.svg");
+    LineChart::new("Two worlds", "world i", "error (m)")
+        .with_series(Series::new("a", vec![(2.0, 0.5), (3.0, 0.7)]))
+        .with_integer_x()
+        .write_svg(&path)
+        .unwrap();
+    let texts = svg_texts(&std::fs::read_to_string(&path).unwrap());
+    assert!(texts.iter().any(|t| t == "2") && texts.iter().any(|t| t == "3"), "ticks: {texts:?}");
+    assert!(!texts.iter().any(|t| t.starts_with("2.")), "a fractional world tick: {texts:?}");
+    // Without the option, plotters puts ticks between the worlds.
+    LineChart::new("Two worlds", "world i", "error (m)")
+        .with_series(Series::new("a", vec![(2.0, 0.5), (3.0, 0.7)]))
+        .write_svg(&path)
+        .unwrap();
+    let texts = svg_texts(&std::fs::read_to_string(&path).unwrap());
+    assert!(texts.iter().any(|t| t.starts_with("2.")), "ticks: {texts:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -56,6 +56,17 @@ pub enum ScenarioError {
     /// The generator could not make a valid world.
     #[error("scenario generator: {0}")]
     Generator(String),
+    /// Writing a figure failed.
+    #[error(transparent)]
+    Plot(#[from] mapkeeper_plot::PlotError),
+    /// A result folder cannot be merged (or read back).
+    #[error("{}: cannot merge: {problem}", dir.display())]
+    Merge {
+        /// The result folder.
+        dir: PathBuf,
+        /// What is wrong with it.
+        problem: crate::merge::MergeProblem,
+    },
 }
 
 impl ScenarioError {

@@ -16,8 +16,10 @@
 #![warn(missing_docs)]
 
 mod error;
+pub mod figures;
 pub mod generator;
 pub mod mapping;
+pub mod merge;
 pub mod outline;
 pub mod output;
 pub mod report;
@@ -31,4 +33,7 @@ pub use output::StagedDir;
 pub use runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
 };
-pub use validation::{Scores, SeedRun, Summary, ValidationParams, WorldRow, run_seed, run_seed_in, summarise};
+pub use validation::{
+    Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed, run_seed_in,
+    summarise, summarise_records,
+};

@@ -1,16 +1,18 @@
 //! The files of a validation folder and of a scenario set.
 //!
-//! Validation folder: `worlds.csv`, `summary.json`, `report.md`, `edits.json`, and per seed
-//! `seed-S/maps/{M,G}_iii.{yaml,pgm}` (M_1, G_1 and the saved worlds) and
-//! `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
+//! Validation folder: `runs.json` (the machine-readable record everything else is computed
+//! from), `summary.json`, `worlds.csv`, `report.md`, `edits.json`, `plots/` (the paper's
+//! Fig. 24-27, SVG and PNG, [`crate::figures`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
+//! (M_1, G_1 and the saved worlds) and `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
 //!
 //! Scenario set (`generate`): `manifest.json`, `route.toml`, `worlds/W_iii.toml`,
 //! `ground_truth/G_iii.{yaml,pgm}`. Same seed ⇒ byte-identical files.
 
 use crate::ScenarioError;
+use crate::figures::{Figure, write_figures};
 use crate::generator::WorldChain;
 use crate::output::StagedDir;
-use crate::validation::{SeedRun, Summary, WorldRow};
+use crate::validation::{SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
 use mapkeeper_grid::GridGeometry;
 use mapkeeper_grid::map_io::save_map;
 use mapkeeper_sensor::tum::format_tum;
@@ -105,7 +107,7 @@ fn csv_row(w: &WorldRow) -> String {
 }
 
 /// `worlds.csv`: one row per world and seed, seeds in the given order.
-pub fn worlds_csv(runs: &[SeedRun]) -> String {
+pub fn worlds_csv(runs: &[SeedRecord]) -> String {
     let mut s = WORLDS_CSV_COLUMNS.join(",");
     s.push('\n');
     for r in runs {
@@ -148,8 +150,31 @@ effect:
 | Table 1, always-update → with localisation check (M_2/G_2) | 66.86 → 70.03 | 55.11 → 61.24 | 90.40 → 95.87 |
 ";
 
-/// `report.md`: the results beside the paper's claims.
+/// Markdown lines showing the figures of the given stems (SVG shown, PNG linked).
+fn figure_lines(s: &mut String, figures: &[Figure], stems: &[&str]) {
+    let shown: Vec<&Figure> = figures.iter().filter(|f| stems.contains(&f.stem)).collect();
+    if shown.is_empty() {
+        return;
+    }
+    for f in shown {
+        let _ = writeln!(
+            s,
+            "![{paper}: {caption}]({svg})  \n*{paper}: {caption}* ([PNG]({png}))\n",
+            paper = f.paper,
+            caption = f.caption,
+            svg = f.svg_path(),
+            png = f.png_path()
+        );
+    }
+}
+
+/// `report.md`: the results beside the paper's claims, without figures.
 pub fn report_md(summary: &Summary) -> String {
+    report_md_with_figures(summary, &[])
+}
+
+/// `report.md`: the results beside the paper's claims, showing `figures` (in `plots/`).
+pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     let mut s = String::new();
     let q = &summary.map_quality;
     let l = &summary.localisation;
@@ -188,7 +213,9 @@ pub fn report_md(summary: &Summary) -> String {
             100.0 * m.updated_better_fraction
         );
     }
-    let _ = writeln!(s, "\n## Localisation (Fig. 25-26)\n");
+    let _ = writeln!(s);
+    figure_lines(&mut s, figures, &["fig24a_cc", "fig24b_ms", "fig24c_opdf"]);
+    let _ = writeln!(s, "## Localisation (Fig. 25-26)\n");
     let _ = writeln!(
         s,
         "| map used by the localiser | mean error (m) | mean max error (m) | largest error (m) | RMSE (m) | mean trace(P) | mean λmax(P) |"
@@ -207,6 +234,11 @@ pub fn report_md(summary: &Summary) -> String {
          (paper: lower errors and lower uncertainty with the updated map).\n",
         100.0 * l.updated_better_fraction,
         100.0 * l.updated_lower_trace_fraction
+    );
+    figure_lines(
+        &mut s,
+        figures,
+        &["fig25a_position_error", "fig25b_max_position_error", "fig26a_trace", "fig26b_lambda_max"],
     );
     let u = &summary.updater;
     let _ = writeln!(s, "## Updater (Fig. 27)\n");
@@ -227,6 +259,7 @@ pub fn report_md(summary: &Summary) -> String {
         summary.routes_completed,
         summary.rows
     );
+    figure_lines(&mut s, figures, &["fig27a_updater_time", "fig27b_updater_memory"]);
     let _ = writeln!(s, "## The paper's figures\n");
     s.push_str(PAPER_CLAIMS);
     let _ = writeln!(
@@ -238,13 +271,34 @@ pub fn report_md(summary: &Summary) -> String {
     s
 }
 
-/// Writes the whole validation folder into `dir`.
-pub fn write_validation(dir: &StagedDir, runs: &[SeedRun], summary: &Summary) -> Result<(), ScenarioError> {
-    dir.write("worlds.csv", worlds_csv(runs).as_bytes())?;
-    dir.write("summary.json", summary_json(summary)?.as_bytes())?;
-    dir.write("report.md", report_md(summary).as_bytes())?;
-    let edits: Vec<_> = runs.iter().map(|r| (r.seed, &r.edits)).collect();
+/// `runs.json` text.
+pub fn runs_json(record: &ValidationRecord) -> Result<String, ScenarioError> {
+    json("runs.json", record)
+}
+
+/// Writes everything of a validation folder that is computed from its record: `runs.json`,
+/// `summary.json`, `worlds.csv`, `edits.json`, the figures in `plots/` and `report.md`.
+/// Returns the summary.
+pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summary, ScenarioError> {
+    let summary = record.summary();
+    dir.write("runs.json", runs_json(record)?.as_bytes())?;
+    dir.write("summary.json", summary_json(&summary)?.as_bytes())?;
+    dir.write("worlds.csv", worlds_csv(&record.seeds).as_bytes())?;
+    let edits: Vec<_> = record.seeds.iter().map(|r| (r.seed, &r.edits)).collect();
     dir.write("edits.json", json("edits.json", &edits)?.as_bytes())?;
+    let figures = write_figures(dir, record)?;
+    dir.write("report.md", report_md_with_figures(&summary, &figures).as_bytes())?;
+    Ok(summary)
+}
+
+/// Writes the whole validation folder into `dir`: [`write_results`] for `record` (made from
+/// `runs`), and each seed's maps and trajectories. Returns the summary.
+pub fn write_validation(
+    dir: &StagedDir,
+    runs: &[SeedRun],
+    record: &ValidationRecord,
+) -> Result<Summary, ScenarioError> {
+    let summary = write_results(dir, record)?;
     for r in runs {
         let base = format!("seed-{}", r.seed);
         save_map(&r.initial_map, &dir.file(&format!("{base}/maps/M_001.yaml"))?)?;
@@ -262,7 +316,7 @@ pub fn write_validation(dir: &StagedDir, runs: &[SeedRun], summary: &Summary) ->
             }
         }
     }
-    Ok(())
+    Ok(summary)
 }
 
 /// The manifest of a scenario set.

@@ -62,8 +62,12 @@ impl Default for ValidationParams {
 
 impl ValidationParams {
     /// Defaults with `worlds` worlds and the updater preset `preset`.
+    /// The saved worlds are W_2, W_50, W_100 and W_N, those ≤ N.
     pub fn new(worlds: usize, preset: &str) -> Result<Self, ScenarioError> {
-        let mut p = Self { worlds, preset: preset.to_string(), ..Self::default() };
+        let mut saved_worlds: Vec<usize> = [2, 50, 100, worlds].into_iter().filter(|&w| w <= worlds).collect();
+        saved_worlds.sort_unstable();
+        saved_worlds.dedup();
+        let mut p = Self { worlds, preset: preset.to_string(), saved_worlds, ..Self::default() };
         p.runner.updater = UpdaterParams::preset(preset)?;
         p.validate()?;
         Ok(p)
@@ -197,6 +201,174 @@ pub struct SeedRun {
     pub saved: Vec<SavedWorld>,
     /// Updater time per processed scan over all worlds, microseconds (empty without a clock).
     pub scan_times_us: Vec<u32>,
+}
+
+impl SeedRun {
+    /// The machine-readable part of this run (everything but maps and trajectories): what
+    /// `runs.json` holds and the summary is computed from.
+    pub fn record(&self) -> SeedRecord {
+        SeedRecord {
+            seed: self.seed,
+            initial_scores: self.initial_scores,
+            rows: self.rows.clone(),
+            edits: self.edits.clone(),
+            scan_time_histogram_us: scan_time_histogram(&self.scan_times_us),
+        }
+    }
+}
+
+/// One seed in `runs.json`: the per-world rows at full precision, M_1/G_1, the generator's
+/// edits and the updater's time per processed scan as a histogram, from which the summary is
+/// recomputed exactly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeedRecord {
+    /// The run seed.
+    pub seed: u64,
+    /// M_1 / G_1.
+    pub initial_scores: Scores,
+    /// One row per world i = 2 … N, in world order.
+    pub rows: Vec<WorldRow>,
+    /// The edits per world (index 0 = W_1, empty).
+    pub edits: Vec<Vec<Edit>>,
+    /// Updater time per processed scan: `[microseconds, count]` pairs, microseconds strictly
+    /// increasing, counts ≥ 1 (empty without a clock).
+    pub scan_time_histogram_us: Vec<(u32, u64)>,
+}
+
+/// The exact histogram of integer scan times: `(value, count)`, values increasing.
+pub fn scan_time_histogram(times_us: &[u32]) -> Vec<(u32, u64)> {
+    let mut sorted = times_us.to_vec();
+    sorted.sort_unstable();
+    let mut h: Vec<(u32, u64)> = Vec::new();
+    for t in sorted {
+        match h.last_mut() {
+            Some((v, c)) if *v == t => *c += 1,
+            _ => h.push((t, 1)),
+        }
+    }
+    h
+}
+
+/// Merges histograms (each with increasing values) into one.
+fn merge_histograms<'a>(hs: impl Iterator<Item = &'a [(u32, u64)]>) -> Vec<(u32, u64)> {
+    let mut all: Vec<(u32, u64)> = hs.flat_map(|h| h.iter().copied()).collect();
+    all.sort_unstable_by_key(|&(v, _)| v);
+    let mut out: Vec<(u32, u64)> = Vec::with_capacity(all.len());
+    for (v, c) in all {
+        match out.last_mut() {
+            Some((w, d)) if *w == v => *d += c,
+            _ => out.push((v, c)),
+        }
+    }
+    out
+}
+
+/// The median of the values a histogram counts (the mean of the two middle ones for an even
+/// count), 0 for an empty histogram: the same as the median of the values themselves.
+pub fn histogram_median(h: &[(u32, u64)]) -> f64 {
+    let n: u64 = h.iter().map(|&(_, c)| c).sum();
+    if n == 0 {
+        return 0.0;
+    }
+    // The value at 0-based rank k.
+    let at = |k: u64| {
+        let mut seen = 0u64;
+        for &(v, c) in h {
+            seen += c;
+            if k < seen {
+                return f64::from(v);
+            }
+        }
+        0.0
+    };
+    if n % 2 == 1 { at(n / 2) } else { (at(n / 2 - 1) + at(n / 2)) / 2.0 }
+}
+
+/// Which slice of the seeds a run covers: shard `index` (1-based) of `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Shard {
+    /// 1 … `count`.
+    pub index: u64,
+    /// Number of shards, ≥ 1.
+    pub count: u64,
+}
+
+impl Shard {
+    /// The seeds of this shard: the `index`-th of `count` contiguous, nearly equal slices of
+    /// `seeds` (slice sizes differ by at most one). `None` if the shard is out of range or
+    /// there are fewer seeds than shards (some shard would be empty).
+    pub fn slice<'a>(&self, seeds: &'a [u64]) -> Option<&'a [u64]> {
+        if self.count == 0 || self.index == 0 || self.index > self.count || self.count > seeds.len() as u64 {
+            return None;
+        }
+        let n = seeds.len() as u128;
+        let (k, c) = (u128::from(self.index), u128::from(self.count));
+        let lo = usize::try_from((k - 1) * n / c).ok()?;
+        let hi = usize::try_from(k * n / c).ok()?;
+        (hi > lo).then(|| &seeds[lo..hi])
+    }
+}
+
+/// Value of `runs.json`'s `format` field.
+pub const RUNS_FORMAT: &str = "mapkeeper-validation-runs";
+/// Version of the `runs.json` layout.
+pub const RUNS_FORMAT_VERSION: u32 = 1;
+
+/// `runs.json`: the machine-readable record of a validation folder, from which `summary.json`,
+/// `worlds.csv`, `edits.json`, `report.md` and the plots are recomputed exactly (what
+/// `mapkeeper merge` combines).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValidationRecord {
+    /// Always [`RUNS_FORMAT`].
+    pub format: String,
+    /// [`RUNS_FORMAT_VERSION`].
+    pub format_version: u32,
+    /// Producer and version.
+    pub tool: String,
+    /// Whether the updater was timed (false with `--no-timing`: all times 0).
+    pub timing: bool,
+    /// Wall time, seconds (the sum over merged folders; 0 when not measured).
+    pub wall_time_s: f64,
+    /// The shard this folder holds, `None` for a whole run or a merge.
+    pub shard: Option<Shard>,
+    /// The parameters.
+    pub params: ValidationParams,
+    /// One record per seed, in seed order.
+    pub seeds: Vec<SeedRecord>,
+}
+
+impl ValidationRecord {
+    /// The record of `runs` (in seed order) made with `params`.
+    pub fn new(
+        params: &ValidationParams,
+        runs: &[SeedRun],
+        timing: bool,
+        wall_time_s: f64,
+        shard: Option<Shard>,
+    ) -> Self {
+        ValidationRecord {
+            format: RUNS_FORMAT.into(),
+            format_version: RUNS_FORMAT_VERSION,
+            tool: tool_name(),
+            timing,
+            wall_time_s,
+            shard,
+            params: params.clone(),
+            seeds: runs.iter().map(SeedRun::record).collect(),
+        }
+    }
+
+    /// The summary of this record.
+    pub fn summary(&self) -> Summary {
+        summarise_records(&self.params, &self.seeds, self.wall_time_s)
+    }
+}
+
+fn tool_name() -> String {
+    format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION"))
 }
 
 fn median_u32(v: &mut [u32]) -> f64 {
@@ -416,7 +588,7 @@ fn frac(v: impl Iterator<Item = bool>) -> f64 {
     if n == 0 { 0.0 } else { t as f64 / n as f64 }
 }
 
-fn metric_summary(runs: &[SeedRun], f: impl Fn(&Scores) -> f64) -> MetricSummary {
+fn metric_summary(runs: &[SeedRecord], f: impl Fn(&Scores) -> f64) -> MetricSummary {
     let rows = || runs.iter().flat_map(|r| r.rows.iter());
     let last = || runs.iter().filter_map(|r| r.rows.last());
     MetricSummary {
@@ -428,7 +600,7 @@ fn metric_summary(runs: &[SeedRun], f: impl Fn(&Scores) -> f64) -> MetricSummary
     }
 }
 
-fn loc_summary(runs: &[SeedRun], f: impl Fn(&WorldRow) -> &LocStats) -> LocSummary {
+fn loc_summary(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> &LocStats) -> LocSummary {
     let rows = || runs.iter().flat_map(|r| r.rows.iter()).map(&f);
     LocSummary {
         mean_error_m: mean(rows().map(|s| s.mean_error_m)),
@@ -442,11 +614,18 @@ fn loc_summary(runs: &[SeedRun], f: impl Fn(&WorldRow) -> &LocStats) -> LocSumma
 
 /// The summary over seeds (in the given order). `wall_time_s` is supplied by the caller.
 pub fn summarise(params: &ValidationParams, runs: &[SeedRun], wall_time_s: f64) -> Summary {
+    let records: Vec<SeedRecord> = runs.iter().map(SeedRun::record).collect();
+    summarise_records(params, &records, wall_time_s)
+}
+
+/// [`summarise`] from the seeds' records (e.g. read back from `runs.json` files): the same
+/// summary, bit for bit.
+pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_time_s: f64) -> Summary {
     let rows = || runs.iter().flat_map(|r| r.rows.iter());
-    let mut times: Vec<u32> = runs.iter().flat_map(|r| r.scan_times_us.iter().copied()).collect();
+    let times = merge_histograms(runs.iter().map(|r| r.scan_time_histogram_us.as_slice()));
     let sum_u = |f: fn(&UpdaterCounts) -> u64| rows().map(|w| f(&w.updater)).sum::<u64>();
     Summary {
-        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+        tool: tool_name(),
         seeds: runs.iter().map(|r| r.seed).collect(),
         worlds: params.worlds,
         preset: params.preset.clone(),
@@ -468,7 +647,7 @@ pub fn summarise(params: &ValidationParams, runs: &[SeedRun], wall_time_s: f64) 
             updated_lower_trace_fraction: frac(rows().map(|w| w.loc_updated.mean_trace < w.loc_static.mean_trace)),
         },
         updater: UpdaterSummary {
-            median_scan_us: median_u32(&mut times),
+            median_scan_us: histogram_median(&times),
             max_state_bytes: rows().map(|w| w.updater.max_state_bytes).max().unwrap_or(0),
             processed_scans: sum_u(|u| u.processed),
             beams: sum_u(|u| u.beams),
@@ -483,5 +662,61 @@ pub fn summarise(params: &ValidationParams, runs: &[SeedRun], wall_time_s: f64) 
         rows: rows().count(),
         sim_time_s: rows().map(|w| w.sim_time_s).sum(),
         params: params.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histogram_median_is_the_median_of_the_values_and_merges_exactly() {
+        // A deterministic scramble of small integers with repeats.
+        let times: Vec<u32> = (0..101u32).map(|k| (k * 37 + 11) % 23 + 100).collect();
+        for n in [0, 1, 2, 3, 10, 51, 100, 101] {
+            let mut v = times[..n].to_vec();
+            let h = scan_time_histogram(&v);
+            assert!(h.windows(2).all(|w| w[0].0 < w[1].0), "values increase");
+            assert_eq!(h.iter().map(|&(_, c)| c).sum::<u64>(), n as u64);
+            assert_eq!(histogram_median(&h), median_u32(&mut v), "n = {n}");
+        }
+        let (a, b) = times.split_at(40);
+        let merged = merge_histograms([scan_time_histogram(a), scan_time_histogram(b)].iter().map(Vec::as_slice));
+        assert_eq!(merged, scan_time_histogram(&times));
+        assert_eq!(histogram_median(&[(7, 2), (9, 2)]), 8.0);
+    }
+
+    #[test]
+    fn shards_cover_the_seeds_once_in_order() {
+        let seeds: Vec<u64> = (10..17).collect();
+        for count in 1..=7 {
+            let joined: Vec<u64> = (1..=count)
+                .flat_map(|index| Shard { index, count }.slice(&seeds).expect("non-empty").to_vec())
+                .collect();
+            assert_eq!(joined, seeds, "{count} shards");
+        }
+        assert_eq!(Shard { index: 2, count: 3 }.slice(&seeds), Some(&seeds[2..4]));
+        assert_eq!(Shard { index: 0, count: 3 }.slice(&seeds), None);
+        assert_eq!(Shard { index: 4, count: 3 }.slice(&seeds), None);
+        assert_eq!(Shard { index: 1, count: 0 }.slice(&seeds), None);
+        assert_eq!(Shard { index: 8, count: 8 }.slice(&seeds), None, "more shards than seeds");
+    }
+
+    #[test]
+    fn params_of_every_preset_survive_json_and_toml() {
+        for preset in mapkeeper_updater::PRESET_NAMES {
+            let p = ValidationParams::new(4, preset).expect("valid");
+            let json = serde_json::to_string(&p).expect("json");
+            assert_eq!(serde_json::from_str::<ValidationParams>(&json).expect("read json"), p, "{preset}");
+            let toml = toml::to_string(&p).expect("toml");
+            assert_eq!(toml::from_str::<ValidationParams>(&toml).expect("read toml"), p, "{preset}");
+        }
+    }
+
+    #[test]
+    fn saved_worlds_hold_the_last_world() {
+        assert_eq!(ValidationParams::new(3, "paper").expect("valid").saved_worlds, vec![2, 3]);
+        assert_eq!(ValidationParams::new(100, "paper").expect("valid").saved_worlds, vec![2, 50, 100]);
+        assert_eq!(ValidationParams::new(60, "paper").expect("valid").saved_worlds, vec![2, 50, 60]);
     }
 }

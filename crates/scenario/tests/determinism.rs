@@ -1,8 +1,15 @@
 //! Determinism contract: the same seed gives bit-identical summaries (wall time and timings
-//! are not measured here: no clock) and maps, whatever the number of threads running seeds.
+//! are not measured here: no clock) and maps, whatever the number of threads running seeds;
+//! and a summary recomputed from the seeds' records read back from `runs.json` (in any
+//! grouping of seeds, as `mapkeeper merge` does) is the very same summary.
+//!
+//! The CLI-level twin (`crates/cli/tests/validate_cli.rs`) runs the binary twice and compares
+//! the folders, and merges shards.
 
-use mapkeeper_scenario::report::{summary_json, worlds_csv};
-use mapkeeper_scenario::{NoClock, SeedRun, ValidationParams, run_seed, summarise};
+use mapkeeper_scenario::report::{runs_json, summary_json, worlds_csv};
+use mapkeeper_scenario::{
+    NoClock, SeedRun, Shard, ValidationParams, ValidationRecord, run_seed, summarise, summarise_records,
+};
 use rayon::prelude::*;
 
 fn params() -> ValidationParams {
@@ -26,7 +33,8 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
     let b = run_on(2, &[5, 6]);
     let (sa, sb) = (summarise(&p, &a, 0.0), summarise(&p, &b, 0.0));
     assert_eq!(summary_json(&sa).unwrap(), summary_json(&sb).unwrap());
-    assert_eq!(worlds_csv(&a), worlds_csv(&b));
+    let records = |r: &[SeedRun]| r.iter().map(SeedRun::record).collect::<Vec<_>>();
+    assert_eq!(worlds_csv(&records(&a)), worlds_csv(&records(&b)));
     for (ra, rb) in a.iter().zip(&b) {
         assert_eq!(ra.initial_map, rb.initial_map);
         assert_eq!(ra.saved.len(), 2);
@@ -37,6 +45,18 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
     }
     // Different seeds differ.
     assert_ne!(a[0].rows[0].loc_updated, a[1].rows[0].loc_updated);
+
+    // The records survive runs.json exactly, and give the same summary, whole or in shards.
+    let whole = ValidationRecord::new(&p, &a, false, 0.0, None);
+    let back: ValidationRecord = serde_json::from_str(&runs_json(&whole).unwrap()).unwrap();
+    assert_eq!(back, whole, "runs.json does not round-trip");
+    assert_eq!(back.summary(), sa);
+    let shard = |k| ValidationRecord::new(&p, &a[k - 1..k], false, 0.0, Some(Shard { index: k as u64, count: 2 }));
+    let (s1, s2) = (shard(1), shard(2));
+    // Shards read in any order, put in seed order (as `merge` does).
+    let mut sorted: Vec<_> = s2.seeds.iter().chain(&s1.seeds).cloned().collect();
+    sorted.sort_by_key(|r| r.seed);
+    assert_eq!(summary_json(&summarise_records(&p, &sorted, 0.0)).unwrap(), summary_json(&sa).unwrap());
 }
 
 #[test]

@@ -113,6 +113,7 @@ pub struct UpdaterParams {
     /// …and at least this long after the last processed scan, seconds. Default 0 (reference 0.3).
     pub gating_min_interval_s: f64,
     /// Pause the update after a rotation faster than this, rad/s (`inf` = never; reference 12°/s).
+    #[serde(with = "inf_as_text")]
     pub fast_rotation_rad_s: f64,
     /// The pause lasts at least this long, seconds. Default 1.2 (only with `fast_rotation_rad_s`).
     pub fast_rotation_pause_s: f64,
@@ -122,6 +123,7 @@ pub struct UpdaterParams {
     // --- Beam classifier (§4.1, Appendix A.1) ---
     /// Beams at or beyond this range are invalid, metres; `inf` = each lidar's own maximum.
     /// Default `inf` (reference 18).
+    #[serde(with = "inf_as_text")]
     pub max_range_m: f64,
     /// n_e: virtual rays on each side of a beam. Default 1.
     pub virtual_rays_each_side: u32,
@@ -154,6 +156,7 @@ pub struct UpdaterParams {
     /// tol intercept, metres. Default 0.10 (reference 0.15).
     pub tol_intercept_m: f64,
     /// tol cap, metres (`inf` = uncapped). Default 0.20 (reference `inf`).
+    #[serde(with = "inf_as_text")]
     pub tol_max_m: f64,
     /// Final chunk skipped by the changed evaluator: max(slope·z, min), slope. Default 0.02.
     pub skip_changed_slope: f64,
@@ -185,6 +188,7 @@ pub struct UpdaterParams {
     /// (removed) vote only if the ray passes within this many cells of its centre, so a ray
     /// that clips a corner of the cell does not vote it; `inf` disables. Default 0.35
     /// (reference `inf`).
+    #[serde(with = "inf_as_text")]
     pub removal_max_offset_cells: f64,
 
     // --- Cells update (§4.5) ---
@@ -448,6 +452,37 @@ impl UpdaterParams {
     }
 }
 
+/// Serde of a limit where `inf` means "none": JSON has no infinity (serde_json would write
+/// `null` and could not read it back), so `inf` is written as the string `"inf"`; read back
+/// are numbers (TOML's `inf` too), `"inf"` / `"infinity"` (any case) and `null`. Every field
+/// that may hold `inf` carries `#[serde(with = "inf_as_text")]` (the test
+/// `infinite_limits_survive_json` catches one that does not, in any preset).
+mod inf_as_text {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if *v == f64::INFINITY { s.serialize_str("inf") } else { s.serialize_f64(*v) }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Repr {
+        Number(f64),
+        Text(String),
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Option::<Repr>::deserialize(d)? {
+            Some(Repr::Number(v)) => Ok(v),
+            None => Ok(f64::INFINITY),
+            Some(Repr::Text(t)) if t.eq_ignore_ascii_case("inf") || t.eq_ignore_ascii_case("infinity") => {
+                Ok(f64::INFINITY)
+            }
+            Some(Repr::Text(t)) => Err(serde::de::Error::custom(format!("expected a number or \"inf\", got \"{t}\""))),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -487,6 +522,21 @@ mod tests {
         let mut p = UpdaterParams::paper();
         p.change_slope = f64::NAN;
         assert!(p.validate().is_err());
+    }
+
+    #[test]
+    fn infinite_limits_survive_json() {
+        for name in PRESET_NAMES {
+            let p = UpdaterParams::preset(name).unwrap();
+            let json = serde_json::to_string(&p).unwrap();
+            assert_eq!(serde_json::from_str::<UpdaterParams>(&json).unwrap(), p, "{json}");
+        }
+        assert!(serde_json::to_string(&UpdaterParams::paper()).unwrap().contains(r#""max_range_m":"inf""#));
+        let p: UpdaterParams = serde_json::from_str(r#"{"tol_max_m": null, "max_range_m": 18.0}"#).unwrap();
+        assert_eq!((p.tol_max_m, p.max_range_m), (f64::INFINITY, 18.0));
+        let p: UpdaterParams = serde_json::from_str(r#"{"max_range_m": "Infinity"}"#).unwrap();
+        assert_eq!(p.max_range_m, f64::INFINITY);
+        assert!(serde_json::from_str::<UpdaterParams>(r#"{"tol_max_m": "far"}"#).is_err());
     }
 
     #[test]

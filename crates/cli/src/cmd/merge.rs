@@ -1,10 +1,39 @@
-//! `mapkeeper merge`.
+//! `mapkeeper merge`: combine validation folders (shards of one sweep, or runs of other seeds
+//! with the same parameters) into one folder, as if one run had made it.
+
+use mapkeeper_scenario::merge::merge_dirs;
+use std::path::PathBuf;
 
 /// Arguments of `mapkeeper merge`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+#[command(after_help = "Each DIR is a `mapkeeper validate` folder (or an earlier merge). Their runs.json records \
+are checked (summary.json must agree, every seed-S/ folder must be there) and must have the same tool \
+version, parameters (worlds, preset, everything) and timing mode, and no seed twice. OUT gets runs.json, \
+summary.json, worlds.csv, edits.json, report.md and plots/ recomputed over all seeds in seed order (the \
+same files a single run over those seeds writes; wall_time_s is the sum), and the seed-S/ folders copied.")]
+pub struct Args {
+    /// The result folders to merge.
+    #[arg(required = true, value_name = "DIR")]
+    pub dirs: Vec<PathBuf>,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Replace an existing non-empty output folder.
+    #[arg(long)]
+    pub force: bool,
+}
 
 /// Runs the subcommand.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'mapkeeper merge' is not available yet in this build")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let (_, summary) = merge_dirs(&args.dirs, &args.out, args.force)?;
+    println!(
+        "merge: {} folder(s), seeds {:?}, {} worlds, preset {}",
+        args.dirs.len(),
+        summary.seeds,
+        summary.worlds,
+        summary.preset
+    );
+    super::validate::print_summary(&summary);
+    println!("wrote {}", args.out.display());
+    Ok(())
 }

@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mapkeeper_scenario::report::write_validation;
-use mapkeeper_scenario::{Clock, NoClock, SeedRun, StagedDir, ValidationParams, run_seed, summarise};
+use mapkeeper_scenario::{Clock, NoClock, SeedRun, Shard, StagedDir, ValidationParams, ValidationRecord, run_seed};
 use rayon::prelude::*;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -15,9 +15,12 @@ use std::time::Instant;
 #[command(after_help = "For each seed: generate W_1 … W_N; build M_1 in W_1 with the log-odds mapper; in each \
 W_i (i ≥ 2) drive the route with a chain localiser on M_{i-1} (feeding the updater, which makes M_i) and a \
 baseline localiser on M_1; score M_1/G_i and M_i/G_i with CC, MS, OPDF.\n\n\
-Output in OUT (default results/validate-s<SEED>-<N>w-<counter>): worlds.csv, summary.json, report.md, \
-edits.json, seed-S/maps (M_i, G_i of W_1, W_2, W_50, W_100), seed-S/trajectories (TUM: true, chain, \
-baseline). Results are identical whatever --jobs; only wall_time_s and median_scan_us vary.")]
+Output in OUT (default results/validate-s<SEED>-<N>w-<counter>): runs.json, summary.json, worlds.csv, \
+report.md, edits.json, plots/ (Fig. 24-27, SVG and PNG), seed-S/maps (M_i, G_i of W_1, W_2, W_50, W_100, \
+W_N), seed-S/trajectories (TUM: true, chain, baseline). Results are identical whatever --jobs; only \
+wall_time_s and median_scan_us vary (not with --no-timing).\n\n\
+Sharding: --shard k/N runs the k-th of N contiguous slices of the seeds; `mapkeeper merge` combines the \
+shards' folders into the folder of the whole run.")]
 pub struct Args {
     /// Number of worlds N.
     #[arg(long, default_value_t = 100)]
@@ -46,6 +49,22 @@ pub struct Args {
     /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
     #[arg(long)]
     pub no_timing: bool,
+    /// Run only the k-th of N slices of the seeds (1 ≤ k ≤ N ≤ --seeds); merge the shards'
+    /// folders with `mapkeeper merge`.
+    #[arg(long, value_name = "k/N", value_parser = parse_shard)]
+    pub shard: Option<Shard>,
+}
+
+/// Parses `k/N` with 1 ≤ k ≤ N.
+fn parse_shard(s: &str) -> Result<Shard, String> {
+    let bad = || format!("expected k/N with 1 ≤ k ≤ N (e.g. 2/4), got '{s}'");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let index: u64 = k.trim().parse().map_err(|_| bad())?;
+    let count: u64 = n.trim().parse().map_err(|_| bad())?;
+    if index == 0 || count == 0 || index > count {
+        return Err(bad());
+    }
+    Ok(Shard { index, count })
 }
 
 struct Wall(Instant);
@@ -56,10 +75,11 @@ impl Clock for Wall {
     }
 }
 
-fn default_out(seed: u64, worlds: usize) -> PathBuf {
+fn default_out(seed: u64, worlds: usize, shard: Option<Shard>) -> PathBuf {
+    let part = shard.map(|s| format!("-shard{}of{}", s.index, s.count)).unwrap_or_default();
     let mut k = 1;
     loop {
-        let p = PathBuf::from(format!("results/validate-s{seed}-{worlds}w-{k:03}"));
+        let p = PathBuf::from(format!("results/validate-s{seed}-{worlds}w{part}-{k:03}"));
         if !p.exists() {
             return p;
         }
@@ -79,9 +99,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         params.route = ValidationParams::short_route(len);
     }
-    let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds));
+    let all_seeds: Vec<u64> = (0..args.seeds).map(|k| args.seed.saturating_add(k)).collect();
+    if all_seeds.windows(2).any(|w| w[0] == w[1]) {
+        bail!("--seed {} with --seeds {} runs past the largest seed", args.seed, args.seeds);
+    }
+    let seeds: Vec<u64> = match args.shard {
+        None => all_seeds,
+        Some(sh) => match sh.slice(&all_seeds) {
+            Some(s) => s.to_vec(),
+            None => bail!(
+                "--shard {}/{}: {} seed(s) cannot make {} non-empty shards",
+                sh.index,
+                sh.count,
+                args.seeds,
+                sh.count
+            ),
+        },
+    };
+    let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     let dir = StagedDir::create(&out, args.force)?;
-    let seeds: Vec<u64> = (0..args.seeds).map(|k| args.seed + k).collect();
     let total = seeds.len() as u64 * args.worlds as u64;
     let bar = ProgressBar::new(total);
     if std::io::stderr().is_terminal() {
@@ -114,18 +150,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     let wall_time_s = start.elapsed().as_secs_f64();
-    let summary = summarise(&params, &runs, if args.no_timing { 0.0 } else { wall_time_s });
-    write_validation(&dir, &runs, &summary)?;
+    let timing = !args.no_timing;
+    let record = ValidationRecord::new(&params, &runs, timing, if timing { wall_time_s } else { 0.0 }, args.shard);
+    let summary = write_validation(&dir, &runs, &record)?;
     let out = dir.finish()?;
-    let q = &summary.map_quality;
-    let l = &summary.localisation;
+    let shard = args.shard.map(|s| format!(" (shard {}/{}: seeds {:?})", s.index, s.count, seeds)).unwrap_or_default();
     println!(
-        "validate: {} seed(s) × {} worlds, preset {}, {:.1} s wall",
+        "validate: {} seed(s) × {} worlds, preset {}, {:.1} s wall{shard}",
         seeds.len(),
         args.worlds,
         args.preset,
         wall_time_s
     );
+    print_summary(&summary);
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+/// The summary table printed by `validate` and `merge`.
+pub fn print_summary(summary: &mapkeeper_scenario::Summary) {
+    let q = &summary.map_quality;
+    let l = &summary.localisation;
     println!(
         "M_1/G_1: CC {:.2}  MS {:.2}  OPDF {:.2}",
         summary.initial_map.cc, summary.initial_map.ms, summary.initial_map.opdf
@@ -156,6 +201,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.routes_completed,
         summary.rows
     );
-    println!("wrote {}", out.display());
-    Ok(())
 }

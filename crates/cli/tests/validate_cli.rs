@@ -1,0 +1,362 @@
+//! End-to-end tests of `mapkeeper validate` and `mapkeeper merge`, run as the real binary on
+//! tiny validations (3 worlds, 2 seeds, a 10 m route).
+//!
+//! Determinism contract checked here: the same seeds give the same folder, file for file and
+//! byte for byte, under `--no-timing`, whatever the thread count and whether the seeds ran in
+//! one process or in shards merged afterwards; with timing on, only `wall_time_s` and the
+//! `median_scan_us` figures differ.
+// Helpers outside `#[test]` functions unwrap too: a failure is a test failure.
+#![allow(clippy::unwrap_used)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The figure files every validation folder holds (stems under `plots/`).
+const FIGURES: [&str; 9] = [
+    "fig24a_cc",
+    "fig24b_ms",
+    "fig24c_opdf",
+    "fig25a_position_error",
+    "fig25b_max_position_error",
+    "fig26a_trace",
+    "fig26b_lambda_max",
+    "fig27a_updater_time",
+    "fig27b_updater_memory",
+];
+
+/// This test binary's scratch folder (one per process).
+fn scratch() -> PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let d = std::env::temp_dir().join(format!("mapkeeper-validate-cli-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    })
+    .clone()
+}
+
+/// The number of `#[test]` functions in this file: the last one to pass removes the scratch
+/// folder (it is kept when a test fails, or when tests are filtered).
+const TESTS: usize = 5;
+
+/// Called at the end of each test.
+fn done() {
+    static PASSED: AtomicUsize = AtomicUsize::new(0);
+    if PASSED.fetch_add(1, Ordering::SeqCst) + 1 == TESTS {
+        let _ = std::fs::remove_dir_all(scratch());
+    }
+}
+
+fn mapkeeper(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(args).output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// `validate` of 3 worlds (unless `extra` says otherwise) on a 10 m route into
+/// `scratch()/name`, with `extra` arguments.
+fn validate(name: &str, extra: &[&str]) -> PathBuf {
+    let out = scratch().join(name);
+    let o = out.to_str().unwrap();
+    let mut args = vec!["validate", "--route-length", "10", "--out", o];
+    if !extra.contains(&"--worlds") {
+        args.extend(["--worlds", "3"]);
+    }
+    args.extend_from_slice(extra);
+    let r = mapkeeper(&args);
+    assert!(r.status.success(), "validate {extra:?} failed: {}", stderr(&r));
+    out
+}
+
+/// Seeds 1 and 2 in one untimed run (shared by the tests).
+fn whole() -> &'static Path {
+    static D: OnceLock<PathBuf> = OnceLock::new();
+    D.get_or_init(|| validate("whole", &["--seeds", "2", "--no-timing"]))
+}
+
+/// The same as shards 1/2 and 2/2, on one thread each.
+fn shards() -> &'static (PathBuf, PathBuf) {
+    static D: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
+    D.get_or_init(|| {
+        let a = validate("shard1", &["--seeds", "2", "--no-timing", "--shard", "1/2", "--jobs", "1"]);
+        let b = validate("shard2", &["--seeds", "2", "--no-timing", "--shard", "2/2", "--jobs", "1"]);
+        (a, b)
+    })
+}
+
+/// Every file under `dir`, by path relative to it.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(base: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                let rel = p.strip_prefix(base).unwrap().to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    for (rel, bytes) in files(from) {
+        let p = to.join(rel);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, bytes).unwrap();
+    }
+}
+
+/// Width and height of a PNG file, after checking its signature, header chunk and end chunk.
+fn png_size(bytes: &[u8]) -> (u32, u32) {
+    assert!(bytes.len() > 57, "too short for a PNG");
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "PNG signature");
+    assert_eq!(&bytes[8..16], b"\0\0\0\x0dIHDR", "first chunk is a 13-byte IHDR");
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    assert_eq!((bytes[24], bytes[25]), (8, 2), "8-bit RGB");
+    assert_eq!(&bytes[bytes.len() - 12..], b"\0\0\0\0IEND\xae\x42\x60\x82", "ends with IEND");
+    (be(&bytes[16..20]), be(&bytes[20..24]))
+}
+
+#[test]
+fn validate_writes_every_figure_as_svg_and_png_and_the_report_shows_them() {
+    let dir = whole();
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    for stem in FIGURES {
+        let svg = std::fs::read_to_string(dir.join(format!("plots/{stem}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"), "{stem}.svg is not an SVG document");
+        let names: &[&str] = match stem {
+            s if s.starts_with("fig24") => &["M_1 / G_i (static)", "M_i / G_i (updated)"],
+            s if s.starts_with("fig25") || s.starts_with("fig26") => {
+                &["localiser on M_1 (static)", "localiser on M_i-1 (updated)", "mean over 2 seeds"]
+            }
+            "fig27a_updater_time" => &["not measured"],
+            _ => &["updater"],
+        };
+        for name in names {
+            assert!(svg.contains(name), "{stem}.svg lacks {name:?}");
+        }
+        // Lines are drawn (a polyline per series and world range), not only the legend.
+        if !stem.starts_with("fig27a") {
+            assert!(svg.matches("<polyline").count() >= 2, "{stem}.svg draws no line");
+        }
+        let png = std::fs::read(dir.join(format!("plots/{stem}.png"))).unwrap();
+        assert_eq!(png_size(&png), (1200, 750), "{stem}.png");
+        assert!(report.contains(&format!("](plots/{stem}.svg)")), "report.md does not show {stem}.svg");
+        assert!(report.contains(&format!("](plots/{stem}.png)")), "report.md does not link {stem}.png");
+    }
+    let names: Vec<String> = files(dir).into_keys().collect();
+    for f in ["runs.json", "summary.json", "worlds.csv", "edits.json", "report.md", "seed-2/maps/M_003.pgm"] {
+        assert!(names.iter().any(|n| n == f), "{f} missing in {names:?}");
+    }
+    assert!(!names.iter().any(|n| n.contains(".tmp")), "a temporary file was left: {names:?}");
+    done();
+}
+
+#[test]
+fn merged_shards_equal_the_unsharded_run_file_for_file() {
+    let (a, b) = shards();
+    let merged = scratch().join("merged");
+    let r = mapkeeper(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "--out", merged.to_str().unwrap()]);
+    assert!(r.status.success(), "merge failed: {}", stderr(&r));
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(stdout.contains("seeds [1, 2]"), "{stdout}");
+
+    // Each shard holds its own seed only, and says which shard it is.
+    let runs: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("runs.json")).unwrap()).unwrap();
+    assert_eq!(runs["shard"], serde_json::json!({"index": 1, "count": 2}));
+    assert_eq!(runs["seeds"].as_array().unwrap().len(), 1);
+    assert!(!b.join("seed-1").exists() && b.join("seed-2").exists());
+
+    let (want, got) = (files(whole()), files(&merged));
+    assert_eq!(want.keys().collect::<Vec<_>>(), got.keys().collect::<Vec<_>>(), "not the same files");
+    for (name, bytes) in &want {
+        assert!(got[name] == *bytes, "{name} differs between the unsharded run and the merged shards");
+    }
+    // Merging in the other order gives the same folder.
+    let merged2 = scratch().join("merged-reversed");
+    let r = mapkeeper(&["merge", b.to_str().unwrap(), a.to_str().unwrap(), "--out", merged2.to_str().unwrap()]);
+    assert!(r.status.success(), "merge failed: {}", stderr(&r));
+    assert!(files(&merged2) == got);
+    done();
+}
+
+/// Without `--no-timing`, on one thread: the same results as the untimed run on all cores,
+/// but for the wall time and the updater times.
+#[test]
+fn validate_twice_gives_the_same_summary_maps_and_trajectories() {
+    let timed = validate("timed", &["--seeds", "2", "--jobs", "1"]);
+    let untimed = whole();
+    let summary = |d: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join("summary.json")).unwrap()).unwrap()
+    };
+    let (mut t, mut u) = (summary(&timed), summary(untimed));
+    assert!(t["wall_time_s"].as_f64().unwrap() > 0.0, "timed run without wall time");
+    assert!(t["updater"]["median_scan_us"].as_f64().unwrap() > 0.0, "timed run without updater time");
+    assert_eq!(u["wall_time_s"].as_f64(), Some(0.0));
+    for v in [&mut t, &mut u] {
+        let o = v.as_object_mut().unwrap();
+        o.remove("wall_time_s");
+        o["updater"].as_object_mut().unwrap().remove("median_scan_us");
+    }
+    assert_eq!(t, u, "summary.json differs beyond the timing fields");
+
+    // worlds.csv without its median_scan_us column.
+    let csv = |d: &Path| -> Vec<String> {
+        let text = std::fs::read_to_string(d.join("worlds.csv")).unwrap();
+        let col = text.lines().next().unwrap().split(',').position(|c| c == "median_scan_us").unwrap();
+        text.lines()
+            .map(|l| l.split(',').enumerate().filter(|(i, _)| *i != col).map(|(_, c)| c).collect::<Vec<_>>().join(","))
+            .collect()
+    };
+    assert_eq!(csv(&timed), csv(untimed));
+
+    let (ft, fu) = (files(&timed), files(untimed));
+    let seed_files: Vec<&String> = fu.keys().filter(|k| k.starts_with("seed-")).collect();
+    assert!(seed_files.iter().any(|k| k.ends_with("M_003.pgm")) && seed_files.iter().any(|k| k.ends_with(".tum")));
+    for k in seed_files {
+        assert!(ft.get(k) == fu.get(k), "{k} differs between the two runs");
+    }
+    assert!(ft["edits.json"] == fu["edits.json"]);
+    done();
+}
+
+/// Runs `merge dirs… --out scratch()/out` and returns its error message (the run must fail).
+fn merge_error(dirs: &[&Path], out: &str) -> String {
+    let out = scratch().join(out);
+    let mut args: Vec<&str> = vec!["merge"];
+    args.extend(dirs.iter().map(|d| d.to_str().unwrap()));
+    args.extend(["--out", out.to_str().unwrap()]);
+    let r = mapkeeper(&args);
+    assert!(!r.status.success(), "merge of {dirs:?} succeeded");
+    assert!(!out.exists(), "a refused merge left an output folder");
+    let staging = out.with_file_name(format!(".{}.partial", out.file_name().unwrap().to_string_lossy()));
+    assert!(!staging.exists(), "a refused merge left a staging folder");
+    stderr(&r)
+}
+
+/// An edit replacing every `from` by `to`.
+fn edit_all(from: &'static str, to: &'static str) -> impl Fn(&str) -> String {
+    move |t: &str| t.replace(from, to)
+}
+
+/// A copy of `from` named `name`, with `edit` applied to the text of each of `files`.
+fn edited_copy(from: &Path, name: &str, files: &[&str], edit: &dyn Fn(&str) -> String) -> PathBuf {
+    let to = scratch().join(name);
+    copy_dir(from, &to);
+    for f in files {
+        let p = to.join(f);
+        let text = std::fs::read_to_string(&p).unwrap();
+        let new = edit(&text);
+        assert_ne!(new, text, "the edit of {f} changed nothing");
+        std::fs::write(&p, new).unwrap();
+    }
+    to
+}
+
+#[test]
+fn merge_refuses_folders_that_do_not_belong_together() {
+    let (a, b) = shards();
+    let b_str = b.to_str().unwrap();
+    let mention = |e: &str, dir: &Path, what: &str| {
+        assert!(e.contains(dir.to_str().unwrap()) && e.contains(what), "expected {what:?} about {dir:?}, got: {e}");
+    };
+
+    // The same seed twice.
+    let e = merge_error(&[a, whole()], "m-dup");
+    mention(&e, whole(), "seed 1 is also in");
+
+    // Another number of worlds (a real run: seed 3, 2 worlds).
+    let two = validate("two-worlds", &["--seed", "3", "--worlds", "2", "--no-timing"]);
+    let e = merge_error(&[a, &two], "m-worlds");
+    mention(&e, &two, "has 2 worlds, the first folder 3");
+
+    // Another preset (both files edited alike, so that the folder itself is consistent).
+    let preset = edited_copy(
+        b,
+        "preset",
+        &["runs.json", "summary.json"],
+        &edit_all("\"preset\": \"paper\"", "\"preset\": \"reference\""),
+    );
+    mention(&merge_error(&[a, &preset], "m-preset"), &preset, "updater preset 'reference', the first folder 'paper'");
+
+    // Another value of a parameter deep inside.
+    let text = std::fs::read_to_string(b.join("runs.json")).unwrap();
+    assert_eq!(text.matches("\"max_speed_mps\": 1.5").count(), 1);
+    let param = edited_copy(
+        b,
+        "param",
+        &["runs.json", "summary.json"],
+        &edit_all("\"max_speed_mps\": 1.5", "\"max_speed_mps\": 1.25"),
+    );
+    mention(&merge_error(&[a, &param], "m-param"), &param, "params.runner.sim.robot.max_speed_mps differs");
+
+    // Timed and untimed.
+    let timed = edited_copy(b, "timing", &["runs.json"], &edit_all("\"timing\": false", "\"timing\": true"));
+    mention(&merge_error(&[a, &timed], "m-timing"), &timed, "timed and untimed");
+
+    // Missing files and folders.
+    let no_runs = scratch().join("no-runs");
+    copy_dir(b, &no_runs);
+    std::fs::remove_file(no_runs.join("runs.json")).unwrap();
+    mention(&merge_error(&[a, &no_runs], "m-no-runs"), &no_runs, "runs.json is missing");
+    let no_seed = scratch().join("no-seed");
+    copy_dir(b, &no_seed);
+    std::fs::remove_dir_all(no_seed.join("seed-2")).unwrap();
+    mention(&merge_error(&[a, &no_seed], "m-no-seed"), &no_seed, "seed-2/ is missing");
+    let nowhere = scratch().join("does-not-exist");
+    mention(&merge_error(&[a, &nowhere], "m-nowhere"), &nowhere, "no such folder");
+
+    // Bad JSON, and a summary that does not match the record.
+    let bad = edited_copy(b, "bad-json", &["runs.json"], &|t: &str| t[..t.len() / 2].to_owned());
+    mention(&merge_error(&[a, &bad], "m-bad"), &bad, "runs.json: EOF while parsing");
+    let wrong = edited_copy(b, "wrong-summary", &["summary.json"], &edit_all("\"rows\": 2", "\"rows\": 3"));
+    mention(&merge_error(&[a, &wrong], "m-wrong"), &wrong, "summary.json does not match");
+
+    // And the good pair still merges (the refusals left nothing behind).
+    let ok = scratch().join("m-ok");
+    let r = mapkeeper(&["merge", a.to_str().unwrap(), b_str, "--out", ok.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    // An existing output folder is refused without --force.
+    let r = mapkeeper(&["merge", a.to_str().unwrap(), b_str, "--out", ok.to_str().unwrap()]);
+    assert!(!r.status.success() && stderr(&r).contains("--force"), "{}", stderr(&r));
+    done();
+}
+
+#[test]
+fn bad_shards_are_refused_before_any_work() {
+    for (shard, seeds, want) in [
+        ("0/2", "2", "expected k/N"),
+        ("3/2", "2", "expected k/N"),
+        ("1/0", "2", "expected k/N"),
+        ("a/b", "2", "expected k/N"),
+        ("2", "2", "expected k/N"),
+        ("3/3", "2", "cannot make 3 non-empty shards"),
+    ] {
+        let out = scratch().join(format!("bad-shard-{}", shard.replace('/', "-")));
+        let r = mapkeeper(&[
+            "validate",
+            "--worlds",
+            "3",
+            "--seeds",
+            seeds,
+            "--shard",
+            shard,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!r.status.success(), "--shard {shard} accepted");
+        assert!(stderr(&r).contains(want), "--shard {shard}: {}", stderr(&r));
+        assert!(!out.exists());
+    }
+    done();
+}

@@ -1,0 +1,343 @@
+//! Reading validation folders back and merging them (`mapkeeper merge`): shards of one sweep
+//! (`validate --shard k/N`), or runs of different seeds with the same parameters, become one
+//! folder whose summary, tables, report and figures are exactly those of a single run over all
+//! their seeds.
+//!
+//! The source of truth of a folder is its `runs.json` ([`ValidationRecord`]); `summary.json`
+//! must agree with it, and each seed's `seed-S/` folder (maps, trajectories) must be present,
+//! as it is copied into the merged folder. Folders are refused, with the folder and the problem
+//! named ([`MergeProblem`]), when a file is missing or unreadable, when their tool version,
+//! format, world count, preset, any other parameter or timing mode differ, or when a seed
+//! appears twice.
+
+use crate::ScenarioError;
+use crate::output::StagedDir;
+use crate::report::write_results;
+use crate::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, Summary, ValidationRecord};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Why a folder cannot be read back or merged.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MergeProblem {
+    /// The path does not exist.
+    NoSuchFolder,
+    /// The path is not a folder.
+    NotAFolder,
+    /// A file or folder the merge needs is missing.
+    MissingFile(String),
+    /// A file is not valid JSON or does not have the expected fields.
+    BadJson {
+        /// The file, relative to the folder.
+        file: String,
+        /// The parser's message (with line and column).
+        message: String,
+    },
+    /// `runs.json` is of another format or version.
+    WrongFormat(String),
+    /// The record contradicts itself (rows, edits, parameters) or `summary.json` disagrees.
+    Inconsistent(String),
+    /// Made by another tool version than the first folder.
+    ToolMismatch {
+        /// The first folder's tool.
+        expected: String,
+        /// This folder's.
+        got: String,
+    },
+    /// Another number of worlds than the first folder.
+    WorldsMismatch {
+        /// The first folder's N.
+        expected: usize,
+        /// This folder's.
+        got: usize,
+    },
+    /// Another updater preset than the first folder.
+    PresetMismatch {
+        /// The first folder's preset.
+        expected: String,
+        /// This folder's.
+        got: String,
+    },
+    /// Another value of a parameter than the first folder.
+    ParamsMismatch {
+        /// The parameter, as a path into `params` (e.g. `runner.updater.n_b`).
+        field: String,
+    },
+    /// Timed in one folder, `--no-timing` in the other.
+    TimingMismatch,
+    /// A seed already given by another folder (or twice in this one).
+    DuplicateSeed {
+        /// The seed.
+        seed: u64,
+        /// The folder that has it already.
+        first: PathBuf,
+    },
+    /// Nothing to merge.
+    NoInput,
+}
+
+impl fmt::Display for MergeProblem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MergeProblem::NoSuchFolder => write!(f, "no such folder"),
+            MergeProblem::NotAFolder => write!(f, "not a folder"),
+            MergeProblem::MissingFile(file) => write!(f, "{file} is missing"),
+            MergeProblem::BadJson { file, message } => write!(f, "{file}: {message}"),
+            MergeProblem::WrongFormat(m) => write!(f, "runs.json: {m}"),
+            MergeProblem::Inconsistent(m) => write!(f, "{m}"),
+            MergeProblem::ToolMismatch { expected, got } => {
+                write!(f, "made by {got}, the first folder by {expected}")
+            }
+            MergeProblem::WorldsMismatch { expected, got } => {
+                write!(f, "has {got} worlds, the first folder {expected}")
+            }
+            MergeProblem::PresetMismatch { expected, got } => {
+                write!(f, "updater preset '{got}', the first folder '{expected}'")
+            }
+            MergeProblem::ParamsMismatch { field } => {
+                write!(f, "parameter params.{field} differs from the first folder's")
+            }
+            MergeProblem::TimingMismatch => {
+                write!(f, "timed and untimed (--no-timing) folders cannot be merged")
+            }
+            MergeProblem::DuplicateSeed { seed, first } => {
+                write!(f, "seed {seed} is also in {}", first.display())
+            }
+            MergeProblem::NoInput => write!(f, "no folder to merge"),
+        }
+    }
+}
+
+fn problem(dir: &Path, problem: MergeProblem) -> ScenarioError {
+    ScenarioError::Merge { dir: dir.to_path_buf(), problem }
+}
+
+/// Reads `dir/file` as text; a missing file is [`MergeProblem::MissingFile`].
+fn read_text(dir: &Path, file: &str) -> Result<String, ScenarioError> {
+    let p = dir.join(file);
+    std::fs::read_to_string(&p).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::NotFound {
+            problem(dir, MergeProblem::MissingFile(file.into()))
+        } else {
+            ScenarioError::Io { path: p, source: e }
+        }
+    })
+}
+
+fn bad_json(dir: &Path, file: &str, e: &serde_json::Error) -> ScenarioError {
+    problem(dir, MergeProblem::BadJson { file: file.into(), message: e.to_string() })
+}
+
+/// Reads and checks a validation folder: `runs.json` (format, version, rows and edits complete
+/// for every seed, parameters valid, no seed twice), `summary.json` (equal to the summary
+/// recomputed from `runs.json`, but for the tool name) and a `seed-S/` folder per seed.
+pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ScenarioError> {
+    if !dir.is_dir() {
+        return Err(problem(dir, if dir.exists() { MergeProblem::NotAFolder } else { MergeProblem::NoSuchFolder }));
+    }
+    let text = read_text(dir, "runs.json")?;
+    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad_json(dir, "runs.json", &e))?;
+    let format = value.get("format").and_then(serde_json::Value::as_str).unwrap_or_default();
+    if format != RUNS_FORMAT {
+        return Err(problem(dir, MergeProblem::WrongFormat(format!("format is '{format}', expected '{RUNS_FORMAT}'"))));
+    }
+    let version = value.get("format_version").and_then(serde_json::Value::as_u64);
+    if version != Some(u64::from(RUNS_FORMAT_VERSION)) {
+        return Err(problem(
+            dir,
+            MergeProblem::WrongFormat(format!(
+                "format_version is {}, this build reads {RUNS_FORMAT_VERSION}",
+                version.map_or_else(|| "missing".to_owned(), |v| v.to_string())
+            )),
+        ));
+    }
+    let record: ValidationRecord = serde_json::from_str(&text).map_err(|e| bad_json(dir, "runs.json", &e))?;
+    check_record(dir, &record)?;
+
+    let text = read_text(dir, "summary.json")?;
+    let summary: Summary = serde_json::from_str(&text).map_err(|e| bad_json(dir, "summary.json", &e))?;
+    let recomputed = Summary { tool: summary.tool.clone(), ..record.summary() };
+    if recomputed != summary {
+        return Err(problem(
+            dir,
+            MergeProblem::Inconsistent("summary.json does not match the summary of runs.json".into()),
+        ));
+    }
+    for s in &record.seeds {
+        let sub = format!("seed-{}", s.seed);
+        if !dir.join(&sub).is_dir() {
+            return Err(problem(dir, MergeProblem::MissingFile(format!("{sub}/"))));
+        }
+    }
+    Ok(record)
+}
+
+/// Every seed has rows for W_2 … W_N in order and N edit lists; parameters are valid; no seed
+/// twice.
+fn check_record(dir: &Path, r: &ValidationRecord) -> Result<(), ScenarioError> {
+    let inconsistent = |m: String| problem(dir, MergeProblem::Inconsistent(format!("runs.json: {m}")));
+    r.params.validate().map_err(|e| inconsistent(e.to_string()))?;
+    if r.seeds.is_empty() {
+        return Err(inconsistent("no seed".into()));
+    }
+    let n = r.params.worlds;
+    let mut seen = BTreeMap::new();
+    for s in &r.seeds {
+        if seen.insert(s.seed, ()).is_some() {
+            return Err(problem(dir, MergeProblem::DuplicateSeed { seed: s.seed, first: dir.to_path_buf() }));
+        }
+        let ok_rows =
+            s.rows.len() == n - 1 && s.rows.iter().enumerate().all(|(k, w)| w.world == k + 2 && w.seed == s.seed);
+        if !ok_rows {
+            return Err(inconsistent(format!("seed {}: the rows are not W_2 … W_{n} of this seed", s.seed)));
+        }
+        if s.edits.len() != n {
+            return Err(inconsistent(format!("seed {}: {} edit lists for {n} worlds", s.seed, s.edits.len())));
+        }
+        if s.scan_time_histogram_us.windows(2).any(|w| w[0].0 >= w[1].0)
+            || s.scan_time_histogram_us.iter().any(|&(_, c)| c == 0)
+        {
+            return Err(inconsistent(format!(
+                "seed {}: scan_time_histogram_us needs increasing times and counts ≥ 1",
+                s.seed
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The first place where two JSON values differ, as a dotted path ("" if they are equal).
+fn first_difference(a: &serde_json::Value, b: &serde_json::Value, path: &str) -> Option<String> {
+    use serde_json::Value;
+    let join = |k: &str| if path.is_empty() { k.to_owned() } else { format!("{path}.{k}") };
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            for (k, va) in x {
+                match y.get(k) {
+                    Some(vb) => {
+                        if let Some(d) = first_difference(va, vb, &join(k)) {
+                            return Some(d);
+                        }
+                    }
+                    None => return Some(join(k)),
+                }
+            }
+            y.keys().find(|k| !x.contains_key(*k)).map(|k| join(k))
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+            x.iter().zip(y).enumerate().find_map(|(i, (va, vb))| first_difference(va, vb, &format!("{path}[{i}]")))
+        }
+        _ => (a != b).then(|| path.to_owned()),
+    }
+}
+
+/// Merges checked records (each with its folder, for the errors): same tool, parameters and
+/// timing mode, no seed twice. The result holds all seeds in seed order, the summed wall time
+/// and no shard.
+pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<ValidationRecord, ScenarioError> {
+    let Some((_, first)) = inputs.first() else {
+        return Err(problem(Path::new(""), MergeProblem::NoInput));
+    };
+    let first_params = serde_json::to_value(&first.params)
+        .map_err(|e| ScenarioError::Serialise { what: "params".into(), message: e.to_string() })?;
+    let mut owner: BTreeMap<u64, &Path> = BTreeMap::new();
+    let mut seeds = Vec::new();
+    let mut wall_time_s = 0.0;
+    for (dir, r) in inputs {
+        if r.tool != first.tool {
+            return Err(problem(dir, MergeProblem::ToolMismatch { expected: first.tool.clone(), got: r.tool.clone() }));
+        }
+        if r.params.worlds != first.params.worlds {
+            return Err(problem(
+                dir,
+                MergeProblem::WorldsMismatch { expected: first.params.worlds, got: r.params.worlds },
+            ));
+        }
+        if r.params.preset != first.params.preset {
+            return Err(problem(
+                dir,
+                MergeProblem::PresetMismatch { expected: first.params.preset.clone(), got: r.params.preset.clone() },
+            ));
+        }
+        if r.params != first.params {
+            let p = serde_json::to_value(&r.params)
+                .map_err(|e| ScenarioError::Serialise { what: "params".into(), message: e.to_string() })?;
+            let field = first_difference(&first_params, &p, "").unwrap_or_default();
+            return Err(problem(dir, MergeProblem::ParamsMismatch { field }));
+        }
+        if r.timing != first.timing {
+            return Err(problem(dir, MergeProblem::TimingMismatch));
+        }
+        for s in &r.seeds {
+            if let Some(other) = owner.insert(s.seed, dir) {
+                return Err(problem(dir, MergeProblem::DuplicateSeed { seed: s.seed, first: other.to_path_buf() }));
+            }
+            seeds.push(s.clone());
+        }
+        wall_time_s += r.wall_time_s;
+    }
+    seeds.sort_by_key(|s| s.seed);
+    Ok(ValidationRecord { wall_time_s, shard: None, seeds, ..first.clone() })
+}
+
+/// Copies the regular files under `from` to `rel` inside `out`, recursively.
+fn copy_tree(from: &Path, out: &StagedDir, rel: &str) -> Result<(), ScenarioError> {
+    let mut entries: Vec<_> = std::fs::read_dir(from)
+        .map_err(ScenarioError::io(from))?
+        .collect::<Result<_, _>>()
+        .map_err(ScenarioError::io(from))?;
+    entries.sort_by_key(std::fs::DirEntry::file_name);
+    for e in entries {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let path = e.path();
+        let sub = format!("{rel}/{name}");
+        let kind = e.file_type().map_err(ScenarioError::io(&path))?;
+        if kind.is_dir() {
+            copy_tree(&path, out, &sub)?;
+        } else if kind.is_file() {
+            let target = out.file(&sub)?;
+            std::fs::copy(&path, &target).map_err(ScenarioError::io(&path))?;
+        }
+    }
+    Ok(())
+}
+
+/// Reads, checks and merges the folders `dirs` into the folder `out` (refused if it exists and
+/// is not empty, unless `force`; written atomically, and only once every input passed its
+/// checks): `runs.json`, `summary.json`, `worlds.csv`, `edits.json`, `report.md` and the
+/// figures recomputed from the merged record, and every seed's `seed-S/` folder copied.
+/// Returns the merged record and its summary.
+pub fn merge_dirs(dirs: &[PathBuf], out: &Path, force: bool) -> Result<(ValidationRecord, Summary), ScenarioError> {
+    let inputs =
+        dirs.iter().map(|d| Ok((d.clone(), load_result_dir(d)?))).collect::<Result<Vec<_>, ScenarioError>>()?;
+    let merged = merge_records(&inputs)?;
+    let staged = StagedDir::create(out, force)?;
+    let summary = write_results(&staged, &merged)?;
+    for (dir, r) in &inputs {
+        for s in &r.seeds {
+            let sub = format!("seed-{}", s.seed);
+            copy_tree(&dir.join(&sub), &staged, &sub)?;
+        }
+    }
+    staged.finish()?;
+    Ok((merged, summary))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn first_difference_names_the_field() {
+        let a = json!({"worlds": 3, "runner": {"updater": {"n_b": 5, "k": [1, 2]}}});
+        let b = json!({"worlds": 3, "runner": {"updater": {"n_b": 6, "k": [1, 2]}}});
+        assert_eq!(first_difference(&a, &b, ""), Some("runner.updater.n_b".into()));
+        let c = json!({"worlds": 3, "runner": {"updater": {"n_b": 5, "k": [1, 3]}}});
+        assert_eq!(first_difference(&a, &c, ""), Some("runner.updater.k[1]".into()));
+        assert_eq!(first_difference(&a, &a, ""), None);
+        let d = json!({"worlds": 3});
+        assert_eq!(first_difference(&a, &d, ""), Some("runner".into()));
+    }
+}
