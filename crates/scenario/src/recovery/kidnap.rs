@@ -97,6 +97,9 @@ pub struct KidnapTrial {
     pub final_yaw_error_rad: Option<f64>,
     /// Lost verdicts in the same run without kidnap.
     pub reference_lost: u64,
+    /// The chain localiser's error at its last sensor update in the run without kidnap, metres
+    /// (how well it localises there at all).
+    pub reference_final_error_m: Option<f64>,
     /// OPDF of the final map against G_k.
     pub opdf_kidnap: f64,
     /// OPDF of the final map of the run without kidnap against G_k.
@@ -151,6 +154,8 @@ pub struct KidnapSummary {
     pub map_damage_opdf: f64,
     /// Largest damage of a trial, percentage points.
     pub map_damage_opdf_max: f64,
+    /// Trials whose damage exceeds 1 point.
+    pub damaged_trials: usize,
     /// Mean OPDF between the final maps with and without kidnap.
     pub opdf_vs_reference: f64,
     /// Poses returned by pose updating, over all trials.
@@ -211,6 +216,7 @@ pub fn summarise_kidnap(case: MapCase, trials: &[KidnapTrial], params: &KidnapPa
         p90_recovery_s: percentile(times(&t), 0.9),
         map_damage_opdf: mean(t.iter().map(|x| x.map_damage_opdf)),
         map_damage_opdf_max: t.iter().map(|x| x.map_damage_opdf).fold(0.0, f64::max),
+        damaged_trials: t.iter().filter(|x| x.map_damage_opdf > 1.0).count(),
         opdf_vs_reference: mean(t.iter().map(|x| x.opdf_vs_reference)),
         pose_recoveries: t.iter().map(|x| x.recoveries).sum(),
         wrong_pose_recoveries: t.iter().map(|x| x.wrong_recoveries).sum(),
@@ -275,6 +281,7 @@ pub fn run_kidnap_trial(
         final_error_m: track.last().map(|s| s.error_m),
         final_yaw_error_rad: track.last().map(|s| s.yaw_error_rad),
         reference_lost: reference.updater.lost,
+        reference_final_error_m: reference.chain_errors.last().map(|e| e.error_m),
         opdf_kidnap,
         opdf_reference,
         map_damage_opdf: opdf_reference - opdf_kidnap,

@@ -29,6 +29,7 @@ pub const KIDNAP_CSV_COLUMNS: &[&str] = &[
     "final_error_m",
     "final_yaw_error_deg",
     "reference_lost",
+    "reference_final_error_m",
     "opdf_kidnap",
     "opdf_reference",
     "map_damage_opdf",
@@ -63,6 +64,7 @@ fn kidnap_row(t: &KidnapTrial) -> String {
         opt(t.final_error_m),
         opt(t.final_yaw_error_rad.map(f64::to_degrees)),
         t.reference_lost.to_string(),
+        opt(t.reference_final_error_m),
         format!("{:.4}", t.opdf_kidnap),
         format!("{:.4}", t.opdf_reference),
         format!("{:.4}", t.map_damage_opdf),
@@ -203,6 +205,7 @@ fn kidnap_section(s: &mut String, k: &KidnapSummary, title: &str) {
         ("map damage: OPDF drop vs the run without kidnap (mean / max)", {
             format!("{:.3} / {:.3} points", k.map_damage_opdf, k.map_damage_opdf_max)
         }),
+        ("trials with a damage above 1 point", k.damaged_trials.to_string()),
         ("OPDF between the maps with and without kidnap (mean)", format!("{:.2} %", k.opdf_vs_reference)),
         (
             "poses returned by pose updating / wrong ones accepted",
