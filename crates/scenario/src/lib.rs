@@ -22,7 +22,9 @@ pub mod mapping;
 pub mod merge;
 pub mod outline;
 pub mod output;
+pub mod recovery;
 pub mod report;
+pub mod run_events;
 pub mod runner;
 pub mod validation;
 
@@ -30,6 +32,8 @@ pub use error::ScenarioError;
 pub use generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
 pub use mapping::{InitialMap, MappingParams, build_initial_map};
 pub use output::StagedDir;
+pub use recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
+pub use run_events::{Kidnap, KidnapRecord, TimelineSample, TrackSample};
 pub use runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
 };

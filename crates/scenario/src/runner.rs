@@ -9,7 +9,8 @@
 //! reported as 0 and the work counters (processed scans, beams) stand in for it.
 
 use crate::ScenarioError;
-use mapkeeper_grid::{OccupancyGrid, Pose2, angle_diff};
+use crate::run_events::{Kidnap, KidnapRecord, TimelineSample, TrackSample};
+use mapkeeper_grid::{OccupancyGrid, Pose2, angle_diff, wrap_angle};
 use mapkeeper_localiser::{Estimate, FilterParams, Localiser};
 use mapkeeper_sensor::{LaserScan, StampedPose};
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
@@ -69,6 +70,12 @@ pub struct RunnerParams {
     /// Run the baseline localiser on a thread of its own (same results, shorter wall time).
     /// Default true.
     pub parallel_baseline: bool,
+    /// Displace the chain localiser's estimate once during the run (a kidnapping of the
+    /// estimate; the robot keeps driving). Default none.
+    pub kidnap: Option<Kidnap>,
+    /// Record the updater's verdict and the chain localiser's error at every processed step
+    /// ([`WorldRun::timeline`]). Default false.
+    pub record_timeline: bool,
 }
 
 impl Default for RunnerParams {
@@ -88,6 +95,8 @@ impl Default for RunnerParams {
             max_sim_time_s: 300.0,
             record_trajectories: false,
             parallel_baseline: true,
+            kidnap: None,
+            record_timeline: false,
         }
     }
 }
@@ -113,6 +122,9 @@ impl RunnerParams {
         }
         if !(self.max_sim_time_s.is_finite() && self.max_sim_time_s > 0.0) {
             return Err(bad("max_sim_time_s", self.max_sim_time_s));
+        }
+        if let Some(k) = &self.kidnap {
+            k.validate()?;
         }
         Ok(())
     }
@@ -271,6 +283,10 @@ pub struct WorldRun {
     pub trajectories: Option<Trajectories>,
     /// The chain localiser's error at each of its sensor updates.
     pub chain_errors: Vec<ErrorSample>,
+    /// What happened around the kidnap, if one was asked for and its time was reached.
+    pub kidnap: Option<KidnapRecord>,
+    /// Every processed step, if asked for.
+    pub timeline: Vec<TimelineSample>,
 }
 
 /// The initial estimate: the true start displaced by `start_error_m` in a seeded direction and
@@ -416,6 +432,8 @@ fn closed_loop(
     let mut scan_times_us = Vec::new();
     let mut traj = params.record_trajectories.then(Trajectories::default);
     let mut chain_errors = Vec::new();
+    let mut kidnap: Option<KidnapRecord> = None;
+    let mut timeline = Vec::new();
 
     while sim.tick() < max_ticks {
         let out = sim.step();
@@ -425,7 +443,33 @@ fn closed_loop(
         prev_truth = truth;
         if !out.scans.is_empty() {
             let odom = out.odometry.pose_in_odom;
+            let t_s = out.stamp_ns as f64 / 1e9;
+            if let Some(k) = params.kidnap
+                && kidnap.is_none()
+                && t_s >= k.at_s
+            {
+                let estimate = Pose2::new(truth.x + k.dx_m, truth.y + k.dy_m, wrap_angle(truth.yaw + k.dyaw_rad));
+                let (s2, a2) = (k.sigma_xy_m.powi(2), k.sigma_yaw_rad.powi(2));
+                chain.init_pose(estimate, [[s2, 0.0, 0.0], [0.0, s2, 0.0], [0.0, 0.0, a2]])?;
+                kidnap = Some(KidnapRecord {
+                    at_s: t_s,
+                    truth,
+                    estimate,
+                    lost_before: counts.lost,
+                    first_lost_s: None,
+                    recoveries: Vec::new(),
+                    failed_recoveries: 0,
+                    track: Vec::new(),
+                });
+            }
             let rep = chain.update(odom, &out.scans);
+            if let Some(k) = kidnap.as_mut() {
+                k.track.push(TrackSample {
+                    t_s,
+                    error_m: rep.estimate.pose_in_map.distance(&truth),
+                    yaw_error_rad: angle_diff(rep.estimate.pose_in_map.yaw, truth.yaw).abs(),
+                });
+            }
             if rep.sensor_update {
                 acc_chain.add(&rep.estimate, &truth);
                 chain_errors.push(ErrorSample {
@@ -446,6 +490,33 @@ fn closed_loop(
                         scan_times_us.push(u32::try_from(t1.saturating_sub(t0) / 1000).unwrap_or(u32::MAX));
                     }
                     counts.max_state_bytes = counts.max_state_bytes.max(u.state_bytes() as u64);
+                }
+                if params.record_timeline
+                    && let Some(verdict) = step.verdict
+                {
+                    timeline.push(TimelineSample {
+                        t_s,
+                        verdict,
+                        n_valid: u32::try_from(step.n_valid).unwrap_or(u32::MAX),
+                        n_dc: u32::try_from(step.n_dc).unwrap_or(u32::MAX),
+                        error_m: chain_pose.distance(&truth),
+                        yaw_error_rad: angle_diff(chain_pose.yaw, truth.yaw).abs(),
+                        recovered: step.pose_recovery.as_ref().map(|r| matches!(r, PoseRecovery::Recovered { .. })),
+                    });
+                }
+                if step.verdict == Some(Verdict::Lost)
+                    && let Some(k) = kidnap.as_mut()
+                {
+                    k.first_lost_s.get_or_insert(t_s);
+                    match &step.pose_recovery {
+                        Some(PoseRecovery::Recovered { pose_in_map, .. }) => k.recoveries.push(TrackSample {
+                            t_s,
+                            error_m: pose_in_map.distance(&truth),
+                            yaw_error_rad: angle_diff(pose_in_map.yaw, truth.yaw).abs(),
+                        }),
+                        Some(PoseRecovery::NotRecovered { .. }) => k.failed_recoveries += 1,
+                        None => {}
+                    }
                 }
                 match step.verdict {
                     Some(Verdict::Update) => counts.update += 1,
@@ -519,5 +590,7 @@ fn closed_loop(
         scan_times_us,
         trajectories: traj,
         chain_errors,
+        kidnap,
+        timeline,
     })
 }

@@ -177,19 +177,59 @@ impl PointGrid {
     }
 
     /// Index of the nearest target point closer than `max_m` to `p`, with its squared distance.
+    /// Buckets are visited in square rings around `p`'s bucket, and the search stops as soon as
+    /// no bucket further out can hold a closer point (exact, like a scan of every bucket within
+    /// `max_m`).
     #[inline]
     pub fn nearest_index(&self, p: Point2, max_m: f64) -> Option<(usize, f64)> {
         let (bx0, bx1, by0, by1) = self.bucket_range(p, max_m)?;
         let mut best = max_m * max_m;
         let mut found = None;
-        for by in by0..=by1 {
-            let row = by * self.width;
-            let (s, e) = (self.starts[row + bx0] as usize, self.starts[row + bx1 + 1] as usize);
+        let scan = |row_start: usize, x0: usize, x1: usize, best: &mut f64, found: &mut Option<usize>| {
+            let (s, e) = (self.starts[row_start + x0] as usize, self.starts[row_start + x1 + 1] as usize);
             for (k, q) in self.points[s..e].iter().enumerate() {
                 let d = q.distance_sq(p);
-                if d < best {
-                    best = d;
-                    found = Some(s + k);
+                if d < *best {
+                    *best = d;
+                    *found = Some(s + k);
+                }
+            }
+        };
+        // The bucket of p, clamped into the searched rectangle (p may lie outside the grid).
+        let fx = ((p.x - self.x0) / self.cell_m).floor();
+        let fy = ((p.y - self.y0) / self.cell_m).floor();
+        let cx = (fx.max(bx0 as f64) as usize).min(bx1);
+        let cy = (fy.max(by0 as f64) as usize).min(by1);
+        let inside = fx >= 0.0 && fy >= 0.0 && fx as usize == cx && fy as usize == cy;
+        let max_ring = (cx - bx0).max(bx1 - cx).max(cy - by0).max(by1 - cy);
+        for r in 0..=max_ring {
+            let (x0, x1) = (cx.saturating_sub(r).max(bx0), (cx + r).min(bx1));
+            for by in [cy.checked_sub(r), Some(cy + r)].into_iter().flatten() {
+                if by < by0 || by > by1 || (r == 0 && by != cy) {
+                    continue;
+                }
+                scan(by * self.width, x0, x1, &mut best, &mut found);
+                if r == 0 {
+                    break;
+                }
+            }
+            if r > 0 {
+                let (y0, y1) = (cy.saturating_sub(r - 1).max(by0), (cy + r - 1).min(by1));
+                for by in y0..=y1 {
+                    let row = by * self.width;
+                    if cx >= r && cx - r >= bx0 {
+                        scan(row, cx - r, cx - r, &mut best, &mut found);
+                    }
+                    if cx + r <= bx1 {
+                        scan(row, cx + r, cx + r, &mut best, &mut found);
+                    }
+                }
+            }
+            // Every point of ring r + 1 is at least r cells from p when p lies in its bucket.
+            if inside && found.is_some() {
+                let reach = r as f64 * self.cell_m;
+                if reach * reach >= best {
+                    break;
                 }
             }
         }

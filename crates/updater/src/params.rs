@@ -61,6 +61,18 @@ pub struct PoseUpdatingParams {
     pub ambiguity_distance_m: f64,
     /// See `ambiguity_ratio_margin`, radians. Default 0.1.
     pub ambiguity_rotation_rad: f64,
+    /// Correlative search when the hypotheses around the predicted pose find no accepted
+    /// pose: every pose within this distance of the predicted one (in x and y) is scored
+    /// against the occupied cells of `M_i`, metres; 0 = off. Default 2.0.
+    pub search_radius_m: f64,
+    /// …and within ±this yaw, radians. Default 0.8.
+    pub search_yaw_rad: f64,
+    /// Translation step of the search, metres (rounded to whole cells). Default 0.1.
+    pub search_step_m: f64,
+    /// Yaw step of the search, radians. Default 0.03.
+    pub search_yaw_step_rad: f64,
+    /// Best distinct poses of the search refined by ICP and checked. Default 6.
+    pub search_candidates: u32,
 }
 
 impl Default for PoseUpdatingParams {
@@ -83,6 +95,11 @@ impl Default for PoseUpdatingParams {
             ambiguity_ratio_margin: 0.02,
             ambiguity_distance_m: 0.3,
             ambiguity_rotation_rad: 0.1,
+            search_radius_m: 2.0,
+            search_yaw_rad: 0.8,
+            search_step_m: 0.1,
+            search_yaw_step_rad: 0.03,
+            search_candidates: 6,
         }
     }
 }
@@ -447,6 +464,17 @@ impl UpdaterParams {
         non_neg_finite("pose_updating.ambiguity_ratio_margin", p.ambiguity_ratio_margin)?;
         non_neg_finite("pose_updating.ambiguity_distance_m", p.ambiguity_distance_m)?;
         non_neg_finite("pose_updating.ambiguity_rotation_rad", p.ambiguity_rotation_rad)?;
+        non_neg_finite("pose_updating.search_radius_m", p.search_radius_m)?;
+        non_neg_finite("pose_updating.search_yaw_rad", p.search_yaw_rad)?;
+        positive("pose_updating.search_step_m", p.search_step_m)?;
+        positive("pose_updating.search_yaw_step_rad", p.search_yaw_step_rad)?;
+        let steps = |range: f64, step: f64| 2.0 * (range / step).floor() + 1.0;
+        if steps(p.search_radius_m, p.search_step_m).powi(2) * steps(p.search_yaw_rad, p.search_yaw_step_rad) > 2e6 {
+            return Err(bad("pose_updating.search_radius_m", "the search has more than 2,000,000 poses"));
+        }
+        if p.search_candidates == 0 || p.search_candidates > 64 {
+            return Err(bad("pose_updating.search_candidates", "must lie in 1..=64"));
+        }
         self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
         Ok(())
     }

@@ -1,19 +1,36 @@
 //! Pose updating (§4.6). When the localisation check says Lost, the expected point cloud
 //! P_exp is ray-cast from the current `M_i` at the predicted pose (the last pose that passed
 //! the check, moved on by odometry since), and the current scans' points P(k) are registered to
-//! it with ICP from several initial hypotheses. The best fit must pass a fitness gate (inlier
-//! ratio, RMSE) and must not be ambiguous; otherwise the answer is "not recovered" — never a
-//! wrong pose silently.
+//! it with ICP from several initial hypotheses. If none of them gives an accepted pose, a
+//! correlative search scores every pose of a wider window against the occupied cells of `M_i`
+//! and its best distinct poses are registered in turn. Every candidate is checked against the
+//! cloud expected from *its own* pose (so that what the map says should be visible from there
+//! is what is compared). The best must pass a fitness gate (inlier ratio, RMSE) and must not be
+//! ambiguous; otherwise the answer is "not recovered" — never a wrong pose silently.
 
 use crate::icp::{Fitness, PointGrid, fitness, icp_from};
 use crate::params::PoseUpdatingParams;
-use mapkeeper_grid::{OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray};
+use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
+use nalgebra::Matrix3;
 
 /// ICP iterations every hypothesis gets before the best ones are refined.
 const COARSE_ITERATIONS: u32 = 8;
-/// Hypotheses iterated to convergence (and compared for ambiguity).
+/// Hypotheses iterated to convergence.
 const REFINED_HYPOTHESES: usize = 6;
+/// The coarse iterations of every hypothesis use every k-th source point.
+const COARSE_POINT_STEP: usize = 3;
+/// Distinct local hypotheses that are checked against their own expected cloud.
+const CHECKED_LOCAL: usize = 3;
+/// Starting correspondence distance when a candidate is registered to its own expected cloud,
+/// metres (candidates are already close).
+const CHECK_CORRESPONDENCE_M: f64 = 0.5;
+/// Source points used by the correlative search (every k-th, k chosen to stay near this).
+const SEARCH_POINTS: usize = 160;
+/// Score of a cell at chessboard distance d (cells) from an occupied cell: `SCORE_MAX − d`.
+const SCORE_MAX: u8 = 4;
+/// Search peaks below this share of the highest possible score are not worth checking.
+const MIN_SEARCH_SCORE: f64 = 0.3;
 
 /// Best first: more inliers, then lower RMSE, then hypothesis order (stable sort).
 fn sort_candidates(c: &mut [(Pose2, Fitness, f64, bool)]) {
@@ -65,13 +82,61 @@ pub enum RecoveryFailure {
     Degenerate,
 }
 
+/// A candidate registered to the cloud expected from its own pose.
+#[derive(Clone, Copy, Debug)]
+struct Checked {
+    pose: Pose2,
+    fit: Fitness,
+    info: Matrix3<f64>,
+}
+
 /// Pose updating with its reusable buffers.
 #[derive(Clone, Debug, Default)]
 pub struct PoseUpdater {
     source: Vec<Point2>,
+    coarse_source: Vec<Point2>,
     expected: Vec<Point2>,
     grid: PointGrid,
     candidates: Vec<(Pose2, Fitness, f64, bool)>,
+    check_cloud: Vec<Point2>,
+    check_grid: PointGrid,
+    checked: Vec<Checked>,
+    score: Vec<u8>,
+    cells: Vec<(i32, i32)>,
+    peaks: Vec<(u32, Pose2)>,
+}
+
+/// Whether two poses are the same place for the ambiguity test.
+fn distinct(a: &Pose2, b: &Pose2, p: &PoseUpdatingParams) -> bool {
+    a.distance(b) > p.ambiguity_distance_m || angle_diff(a.yaw, b.yaw).abs() > p.ambiguity_rotation_rad
+}
+
+/// P_exp: the points the map says the scans' beams would hit from `robot_in_map` (rays start
+/// at each lidar's position, unknown cells count as occupied, beams that reach the range limit
+/// give no point).
+fn cast_expected(
+    map: &OccupancyGrid,
+    robot_in_map: &Pose2,
+    scans: &[LaserScan],
+    max_range_m: f64,
+    out: &mut Vec<Point2>,
+) {
+    out.clear();
+    for scan in scans {
+        if scan.validate().is_err() {
+            continue;
+        }
+        let range_max = max_range_m.min(scan.range_max_m as f64);
+        let lidar_in_map = scan.lidar_in_map(robot_in_map);
+        for i in 0..scan.ranges_m.len() {
+            let a = lidar_in_map.yaw + scan.beam_angle(i as f64);
+            let e = cast_ray(map, lidar_in_map.position(), a, range_max, true);
+            if matches!(e.stop, RayStop::Occupied | RayStop::Unknown) {
+                let (s, c) = a.sin_cos();
+                out.push(Point2::new(lidar_in_map.x + e.range_m * c, lidar_in_map.y + e.range_m * s));
+            }
+        }
+    }
 }
 
 impl PoseUpdater {
@@ -92,25 +157,17 @@ impl PoseUpdater {
         p: &PoseUpdatingParams,
     ) -> PoseRecovery {
         self.source.clear();
-        self.expected.clear();
         let step = p.source_beam_step.max(1) as usize;
         for scan in scans {
             if scan.validate().is_err() {
                 continue;
             }
             let range_max = max_range_m.min(scan.range_max_m as f64);
-            let lidar_in_map = scan.lidar_in_map(&predicted_in_map);
             let mut valid_k = 0usize;
             for (i, &r) in scan.ranges_m.iter().enumerate() {
-                let a = scan.beam_angle(i as f64);
-                let e = cast_ray(map, lidar_in_map.position(), lidar_in_map.yaw + a, range_max, true);
-                if matches!(e.stop, RayStop::Occupied | RayStop::Unknown) {
-                    let (s, c) = (lidar_in_map.yaw + a).sin_cos();
-                    self.expected.push(Point2::new(lidar_in_map.x + e.range_m * c, lidar_in_map.y + e.range_m * s));
-                }
                 if scan.validity_of(r) == BeamValidity::Valid && (r as f64) < range_max {
                     if valid_k.is_multiple_of(step) {
-                        let (s, c) = a.sin_cos();
+                        let (s, c) = scan.beam_angle(i as f64).sin_cos();
                         let z = r as f64;
                         self.source.push(scan.lidar_in_robot.transform_point(Point2::new(z * c, z * s)));
                     }
@@ -118,13 +175,18 @@ impl PoseUpdater {
                 }
             }
         }
+        cast_expected(map, &predicted_in_map, scans, max_range_m, &mut self.expected);
         let min = p.min_points as usize;
         if self.source.len() < min.max(3) || self.expected.len() < min.max(3) {
             return PoseRecovery::NotRecovered {
                 reason: RecoveryFailure::TooFewPoints { source: self.source.len(), expected: self.expected.len() },
             };
         }
-        self.grid.build(&self.expected, p.max_correspondence_m);
+        // 1. Hypotheses around the predicted pose, registered to the cloud expected from it
+        //    (a few iterations on a subset of the points, then the best to convergence).
+        self.grid.build(&self.expected, p.min_correspondence_m.max(0.15));
+        self.coarse_source.clear();
+        self.coarse_source.extend(self.source.iter().step_by(COARSE_POINT_STEP));
         self.candidates.clear();
         for &dyaw in &p.yaw_offsets_rad {
             for &dx in &p.position_offsets_m {
@@ -132,8 +194,8 @@ impl PoseUpdater {
                     let init =
                         Pose2::new(predicted_in_map.x + dx, predicted_in_map.y + dy, predicted_in_map.yaw + dyaw);
                     let (run, d) =
-                        icp_from(&self.source, &self.grid, init, p, p.max_correspondence_m, COARSE_ITERATIONS);
-                    let (fit, _) = fitness(&self.source, &self.grid, &run.pose, p.inlier_distance_m);
+                        icp_from(&self.coarse_source, &self.grid, init, p, p.max_correspondence_m, COARSE_ITERATIONS);
+                    let (fit, _) = fitness(&self.coarse_source, &self.grid, &run.pose, p.inlier_distance_m);
                     self.candidates.push((run.pose, fit, d, run.converged));
                 }
             }
@@ -141,37 +203,96 @@ impl PoseUpdater {
         // Coarse-to-fine: only the most promising hypotheses are iterated to convergence.
         sort_candidates(&mut self.candidates);
         for cand in self.candidates.iter_mut().take(REFINED_HYPOTHESES) {
-            if !cand.3 {
-                let rest = p.max_iterations.saturating_sub(COARSE_ITERATIONS).max(1);
-                let (run, d) = icp_from(&self.source, &self.grid, cand.0, p, cand.2, rest);
-                let (fit, _) = fitness(&self.source, &self.grid, &run.pose, p.inlier_distance_m);
-                *cand = (run.pose, fit, d, run.converged);
-            }
+            let rest = p.max_iterations.saturating_sub(COARSE_ITERATIONS).max(1);
+            let (run, d) = icp_from(&self.source, &self.grid, cand.0, p, cand.2, rest);
+            let (fit, _) = fitness(&self.source, &self.grid, &run.pose, p.inlier_distance_m);
+            *cand = (run.pose, fit, d, run.converged);
         }
         self.candidates.truncate(REFINED_HYPOTHESES);
         sort_candidates(&mut self.candidates);
-        let (best_pose, best_fit, _, _) = self.candidates[0];
-        if best_fit.inlier_ratio < p.min_inlier_ratio || best_fit.rmse_m > p.max_rmse_m {
-            return PoseRecovery::NotRecovered { reason: RecoveryFailure::PoorFit { best: best_fit } };
-        }
-        for &(pose, fit, _, _) in &self.candidates[1..] {
-            if best_fit.inlier_ratio - fit.inlier_ratio > p.ambiguity_ratio_margin {
+        // 2. The best distinct ones, checked against the cloud expected from their own pose.
+        self.checked.clear();
+        let mut picked: Vec<Pose2> = Vec::new();
+        let local: Vec<Pose2> = self.candidates.iter().map(|c| c.0).collect();
+        for pose in local {
+            if picked.len() >= CHECKED_LOCAL {
                 break;
             }
-            if pose.distance(&best_pose) > p.ambiguity_distance_m
-                || angle_diff(pose.yaw, best_pose.yaw).abs() > p.ambiguity_rotation_rad
-            {
+            if picked.iter().all(|q| distinct(q, &pose, p)) {
+                picked.push(pose);
+                self.check(map, pose, scans, max_range_m, p);
+            }
+        }
+        let local_answer = self.decide(p);
+        if matches!(local_answer, PoseRecovery::Recovered { .. }) || p.search_radius_m <= 0.0 {
+            return local_answer;
+        }
+        // 3. Correlative search over the wider window, its peaks checked the same way.
+        self.search(map, predicted_in_map, p);
+        let peaks: Vec<Pose2> = self.peaks.iter().map(|&(_, pose)| pose).collect();
+        for pose in peaks {
+            self.check(map, pose, scans, max_range_m, p);
+        }
+        self.decide(p)
+    }
+
+    /// Registers the scan to the cloud expected from `pose`, re-casts the cloud at the result
+    /// and records the fitness there.
+    fn check(
+        &mut self,
+        map: &OccupancyGrid,
+        pose: Pose2,
+        scans: &[LaserScan],
+        max_range_m: f64,
+        p: &PoseUpdatingParams,
+    ) {
+        cast_expected(map, &pose, scans, max_range_m, &mut self.check_cloud);
+        if self.check_cloud.len() < (p.min_points as usize).max(3) {
+            return;
+        }
+        self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
+        let d0 = CHECK_CORRESPONDENCE_M.min(p.max_correspondence_m).max(p.min_correspondence_m);
+        let (run, _) = icp_from(&self.source, &self.check_grid, pose, p, d0, p.max_iterations);
+        if !run.pose.is_finite() {
+            return;
+        }
+        if run.pose.distance(&pose) > 0.5 * p.inlier_distance_m || angle_diff(run.pose.yaw, pose.yaw).abs() > 0.01 {
+            cast_expected(map, &run.pose, scans, max_range_m, &mut self.check_cloud);
+            if self.check_cloud.len() < (p.min_points as usize).max(3) {
+                return;
+            }
+            self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
+        }
+        let (fit, info) = fitness(&self.source, &self.check_grid, &run.pose, p.inlier_distance_m);
+        self.checked.push(Checked { pose: run.pose, fit, info });
+    }
+
+    /// The best checked candidate through the fitness gate and the ambiguity test.
+    fn decide(&mut self, p: &PoseUpdatingParams) -> PoseRecovery {
+        self.checked.sort_by(|a, b| {
+            b.fit.inlier_ratio.total_cmp(&a.fit.inlier_ratio).then(a.fit.rmse_m.total_cmp(&b.fit.rmse_m))
+        });
+        let Some(best) = self.checked.first().copied() else {
+            return PoseRecovery::NotRecovered { reason: RecoveryFailure::PoorFit { best: Fitness::default() } };
+        };
+        if best.fit.inlier_ratio < p.min_inlier_ratio || best.fit.rmse_m > p.max_rmse_m {
+            return PoseRecovery::NotRecovered { reason: RecoveryFailure::PoorFit { best: best.fit } };
+        }
+        for other in &self.checked[1..] {
+            if best.fit.inlier_ratio - other.fit.inlier_ratio > p.ambiguity_ratio_margin {
+                break;
+            }
+            if distinct(&other.pose, &best.pose, p) {
                 return PoseRecovery::NotRecovered {
-                    reason: RecoveryFailure::Ambiguous { first: best_pose, second: pose },
+                    reason: RecoveryFailure::Ambiguous { first: best.pose, second: other.pose },
                 };
             }
         }
-        let (fit, h) = fitness(&self.source, &self.grid, &best_pose, p.inlier_distance_m);
-        let Some(h_inv) = h.try_inverse() else {
+        let Some(h_inv) = best.info.try_inverse() else {
             return PoseRecovery::NotRecovered { reason: RecoveryFailure::Degenerate };
         };
         // Floor the residual at 1 cm so a perfect synthetic fit still has a usable covariance.
-        let sigma2 = fit.rmse_m.max(0.01).powi(2);
+        let sigma2 = best.fit.rmse_m.max(0.01).powi(2);
         let mut covariance = [[0.0; 3]; 3];
         for (r, row) in covariance.iter_mut().enumerate() {
             for (c, v) in row.iter_mut().enumerate() {
@@ -181,6 +302,246 @@ impl PoseUpdater {
         if covariance.iter().flatten().any(|v| !v.is_finite()) || covariance[2][2] <= 0.0 {
             return PoseRecovery::NotRecovered { reason: RecoveryFailure::Degenerate };
         }
-        PoseRecovery::Recovered { pose_in_map: best_pose, covariance, fitness: fit }
+        PoseRecovery::Recovered { pose_in_map: best.pose, covariance, fitness: best.fit }
+    }
+
+    /// Correlative search: every pose of the window around `predicted` on a grid of
+    /// `search_step_m` × `search_yaw_step_rad`, scored by how close the scan's points fall to
+    /// occupied cells of `map`; the best distinct poses go to `self.peaks`.
+    fn search(&mut self, map: &OccupancyGrid, predicted: Pose2, p: &PoseUpdatingParams) {
+        self.peaks.clear();
+        let g = *map.geometry();
+        let (w, h) = (g.width(), g.height());
+        self.build_score(map);
+        let res = g.resolution_m();
+        let step_cells = ((p.search_step_m / res).round() as i64).max(1);
+        let n_t = ((p.search_radius_m / (step_cells as f64 * res)).floor() as i64).min(10_000);
+        let n_yaw = ((p.search_yaw_rad / p.search_yaw_step_rad).floor() as i64).min(100_000);
+        let k = (self.source.len() / SEARCH_POINTS).max(1);
+        let n_points = self.source.len().div_ceil(k);
+        let min_score = (MIN_SEARCH_SCORE * f64::from(SCORE_MAX) * n_points as f64) as u32;
+        let keep = p.search_candidates.max(1) as usize;
+        let origin = g.grid_to_world(0.0, 0.0);
+        let step_vec = |tx: i64, ty: i64| {
+            let q = g.grid_to_world((tx * step_cells) as f64, (ty * step_cells) as f64);
+            (q.x - origin.x, q.y - origin.y)
+        };
+        for j in -n_yaw..=n_yaw {
+            let yaw = wrap_angle(predicted.yaw + j as f64 * p.search_yaw_step_rad);
+            let at = Pose2::new(predicted.x, predicted.y, yaw);
+            self.cells.clear();
+            for pt in self.source.iter().step_by(k) {
+                let (u, v) = g.world_to_grid(at.transform_point(*pt));
+                if u.is_finite() && v.is_finite() && u.abs() < 1e9 && v.abs() < 1e9 {
+                    self.cells.push((u.floor() as i32, v.floor() as i32));
+                }
+            }
+            for ty in -n_t..=n_t {
+                for tx in -n_t..=n_t {
+                    let (ox, oy) = (tx * step_cells, ty * step_cells);
+                    let mut s = 0u32;
+                    for &(cu, cv) in &self.cells {
+                        let (u, v) = (i64::from(cu) + ox, i64::from(cv) + oy);
+                        if u >= 0 && v >= 0 && (u as usize) < w && (v as usize) < h {
+                            s += u32::from(self.score[v as usize * w + u as usize]);
+                        }
+                    }
+                    if s < min_score || (self.peaks.len() >= keep && s <= self.peaks[keep - 1].0) {
+                        continue;
+                    }
+                    let (dx, dy) = step_vec(tx, ty);
+                    let pose = Pose2::new(predicted.x + dx, predicted.y + dy, yaw);
+                    self.insert_peak(s, pose, keep, p);
+                }
+            }
+        }
+    }
+
+    /// Keeps the `keep` best distinct peaks, best first (a peak near a better one is dropped;
+    /// a better peak replaces the worse ones near it).
+    fn insert_peak(&mut self, s: u32, pose: Pose2, keep: usize, p: &PoseUpdatingParams) {
+        if self.peaks.iter().any(|(t, q)| *t >= s && !distinct(q, &pose, p)) {
+            return;
+        }
+        self.peaks.retain(|(_, q)| distinct(q, &pose, p));
+        let at = self.peaks.iter().position(|(t, _)| *t < s).unwrap_or(self.peaks.len());
+        self.peaks.insert(at, (s, pose));
+        self.peaks.truncate(keep);
+    }
+
+    /// Per cell: `SCORE_MAX − d` for a chessboard distance of d < `SCORE_MAX` cells to the
+    /// nearest occupied cell of `map`, else 0 (two raster passes).
+    fn build_score(&mut self, map: &OccupancyGrid) {
+        let g = map.geometry();
+        let (w, h) = (g.width(), g.height());
+        let far = SCORE_MAX;
+        self.score.clear();
+        self.score.extend(map.cells().iter().map(|&c| if c == CellState::Occupied { 0 } else { far }));
+        let d = &mut self.score;
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let mut m = d[i];
+                if x > 0 {
+                    m = m.min(d[i - 1].saturating_add(1));
+                }
+                if y > 0 {
+                    let up = i - w;
+                    m = m.min(d[up].saturating_add(1));
+                    if x > 0 {
+                        m = m.min(d[up - 1].saturating_add(1));
+                    }
+                    if x + 1 < w {
+                        m = m.min(d[up + 1].saturating_add(1));
+                    }
+                }
+                d[i] = m;
+            }
+        }
+        for y in (0..h).rev() {
+            for x in (0..w).rev() {
+                let i = y * w + x;
+                let mut m = d[i];
+                if x + 1 < w {
+                    m = m.min(d[i + 1].saturating_add(1));
+                }
+                if y + 1 < h {
+                    let down = i + w;
+                    m = m.min(d[down].saturating_add(1));
+                    if x > 0 {
+                        m = m.min(d[down - 1].saturating_add(1));
+                    }
+                    if x + 1 < w {
+                        m = m.min(d[down + 1].saturating_add(1));
+                    }
+                }
+                d[i] = m;
+            }
+        }
+        for v in d.iter_mut() {
+            *v = far.saturating_sub(*v);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapkeeper_grid::{CellCoord, GridGeometry};
+
+    fn room() -> OccupancyGrid {
+        let g = GridGeometry::new(160, 100, 0.05, Pose2::IDENTITY).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for x in 0..160 {
+            m.set(CellCoord::new(x, 0), CellState::Occupied);
+            m.set(CellCoord::new(x, 99), CellState::Occupied);
+        }
+        for y in 0..100 {
+            m.set(CellCoord::new(0, y), CellState::Occupied);
+            m.set(CellCoord::new(159, y), CellState::Occupied);
+        }
+        // Asymmetric furniture.
+        for x in 40..52 {
+            for y in 70..99 {
+                m.set(CellCoord::new(x, y), CellState::Occupied);
+            }
+        }
+        for x in 100..106 {
+            for y in 1..30 {
+                m.set(CellCoord::new(x, y), CellState::Occupied);
+            }
+        }
+        for x in 120..140 {
+            for y in 60..66 {
+                m.set(CellCoord::new(x, y), CellState::Occupied);
+            }
+        }
+        m
+    }
+
+    fn scan360(map: &OccupancyGrid, pose: Pose2) -> LaserScan {
+        let n = 720;
+        let inc = std::f64::consts::TAU / n as f64;
+        let ranges = (0..n)
+            .map(|i| {
+                let a = pose.yaw - std::f64::consts::PI + i as f64 * inc;
+                cast_ray(map, pose.position(), a, 20.0, true).range_m as f32
+            })
+            .collect();
+        LaserScan {
+            stamp_ns: 0,
+            lidar_id: 0,
+            lidar_in_robot: Pose2::IDENTITY,
+            angle_min_rad: -std::f64::consts::PI,
+            angle_increment_rad: inc,
+            range_min_m: 0.05,
+            range_max_m: 20.0,
+            ranges_m: ranges,
+        }
+    }
+
+    #[test]
+    fn score_is_chessboard_distance_to_occupied() {
+        let m = room();
+        let mut pu = PoseUpdater::new();
+        pu.build_score(&m);
+        let w = 160;
+        assert_eq!(pu.score[50 * w], SCORE_MAX);
+        assert_eq!(pu.score[50 * w + 1], SCORE_MAX - 1);
+        assert_eq!(pu.score[50 * w + 3], SCORE_MAX - 3);
+        assert_eq!(pu.score[50 * w + 4], 0);
+        assert_eq!(pu.score[2 * w + 2], SCORE_MAX - 2);
+    }
+
+    /// A predicted pose 1.6 m and 0.5 rad off, beyond the local hypotheses' reach: the
+    /// correlative search finds the true pose.
+    #[test]
+    fn wide_search_recovers_a_far_prediction() {
+        let m = room();
+        let truth = Pose2::new(3.0, 2.5, 0.4);
+        let scans = [scan360(&m, truth)];
+        let predicted = Pose2::new(truth.x + 1.3, truth.y - 0.9, truth.yaw - 0.5);
+        let mut pu = PoseUpdater::new();
+        // Local hypotheses narrowed so that only the search can reach the truth.
+        let p = PoseUpdatingParams {
+            yaw_offsets_rad: vec![0.0],
+            position_offsets_m: vec![0.0],
+            max_correspondence_m: 0.3,
+            ..Default::default()
+        };
+        match pu.recover(&m, predicted, &scans, f64::INFINITY, &p) {
+            PoseRecovery::Recovered { pose_in_map, .. } => {
+                assert!(pose_in_map.distance(&truth) < 0.03, "{pose_in_map:?}");
+                assert!(angle_diff(pose_in_map.yaw, truth.yaw).abs() < 0.01);
+            }
+            other => panic!("{other:?}"),
+        }
+        // Without the search it is not found.
+        let local = PoseUpdatingParams { search_radius_m: 0.0, ..p };
+        let r = pu.recover(&m, predicted, &scans, f64::INFINITY, &local);
+        assert!(
+            !matches!(r, PoseRecovery::Recovered { pose_in_map, .. } if pose_in_map.distance(&truth) < 0.03),
+            "{r:?}"
+        );
+    }
+
+    /// A square empty room seen from its centre has four equally good yaws: refused as
+    /// ambiguous, not answered with one of them.
+    #[test]
+    fn a_symmetric_room_is_ambiguous() {
+        let g = GridGeometry::new(120, 120, 0.05, Pose2::IDENTITY).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for k in 0..120 {
+            for c in [CellCoord::new(k, 0), CellCoord::new(k, 119), CellCoord::new(0, k), CellCoord::new(119, k)] {
+                m.set(c, CellState::Occupied);
+            }
+        }
+        let truth = Pose2::new(3.0, 3.0, 0.0);
+        let scans = [scan360(&m, truth)];
+        let p = PoseUpdatingParams::default();
+        let mut pu = PoseUpdater::new();
+        // Half-way between two of the four equally good yaws.
+        let r = pu.recover(&m, Pose2::new(3.0, 3.0, std::f64::consts::FRAC_PI_4), &scans, f64::INFINITY, &p);
+        assert!(matches!(r, PoseRecovery::NotRecovered { reason: RecoveryFailure::Ambiguous { .. } }), "{r:?}");
     }
 }

@@ -1,0 +1,68 @@
+//! End-to-end test of `mapkeeper recover`, run as the real binary with every experiment
+//! shortened by a parameter file.
+// Helpers outside `#[test]` functions unwrap too: a failure is a test failure.
+#![allow(clippy::unwrap_used)]
+
+use std::path::PathBuf;
+use std::process::Command;
+
+const SHORT: &str = r#"
+exploration_route = { format = "mapkeeper-route", version = 1, waypoints = [[-3.65, -2.3], [-3.65, 7.3]] }
+[demo]
+duration_s = 4.0
+[table1]
+runs = 1
+route_length_m = 4.0
+[lost]
+runs = 1
+route_length_m = 4.0
+[kidnap]
+stale_max_world = 2
+kidnap_min_s = 2.0
+kidnap_max_s = 2.5
+recovery_window_s = 4.0
+"#;
+
+fn scratch() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mapkeeper-recover-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn recover_writes_the_summary_csv_and_report_and_refuses_bad_input() {
+    let dir = scratch();
+    let params = dir.join("short.toml");
+    std::fs::write(&params, SHORT).unwrap();
+    let out = dir.join("out");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["recover", "--trials", "1", "--seed", "2", "--jobs", "2", "--params"];
+        args.push(params.to_str().unwrap());
+        args.extend_from_slice(extra);
+        Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(&args).output().unwrap()
+    };
+    let o = run(&["--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("Table 1 direction reproduced"), "{stdout}");
+    for f in ["summary.json", "kidnap_trials.csv", "table1.csv", "lost_robot.csv", "demo_timeline.csv", "report.md"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(v["seed"], 2);
+    assert_eq!(v["kidnap"]["trials"], 1);
+    assert!(v["table1"]["check"]["opdf"].is_number());
+    assert!(v["wall_time_s"].as_f64().unwrap() > 0.0);
+
+    // An existing folder is refused without --force.
+    let o = run(&["--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    // A bad parameter file names the file.
+    std::fs::write(&params, "[kidnap]\nmin_displacement_m = \"far\"\n").unwrap();
+    let o = run(&["--out", dir.join("other").to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("short.toml"), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,338 @@
+//! The robustness experiments (paper §5.3.1, §5.4; `spec/40-evaluation.md`, "Robustness
+//! experiments") and the pose-recovery stress suite:
+//!
+//! - **Localisation-check demo** ([`run_demo`]): in W_2 on M_1 the chain localiser starts 0.5 m
+//!   to the right of the true start (the paper: true (2.0, 9.5, 0), estimate (2.0, 9.0, 0));
+//!   the updater should Suspend until the localiser has converged, then Update.
+//! - **Table 1 analog** ([`run_table1`]): ~0.7 m start error, `always-update` against the
+//!   `paper` preset (with the localisation check), M_2 scored against G_2 with CC, MS, OPDF,
+//!   over several seeded error directions.
+//! - **Lost robot** ([`run_lost_robot`]): 1.5 m start error; the check says Lost, pose
+//!   updating recovers the pose, and M_2 is compared with the map of the same run without
+//!   the error.
+//! - **Kidnap suite** ([`run_kidnap_suite`]): N seeded trials, each a short drive on the
+//!   default tour from a random point of it in a generated world W_k, with the chain
+//!   localiser's estimate displaced by 0.5-3 m and up to ±45° at a random time (the robot
+//!   keeps driving); the map is stale (M_1 in W_k) or, the paper's best case (Fig. 29), the
+//!   current world's ground truth G_k. Each trial is paired with the same run without the
+//!   kidnap (same seed: identical until the kidnap) for the false-Lost rate and the map
+//!   damage.
+//!
+//! Everything is deterministic: every random draw comes from a stream named after the run
+//! seed and the trial, trials run in parallel (rayon) and are collected in order, and no
+//! clock is read (the caller measures the wall time).
+
+mod experiments;
+mod kidnap;
+mod params;
+pub mod report;
+
+pub use experiments::{
+    DemoSummary, LostRun, LostSummary, MetricFractions, Table1Run, Table1Summary, VerdictCounts, VerdictSegment,
+    run_demo, run_lost_robot, run_table1,
+};
+pub use kidnap::{
+    BinSummary, KidnapSummary, KidnapTrial, MapCase, TrialDraw, draw_trial, run_kidnap_suite, run_kidnap_trial,
+    summarise_kidnap,
+};
+pub use params::{
+    DemoParams, InitialMapKind, KidnapParams, LostParams, RecoveryParams, SuccessCriterion, Table1Params,
+};
+
+use crate::ScenarioError;
+use crate::generator::{WorldChain, generate_worlds};
+use crate::mapping::build_initial_map;
+use crate::run_events::{TimelineSample, TrackSample};
+use crate::validation::Scores;
+use mapkeeper_grid::metrics::{MetricParams, map_metrics};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
+use mapkeeper_sim::{Route, StartPose, World, ground_truth_map};
+use serde::{Deserialize, Serialize};
+
+/// The worlds and maps every experiment shares.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    /// W_1 … W_K.
+    pub chain: WorldChain,
+    /// M_1, built in W_1.
+    pub m1: OccupancyGrid,
+    /// G_1 … G_K.
+    pub ground_truth: Vec<OccupancyGrid>,
+    /// The common grid.
+    pub geometry: GridGeometry,
+}
+
+impl Setup {
+    fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ScenarioError> {
+        match (self.chain.worlds.get(i.wrapping_sub(1)), self.ground_truth.get(i.wrapping_sub(1))) {
+            (Some(w), Some(g)) => Ok((w, g)),
+            _ => Err(ScenarioError::InvalidParam {
+                name: "world",
+                problem: format!("W_{i} was not generated ({} worlds)", self.chain.worlds.len()),
+            }),
+        }
+    }
+
+    /// The map of W_1 of the given kind.
+    pub fn initial_map(&self, kind: InitialMapKind) -> &OccupancyGrid {
+        match (kind, self.ground_truth.first()) {
+            (InitialMapKind::GroundTruth, Some(g1)) => g1,
+            _ => &self.m1,
+        }
+    }
+}
+
+/// Generates W_1 … W_K, builds M_1 in W_1 and rasterises G_1 … G_K.
+pub fn prepare(w1: &World, params: &RecoveryParams, seed: u64) -> Result<Setup, ScenarioError> {
+    params.validate()?;
+    let geometry = w1.default_map_geometry(params.resolution_m)?;
+    let chain = generate_worlds(w1, &params.tour, params.worlds_needed(), seed, &params.generator)?;
+    let m1 = build_initial_map(w1, &params.exploration_route, &geometry, &params.runner.sim, &params.mapping, seed)?;
+    let ground_truth = chain.worlds.iter().map(|w| ground_truth_map(w, &geometry)).collect();
+    Ok(Setup { chain, m1: m1.map, ground_truth, geometry })
+}
+
+/// The pose `s` metres along the closed `tour` (heading of the segment there) and the route
+/// from it onwards, `length_m` long, wrapping around the tour.
+pub fn tour_from(tour: &Route, s: f64, length_m: f64) -> (Pose2, Route) {
+    let pts = tour.points();
+    let segs: Vec<(Point2, Point2, f64)> =
+        pts.windows(2).map(|w| (w[0], w[1], w[0].distance(w[1]))).filter(|(_, _, d)| *d > 1e-9).collect();
+    let total: f64 = segs.iter().map(|s| s.2).sum();
+    if segs.is_empty() || total.is_nan() || total <= 0.0 {
+        let p = pts.first().copied().unwrap_or_default();
+        return (Pose2::new(p.x, p.y, 0.0), Route::new(&[p]));
+    }
+    let mut s = s.rem_euclid(total);
+    let mut k = 0;
+    while k + 1 < segs.len() && s >= segs[k].2 {
+        s -= segs[k].2;
+        k += 1;
+    }
+    let (a, b, d) = segs[k];
+    let t = (s / d).clamp(0.0, 1.0);
+    let start = Point2::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y));
+    let yaw = (b.y - a.y).atan2(b.x - a.x);
+    let mut route = vec![start];
+    let mut left = length_m;
+    let mut from = start;
+    let mut idx = k;
+    let mut guard = 0;
+    while left > 1e-9 && guard < 100_000 {
+        guard += 1;
+        let to = segs[idx].1;
+        let dd = from.distance(to);
+        if dd >= left {
+            let f = left / dd;
+            route.push(Point2::new(from.x + f * (to.x - from.x), from.y + f * (to.y - from.y)));
+            break;
+        }
+        if dd > 1e-9 {
+            route.push(to);
+        }
+        left -= dd;
+        from = to;
+        idx = (idx + 1) % segs.len();
+    }
+    (Pose2::new(start.x, start.y, yaw), Route::new(&route))
+}
+
+fn with_start(world: &World, start: Pose2) -> World {
+    let mut w = world.clone();
+    w.robot_start = StartPose { x: start.x, y: start.y, yaw_deg: start.yaw.to_degrees() };
+    w
+}
+
+/// When the chain localiser's error came under the criterion for good: the start of the last
+/// stretch of good samples, if it reaches the end of the track and lasts at least `hold_s`
+/// (within one sample period). `None` if the last sample is bad or the track is empty.
+pub fn recovery_time(track: &[TrackSample], c: &SuccessCriterion) -> Option<f64> {
+    let good = |s: &TrackSample| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad;
+    let last = track.last()?;
+    if !good(last) {
+        return None;
+    }
+    let first_good = match track.iter().rposition(|s| !good(s)) {
+        Some(i) => i + 1,
+        None => 0,
+    };
+    let t_r = track[first_good].t_s;
+    let period = if track.len() >= 2 { (last.t_s - track[0].t_s) / (track.len() - 1) as f64 } else { 0.0 };
+    (last.t_s - t_r + period + 1e-9 >= c.hold_s).then_some(t_r)
+}
+
+pub(crate) fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { 0.0 } else { s / n as f64 }
+}
+
+pub(crate) fn frac(v: impl Iterator<Item = bool>) -> f64 {
+    let (t, n) = v.fold((0usize, 0usize), |(t, n), b| (t + usize::from(b), n + 1));
+    if n == 0 { 0.0 } else { t as f64 / n as f64 }
+}
+
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 { v[n / 2] } else { (v[n / 2 - 1] + v[n / 2]) / 2.0 })
+}
+
+pub(crate) fn mean_scores<'a>(v: impl Iterator<Item = &'a Scores> + Clone) -> Scores {
+    Scores { cc: mean(v.clone().map(|s| s.cc)), ms: mean(v.clone().map(|s| s.ms)), opdf: mean(v.map(|s| s.opdf)) }
+}
+
+pub(crate) fn scores(map: &OccupancyGrid, g: &OccupancyGrid, m: &MetricParams) -> Result<Scores, ScenarioError> {
+    Ok(Scores::from(map_metrics(map, g, m)?))
+}
+
+/// `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RecoverySummary {
+    /// Producer and version.
+    pub tool: String,
+    /// The run seed.
+    pub seed: u64,
+    /// Wall time of the whole run, seconds (supplied by the caller; 0 when not measured).
+    pub wall_time_s: f64,
+    /// The localisation-check demo.
+    pub demo: DemoSummary,
+    /// The Table 1 analog.
+    pub table1: Table1Summary,
+    /// The lost robot.
+    pub lost_robot: LostSummary,
+    /// The kidnap suite on a stale map.
+    pub kidnap: KidnapSummary,
+    /// The kidnap suite on the current world's map (absent if not run).
+    pub kidnap_best_case: Option<KidnapSummary>,
+    /// The parameters.
+    pub params: RecoveryParams,
+}
+
+/// Everything the experiments produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecoveryResults {
+    /// The summary.
+    pub summary: RecoverySummary,
+    /// The demo's processed steps.
+    pub demo_timeline: Vec<TimelineSample>,
+    /// Table 1 runs.
+    pub table1_runs: Vec<Table1Run>,
+    /// Lost-robot runs.
+    pub lost_runs: Vec<LostRun>,
+    /// Kidnap trials, both cases.
+    pub trials: Vec<KidnapTrial>,
+}
+
+/// Progress reports of [`run_recovery`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// Worlds generated and M_1 built.
+    Prepared,
+    /// One of demo, Table 1, lost robot done.
+    Experiment,
+    /// One kidnap trial (one case) done.
+    Trial,
+}
+
+/// Runs every experiment with `seed` in W_1 = `w1`. `wall_time_s` of the summary is 0 (the
+/// caller sets it).
+pub fn run_recovery(
+    w1: &World,
+    params: &RecoveryParams,
+    seed: u64,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<RecoveryResults, ScenarioError> {
+    params.validate()?;
+    let setup = prepare(w1, params, seed)?;
+    progress(Progress::Prepared);
+    let (demo, demo_timeline) = run_demo(&setup, params, seed)?;
+    progress(Progress::Experiment);
+    let (table1, table1_runs) = run_table1(&setup, params, seed)?;
+    progress(Progress::Experiment);
+    let (lost_robot, lost_runs) = run_lost_robot(&setup, params, seed)?;
+    progress(Progress::Experiment);
+    let trials = run_kidnap_suite(&setup, params, seed, &|| progress(Progress::Trial))?;
+    let summary = RecoverySummary {
+        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+        seed,
+        wall_time_s: 0.0,
+        demo,
+        table1,
+        lost_robot,
+        kidnap: summarise_kidnap(MapCase::Stale, &trials, &params.kidnap),
+        kidnap_best_case: params.kidnap.best_case.then(|| summarise_kidnap(MapCase::Best, &trials, &params.kidnap)),
+        params: params.clone(),
+    };
+    Ok(RecoveryResults { summary, demo_timeline, table1_runs, lost_runs, trials })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tour_from_wraps_and_has_the_asked_length() {
+        let tour = Route::default_warehouse();
+        let total = tour.length_m();
+        for s in [0.0, 5.0, total - 1.0, total + 3.0] {
+            let (start, r) = tour_from(&tour, s, 20.0);
+            assert!((r.length_m() - 20.0).abs() < 1e-9, "{s}: {}", r.length_m());
+            let p = r.points()[0];
+            assert!((p.x - start.x).abs() < 1e-12 && (p.y - start.y).abs() < 1e-12);
+        }
+        let (start, _) = tour_from(&tour, 1.0, 5.0);
+        // The tour starts north from (-3.65, -2.3).
+        assert!((start.x + 3.65).abs() < 1e-9 && (start.y + 1.3).abs() < 1e-9);
+        assert!((start.yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+    }
+
+    fn sample(t: f64, e: f64) -> TrackSample {
+        TrackSample { t_s: t, error_m: e, yaw_error_rad: 0.0 }
+    }
+
+    #[test]
+    fn recovery_time_is_the_start_of_the_last_good_stretch() {
+        let c = SuccessCriterion { hold_s: 1.0, ..SuccessCriterion::default() };
+        let track: Vec<_> =
+            [1.0, 0.1, 0.5, 0.1, 0.1, 0.1].iter().enumerate().map(|(i, &e)| sample(i as f64 * 0.5, e)).collect();
+        assert_eq!(recovery_time(&track, &c), Some(1.5));
+        // Too short a good stretch.
+        let c2 = SuccessCriterion { hold_s: 2.0, ..c };
+        assert_eq!(recovery_time(&track, &c2), None);
+        // Bad at the end.
+        let bad: Vec<_> = [0.1, 0.1, 0.3].iter().enumerate().map(|(i, &e)| sample(i as f64, e)).collect();
+        assert_eq!(recovery_time(&bad, &c), None);
+        assert_eq!(recovery_time(&[], &c), None);
+    }
+
+    #[test]
+    fn draws_are_in_range_and_seeded() {
+        let p = RecoveryParams::default();
+        for t in 0..50 {
+            let d = draw_trial(&p, 3, t);
+            assert_eq!(d, draw_trial(&p, 3, t));
+            assert!((2..=p.kidnap.stale_max_world).contains(&d.world));
+            assert!((0.5..=3.0).contains(&d.displacement_m));
+            assert!(d.yaw_rad.abs() <= 45f64.to_radians());
+            assert!((3.0..=6.0).contains(&d.kidnap_s));
+        }
+        assert_ne!(draw_trial(&p, 3, 0), draw_trial(&p, 4, 0));
+    }
+
+    #[test]
+    fn bad_params_are_refused() {
+        let mut p = RecoveryParams::default();
+        p.kidnap.min_displacement_m = 4.0;
+        assert!(p.validate().is_err());
+        let mut p = RecoveryParams::default();
+        p.kidnap.bin_edges_m = vec![1.0, 1.0];
+        assert!(p.validate().is_err());
+        let mut p = RecoveryParams::default();
+        p.demo.world = 1;
+        assert!(p.validate().is_err());
+        assert!(RecoveryParams::default().validate().is_ok());
+    }
+}
