@@ -4,7 +4,7 @@ use crate::UpdaterError;
 use crate::beam_classifier::{BeamClass, BeamClassifier};
 use crate::cell_buffers::CellBuffers;
 use crate::cell_update::{CellChange, CellUpdater};
-use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam};
+use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam, merge_sorted_tail};
 use crate::gating::{GateReason, UpdateGate};
 use crate::localisation_check::{Verdict, localisation_check};
 use crate::log_odds_baseline::LogOddsBaseline;
@@ -103,6 +103,8 @@ pub struct MapUpdater {
     buffers: CellBuffers,
     cell_updater: CellUpdater,
     votes: Vec<Vote>,
+    /// Scratch of the vote sort.
+    vote_scratch: Vec<Vote>,
     pose_updater: PoseUpdater,
     log_odds: Option<LogOddsBaseline>,
     /// (robot_in_map, robot_in_odom) at the last step that passed the localisation check.
@@ -134,6 +136,7 @@ impl MapUpdater {
             buffers: CellBuffers::new(),
             cell_updater: CellUpdater::new(&initial_map),
             votes: Vec::new(),
+            vote_scratch: Vec::new(),
             pose_updater: PoseUpdater::new(),
             log_odds,
             last_good: None,
@@ -178,7 +181,7 @@ impl MapUpdater {
     pub fn scratch_bytes(&self) -> usize {
         self.classifier.beams.capacity() * size_of::<crate::beam_classifier::Beam>()
             + self.classifier.lidars.capacity() * size_of::<crate::beam_classifier::LidarFrame>()
-            + self.votes.capacity() * size_of::<Vote>()
+            + (self.votes.capacity() + self.vote_scratch.capacity()) * size_of::<Vote>()
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
@@ -275,7 +278,8 @@ impl MapUpdater {
                 evaluate_changed_beam(self.base.map(), origin, b.hit, b.range_m, &self.params, &mut self.votes);
             }
         }
-        ensure_buffers(&mut self.votes, self.base.map().geometry().width(), &mut self.buffers);
+        ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
+        let n_changed_votes = self.votes.len();
         if !self.buffers.is_empty() {
             self.classifier.mark_near(self.base.map().geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
             let mut probe = self.buffers.probe();
@@ -293,6 +297,9 @@ impl MapUpdater {
                     );
                 }
             }
+            // The cells update sorts the votes again: hand them over sorted, so that costs one
+            // linear check.
+            merge_sorted_tail(&mut self.votes, n_changed_votes, &mut self.vote_scratch);
         }
         self.cell_updater.apply(
             &mut self.votes,
