@@ -12,10 +12,43 @@
 use crate::distance::DistanceField;
 use crate::grid::{CellCoord, CellState, OccupancyGrid};
 use crate::pose::Point2;
-use crate::traversal::{RayHit, RayStop, cast_ray, entry_distance, floor_i64};
+use crate::traversal::{RayHit, RayStop, cast_ray, entry_distance_grid, floor_i64};
 
 /// Jumps shorter than this many cells are not worth restarting the walk for.
 const MIN_JUMP_CELLS: f64 = 12.0;
+
+/// A ray direction prepared for one [`RayCaster`]: the map-frame angle with its sine and
+/// cosine (for end points), and the sine and cosine relative to the grid's axes (for the walk).
+/// On a grid without rotation both pairs are the same one `sin_cos`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayDir {
+    angle: f64,
+    sin: f64,
+    cos: f64,
+    grid_sin: f64,
+    grid_cos: f64,
+    grid_yaw: f64,
+}
+
+impl RayDir {
+    /// The map-frame angle, radians.
+    #[inline]
+    pub fn angle(&self) -> f64 {
+        self.angle
+    }
+
+    /// `angle.sin()`, bit for bit.
+    #[inline]
+    pub fn sin(&self) -> f64 {
+        self.sin
+    }
+
+    /// `angle.cos()`, bit for bit.
+    #[inline]
+    pub fn cos(&self) -> f64 {
+        self.cos
+    }
+}
 
 /// A ray caster over one fixed map.
 ///
@@ -30,12 +63,16 @@ const MIN_JUMP_CELLS: f64 = 12.0;
 /// let fast = caster.cast(Point2::new(0.3, 1.2), 0.01, 20.0);
 /// assert_eq!(fast, cast_ray(&map, Point2::new(0.3, 1.2), 0.01, 20.0, true));
 /// assert_eq!(fast.cell.map(|c| c.ix), Some(180));
+/// // With a prepared direction (its sine and cosine are reusable for end points).
+/// let dir = caster.direction(0.01);
+/// assert_eq!(caster.cast_dir(Point2::new(0.3, 1.2), &dir, 20.0), fast);
 /// ```
 #[derive(Clone, Debug)]
 pub struct RayCaster {
     map: OccupancyGrid,
     unknown_blocks: bool,
-    /// Per cell: clearance minus the `r√2` margin, metres (≤ 0 next to obstacles).
+    /// Per cell: clearance minus the `r√2` margin, metres (≤ 0 next to obstacles);
+    /// `-∞` for a blocking cell, so that one load answers both "blocks?" and "how far?".
     safe_jump_m: Vec<f32>,
     min_jump_m: f64,
 }
@@ -53,7 +90,12 @@ impl RayCaster {
         let field = DistanceField::from_sites(&g, w.hypot(h) + r, |i| blocking(cells[i]));
         // Margin: r√2 for the two half-diagonals, plus a hair for rounding.
         let margin = r * std::f64::consts::SQRT_2 + 1e-6 * r;
-        let safe_jump_m = field.distances_m().iter().map(|&d| (d as f64 - margin) as f32).collect();
+        let safe_jump_m = field
+            .distances_m()
+            .iter()
+            .zip(cells)
+            .map(|(&d, &s)| if blocking(s) { f32::NEG_INFINITY } else { (d as f64 - margin) as f32 })
+            .collect();
         Self { map: map.clone(), unknown_blocks, safe_jump_m, min_jump_m: MIN_JUMP_CELLS * r }
     }
 
@@ -67,18 +109,40 @@ impl RayCaster {
         self.unknown_blocks
     }
 
+    /// The direction `angle` (radians, map frame) prepared for [`RayCaster::cast_dir`]: one
+    /// `sin_cos` on an unrotated grid, two otherwise.
+    #[inline]
+    pub fn direction(&self, angle: f64) -> RayDir {
+        let (sin, cos) = angle.sin_cos();
+        let grid_yaw = self.map.geometry().origin().yaw;
+        // `angle - 0.0` is `angle` bit for bit (also for -0.0), so the grid-relative pair is
+        // the same one; only +0.0 is tested, to keep that argument trivially true.
+        let (grid_sin, grid_cos) = if grid_yaw.to_bits() == 0 { (sin, cos) } else { (angle - grid_yaw).sin_cos() };
+        RayDir { angle, sin, cos, grid_sin, grid_cos, grid_yaw }
+    }
+
     /// Casts a ray: the same answer as `cast_ray(map, origin, angle, max_range_m, unknown_blocks)`
     /// (ranges equal to within rounding, 1e-9 m).
     pub fn cast(&self, origin: Point2, angle: f64, max_range_m: f64) -> RayHit {
+        self.cast_dir(origin, &self.direction(angle), max_range_m)
+    }
+
+    /// [`RayCaster::cast`] along a prepared direction (bit for bit the same answer).
+    pub fn cast_dir(&self, origin: Point2, dir: &RayDir, max_range_m: f64) -> RayHit {
+        let angle = dir.angle;
         if !(max_range_m.is_finite() && max_range_m > 0.0 && origin.is_finite() && angle.is_finite()) {
             return cast_ray(&self.map, origin, angle, max_range_m, self.unknown_blocks);
         }
         let geometry = self.map.geometry();
+        if dir.grid_yaw.to_bits() != geometry.origin().yaw.to_bits() {
+            // Prepared for another grid.
+            return self.cast(origin, angle, max_range_m);
+        }
         let (w, h) = (geometry.width() as i64, geometry.height() as i64);
         let r = geometry.resolution_m();
         // The ray in grid coordinates, parametrised by metres from its origin.
         let (u0, v0) = geometry.world_to_grid(origin);
-        let (gs, gc) = (angle - geometry.origin().yaw).sin_cos();
+        let (gs, gc) = (dir.grid_sin, dir.grid_cos);
         let (du, dv) = (gc / r, gs / r);
         let Some((t_in, t_out)) = clip_metres(u0, v0, du, dv, w as f64, h as f64, max_range_m) else {
             return RayHit { range_m: max_range_m, cell: None, stop: RayStop::LeftGrid };
@@ -95,7 +159,7 @@ impl RayCaster {
             if du != 0.0 { 1.0 / du.abs() } else { f64::INFINITY },
             if dv != 0.0 { 1.0 / dv.abs() } else { f64::INFINITY },
         );
-        let cells = self.map.cells();
+        let safe_jump = &self.safe_jump_m[..];
         // Enter the grid at t_in; after a jump, re-enter at the landing point.
         let mut t_entry = t_in;
         loop {
@@ -115,13 +179,19 @@ impl RayCaster {
             let mut t_max_y = boundary(iy, v0, dv);
             let mut index = (iy * w + ix) as usize;
             loop {
-                let state = cells[index];
-                if state == CellState::Occupied || (self.unknown_blocks && state == CellState::Unknown) {
+                let jump = safe_jump[index];
+                if jump == f32::NEG_INFINITY {
                     let cell = CellCoord::new(ix as i32, iy as i32);
-                    let stop = if state == CellState::Occupied { RayStop::Occupied } else { RayStop::Unknown };
-                    return RayHit { range_m: entry_distance(geometry, origin, angle, cell), cell: Some(cell), stop };
+                    let stop = if self.map.cells()[index] == CellState::Occupied {
+                        RayStop::Occupied
+                    } else {
+                        RayStop::Unknown
+                    };
+                    // entry_distance(geometry, origin, angle, cell), from the values it would
+                    // recompute: world_to_grid(origin) and the grid-relative sine and cosine.
+                    return RayHit { range_m: entry_distance_grid(u0, v0, gc, gs, cell, r), cell: Some(cell), stop };
                 }
-                let jump = self.safe_jump_m[index] as f64;
+                let jump = jump as f64;
                 if jump >= self.min_jump_m {
                     t_entry += jump;
                     if t_entry >= t_out {
@@ -249,6 +319,9 @@ mod tests {
                 let fast = caster.cast(o, a, max_range);
                 let slow = cast_ray(&map, o, a, max_range, unknown_blocks);
                 prop_assert!(same(&fast, &slow), "ray {k}: {fast:?} vs {slow:?}");
+                let dir = caster.direction(a);
+                prop_assert_eq!(caster.cast_dir(o, &dir, max_range), fast);
+                prop_assert_eq!((dir.sin(), dir.cos()), a.sin_cos());
             }
         }
     }

@@ -238,6 +238,13 @@ pub(crate) fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64
     let (u, v) = geometry.world_to_grid(origin);
     let yaw = angle - geometry.origin().yaw;
     let (dy, dx) = yaw.sin_cos();
+    entry_distance_grid(u, v, dx, dy, cell, geometry.resolution_m())
+}
+
+/// [`entry_distance`] from the origin in grid coordinates `(u, v)` and the direction's cosine
+/// and sine relative to the grid's axes.
+#[inline]
+pub(crate) fn entry_distance_grid(u: f64, v: f64, dx: f64, dy: f64, cell: CellCoord, resolution_m: f64) -> f64 {
     let mut t_in = 0.0f64;
     for (p, d, lo) in [(u, dx, cell.ix as f64), (v, dy, cell.iy as f64)] {
         if d.abs() < 1e-300 {
@@ -247,7 +254,7 @@ pub(crate) fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64
         let tb = (lo + 1.0 - p) / d;
         t_in = t_in.max(ta.min(tb));
     }
-    t_in * geometry.resolution_m()
+    t_in * resolution_m
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@
 //! |z_e − z| from p_i whatever the angle offset.
 
 use crate::UpdaterParams;
-use mapkeeper_grid::{CellCoord, Point2, Pose2, RayCaster, RayStop};
+use mapkeeper_grid::{CellCoord, Point2, Pose2, RayCaster, RayDir, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// The classifier's verdict on one beam.
@@ -113,6 +113,25 @@ pub fn detects_change(
     max_range_m: f64,
     d_th: f64,
 ) -> bool {
+    detects_change_dir(base, origin, &base.direction(angle_rad), increment_rad, hit, z, n_e, v, max_range_m, d_th)
+}
+
+/// [`detects_change`] with the beam's direction prepared by `base` (its sine and cosine are
+/// reused for the central ray; bit for bit the same answer).
+#[allow(clippy::too_many_arguments)]
+pub fn detects_change_dir(
+    base: &RayCaster,
+    origin: Point2,
+    beam: &RayDir,
+    increment_rad: f64,
+    hit: Point2,
+    z: f64,
+    n_e: i32,
+    v: f64,
+    max_range_m: f64,
+    d_th: f64,
+) -> bool {
+    let angle_rad = beam.angle();
     let cast_len = z + d_th + 1e-6;
     let (len, truncated) = if cast_len >= max_range_m { (max_range_m, false) } else { (cast_len, true) };
     let d_th_sq = d_th * d_th;
@@ -120,11 +139,13 @@ pub fn detects_change(
         // 0, -1, +1, -2, +2, ...
         let l = if k % 2 == 0 { -(k / 2) } else { (k + 1) / 2 };
         let a = angle_rad + l as f64 * v * increment_rad;
-        let ray = base.cast(origin, a, len);
+        // The central ray's angle is the beam's own (bit for bit, then reuse its direction).
+        let dir = if a.to_bits() == angle_rad.to_bits() { *beam } else { base.direction(a) };
+        let ray = base.cast_dir(origin, &dir, len);
         if truncated && ray.stop == RayStop::MaxRange {
             continue; // z_e > z + D_th: too far whatever the angle.
         }
-        let (s, c) = a.sin_cos();
+        let (s, c) = (dir.sin(), dir.cos());
         let expected = Point2::new(origin.x + ray.range_m * c, origin.y + ray.range_m * s);
         if expected.distance_sq(hit) <= d_th_sq {
             return false;
@@ -186,21 +207,12 @@ impl BeamClassifier {
                     continue;
                 }
                 counts.n_valid += 1;
-                let (s, c) = angle_rad.sin_cos();
+                let dir = base.direction(angle_rad);
+                let (s, c) = (dir.sin(), dir.cos());
                 let hit = Point2::new(origin.x + z * c, origin.y + z * s);
                 let d_th = params.change_distance_m(z);
-                let changed = detects_change(
-                    base,
-                    origin,
-                    angle_rad,
-                    scan.angle_increment_rad,
-                    hit,
-                    z,
-                    n_e,
-                    v,
-                    max_range_m,
-                    d_th,
-                );
+                let changed =
+                    detects_change_dir(base, origin, &dir, scan.angle_increment_rad, hit, z, n_e, v, max_range_m, d_th);
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
                 self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer: false });
             }
