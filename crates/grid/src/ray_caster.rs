@@ -12,7 +12,7 @@
 use crate::distance::DistanceField;
 use crate::grid::{CellCoord, CellState, OccupancyGrid};
 use crate::pose::Point2;
-use crate::traversal::{RayHit, RayStop, cast_ray, entry_distance_grid, floor_i64};
+use crate::traversal::{RayHit, RayStop, SegmentWalk, cast_ray, entry_distance_grid, floor_i64};
 
 /// Jumps shorter than this many cells are not worth restarting the walk for.
 const MIN_JUMP_CELLS: f64 = 12.0;
@@ -227,6 +227,47 @@ impl RayCaster {
     }
 }
 
+impl RayCaster {
+    /// Visits, in order, exactly the blocking cells (occupied, or unknown if unknown cells
+    /// block) that [`traverse_indexed`](crate::traverse_indexed)`(geometry, from, to, ..)`
+    /// visits, with each one's linear index. Open stretches are crossed with
+    /// [`SegmentWalk::skip_before`]: from a cell whose clearance allows a jump of `j`, every
+    /// boundary less than `j` beyond the cell's exit is crossed at once (no blocking cell is
+    /// that close; the jump is shortened by 2⁻²⁰ of itself plus a cell for the clearances'
+    /// `f32` rounding, and the caster's `1e-6` cell margin covers the walk's own rounding).
+    pub fn visit_blocking(&self, from: Point2, to: Point2, mut visit: impl FnMut(CellCoord, usize)) {
+        let geometry = self.map.geometry();
+        let Some(mut walk) = SegmentWalk::start(geometry, from, to) else {
+            return;
+        };
+        let r = geometry.resolution_m();
+        let min_skip_m = MIN_SKIP_CELLS * r;
+        // Parameter per metre of travel.
+        let per_m = walk.param_per_cell() / r;
+        let safe_jump = &self.safe_jump_m[..];
+        loop {
+            let jump = safe_jump[walk.index()];
+            if jump == f32::NEG_INFINITY {
+                visit(walk.cell(), walk.index());
+            } else if jump as f64 >= min_skip_m {
+                let j = jump as f64;
+                let j = j - (j + r) * F32_SLACK;
+                walk.skip_before(walk.exit_param() + j * per_m);
+            }
+            if !walk.advance() {
+                return;
+            }
+        }
+    }
+}
+
+/// [`RayCaster::visit_blocking`] skips only from cells whose safe jump is at least this many
+/// cells (shorter skips cost more than they save).
+const MIN_SKIP_CELLS: f64 = 3.0;
+
+/// Relative slack for a clearance stored as `f32` (2⁻²⁰, eight times its rounding).
+const F32_SLACK: f64 = 1.0 / (1u64 << 20) as f64;
+
 /// Clips the ray `(u0, v0) + t·(du, dv)`, `t ∈ [0, max_t]`, to `[0, w] × [0, h]`.
 fn clip_metres(u0: f64, v0: f64, du: f64, dv: f64, w: f64, h: f64, max_t: f64) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (0.0f64, max_t);
@@ -307,6 +348,27 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(300))]
+        #[test]
+        fn visits_the_blocking_cells_traverse_visits(seed in any::<u64>(), density in 0.0f64..0.01, rotate in any::<bool>(),
+                                                    ax in -1.5f64..2.5, ay in -1.0f64..2.0, unknown_blocks in any::<bool>(),
+                                                    len in 0.0f64..5.0, a in 0.0f64..std::f64::consts::TAU) {
+            let map = random_map(seed, density, if rotate { 0.3 } else { 0.0 });
+            let caster = RayCaster::new(&map, unknown_blocks);
+            let from = Point2::new(ax, ay);
+            let to = Point2::new(ax + len * a.cos(), ay + len * a.sin());
+            let mut want = Vec::new();
+            let _ = crate::traverse_indexed(map.geometry(), from, to, |c, i| {
+                let s = map.cells()[i];
+                if s == CellState::Occupied || (unknown_blocks && s == CellState::Unknown) {
+                    want.push((c, i));
+                }
+                std::ops::ControlFlow::<()>::Continue(())
+            });
+            let mut got = Vec::new();
+            caster.visit_blocking(from, to, |c, i| got.push((c, i)));
+            prop_assert_eq!(got, want);
+        }
+
         #[test]
         fn same_answers_as_cast_ray(seed in any::<u64>(), density in 0.0f64..0.01, rotate in any::<bool>(),
                                     ox in -1.5f64..2.5, oy in -1.0f64..2.0, unknown_blocks in any::<bool>(),

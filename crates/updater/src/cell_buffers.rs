@@ -86,8 +86,9 @@ impl TileMask {
     fn bit(c: CellCoord) -> usize {
         (((c.iy & 15) << 4) | (c.ix & 15)) as usize
     }
+    /// Whether `c` (a cell of this tile) holds a buffer.
     #[inline]
-    fn contains(&self, c: CellCoord) -> bool {
+    pub fn contains(&self, c: CellCoord) -> bool {
         let b = Self::bit(c);
         self.bits[b >> 6] & (1u64 << (b & 63)) != 0
     }
@@ -114,16 +115,22 @@ pub struct TileProbe<'a> {
     mask: Option<&'a TileMask>,
 }
 
-impl TileProbe<'_> {
+impl<'a> TileProbe<'a> {
     /// Whether `c` holds a buffer.
     #[inline]
     pub fn contains(&mut self, c: CellCoord) -> bool {
+        self.tile(c).is_some_and(|m| m.contains(c))
+    }
+
+    /// The mask of the tile that holds `c`, if any cell of that tile holds a buffer.
+    #[inline]
+    pub fn tile(&mut self, c: CellCoord) -> Option<&'a TileMask> {
         let key = tile_key(c);
         if key != self.key {
             self.key = key;
             self.mask = self.tiles.get(&key);
         }
-        self.mask.is_some_and(|m| m.contains(c))
+        self.mask
     }
 }
 

@@ -9,8 +9,7 @@
 
 use crate::UpdaterParams;
 use crate::cell_buffers::CellBuffers;
-use mapkeeper_grid::{CellState, OccupancyGrid, Point2, traverse};
-use std::ops::ControlFlow;
+use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid, Point2, RayCaster, SegmentWalk};
 
 /// A vote of one beam on one cell during a step, packed as `index << 1 | changed`.
 pub type Vote = u32;
@@ -65,7 +64,7 @@ pub fn all_free_within(grid: &OccupancyGrid, p: Point2, radius_m: f64) -> bool {
             {
                 continue;
             }
-            let c = mapkeeper_grid::CellCoord::new(ix as i32, iy as i32);
+            let c = CellCoord::new(ix as i32, iy as i32);
             if grid.get(c) != Some(CellState::Free) {
                 return false;
             }
@@ -87,15 +86,56 @@ pub fn evaluate_changed_beam(
 ) {
     let g = base.geometry();
     let cells = base.cells();
+    changed_votes(base, origin, hit, z, params, votes, |from, to, visit| {
+        if let Some(mut walk) = SegmentWalk::start(g, from, to) {
+            loop {
+                if cells[walk.index()] != CellState::Free {
+                    visit(walk.cell(), walk.index());
+                }
+                if !walk.advance() {
+                    break;
+                }
+            }
+        }
+    });
+}
+
+/// [`evaluate_changed_beam`] with `M_{i-1}` behind a caster whose unknown cells block: the
+/// non-free cells along the ray are found with [`RayCaster::visit_blocking`], which crosses
+/// open stretches without visiting them (the same cells, the same votes).
+pub fn evaluate_changed_beam_cast(
+    base: &RayCaster,
+    origin: Point2,
+    hit: Point2,
+    z: f64,
+    params: &UpdaterParams,
+    votes: &mut Vec<Vote>,
+) {
+    if !base.unknown_blocks() {
+        return evaluate_changed_beam(base.map(), origin, hit, z, params, votes);
+    }
+    changed_votes(base.map(), origin, hit, z, params, votes, |from, to, visit| base.visit_blocking(from, to, visit));
+}
+
+/// The changed evaluator given a way to visit the non-free cells of `M_{i-1}` that the
+/// traversal of a segment visits, in order.
+fn changed_votes(
+    base: &OccupancyGrid,
+    origin: Point2,
+    hit: Point2,
+    z: f64,
+    params: &UpdaterParams,
+    votes: &mut Vec<Vote>,
+    non_free_on: impl FnOnce(Point2, Point2, &mut dyn FnMut(CellCoord, usize)),
+) {
+    let g = base.geometry();
     let skip = params.skip_changed_m(z);
     if let Some(p_th) = threshold_point(origin, hit, z, skip) {
         let skip_sq = skip * skip;
-        let _ = traverse(g, origin, p_th, |c| {
-            let i = c.iy as usize * g.width() + c.ix as usize;
-            if cells[i] != CellState::Free && g.cell_center(c).distance_sq(hit) > skip_sq {
+        non_free_on(origin, p_th, &mut |c, i| {
+            if g.cell_center(c).distance_sq(hit) > skip_sq {
                 votes.push(vote(i, true));
             }
-            ControlFlow::<()>::Continue(())
         });
     }
     if let Some(c) = g.world_to_cell(hit)
@@ -117,7 +157,7 @@ pub fn ensure_buffers(votes: &mut Vec<Vote>, scratch: &mut Vec<Vote>, width: usi
         if v & 1 == 1 && v != last {
             last = v;
             let i = (v >> 1) as usize;
-            buffers.ensure(i as u32, mapkeeper_grid::CellCoord::new((i % width) as i32, (i / width) as i32));
+            buffers.ensure(i as u32, CellCoord::new((i % width) as i32, (i / width) as i32));
         }
     }
 }
@@ -215,6 +255,43 @@ mod tests {
                 assert_eq!(m, want, "n={n} split={split}");
             }
         }
+    }
+
+    #[test]
+    fn caster_walk_gives_the_votes_of_a_full_walk() {
+        // A room with box outlines (occupied border, unknown inside) and scattered cells.
+        let g = GridGeometry::new(240, 180, 0.05, Pose2::new(-1.0, 0.5, 0.2)).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for k in 0..240 {
+            m.set(CellCoord::new(k, 0), CellState::Occupied);
+            m.set(CellCoord::new(k, 179), CellState::Occupied);
+        }
+        for (x0, y0) in [(40, 30), (150, 100), (90, 140), (200, 20)] {
+            for ix in x0..x0 + 24 {
+                for iy in y0..y0 + 20 {
+                    let edge = ix == x0 || iy == y0 || ix == x0 + 23 || iy == y0 + 19;
+                    m.set(CellCoord::new(ix, iy), if edge { CellState::Occupied } else { CellState::Unknown });
+                }
+            }
+        }
+        for k in 0..60 {
+            m.set(CellCoord::new((k * 37) % 240, (k * 53) % 180), CellState::Occupied);
+        }
+        let caster = RayCaster::new(&m, true);
+        let params = UpdaterParams::paper();
+        let mut n_votes = 0;
+        for k in 0..720 {
+            let origin = g.grid_to_world(20.0 + (k % 7) as f64 * 25.3, 10.0 + (k % 5) as f64 * 31.7);
+            let a = k as f64 * 0.5f64.to_radians() + 0.001;
+            let z = 1.0 + (k % 13) as f64;
+            let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
+            let (mut want, mut got) = (Vec::new(), Vec::new());
+            evaluate_changed_beam(&m, origin, hit, z, &params, &mut want);
+            evaluate_changed_beam_cast(&caster, origin, hit, z, &params, &mut got);
+            assert_eq!(got, want, "ray {k}");
+            n_votes += want.len();
+        }
+        assert!(n_votes > 1000, "the rays must cross obstacles ({n_votes} votes)");
     }
 
     #[test]

@@ -4,7 +4,7 @@ use crate::UpdaterError;
 use crate::beam_classifier::{BeamClass, BeamClassifier};
 use crate::cell_buffers::CellBuffers;
 use crate::cell_update::{CellChange, CellUpdater};
-use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam, merge_sorted_tail};
+use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam_cast, merge_sorted_tail};
 use crate::gating::{GateReason, UpdateGate};
 use crate::localisation_check::{Verdict, localisation_check};
 use crate::log_odds_baseline::LogOddsBaseline;
@@ -275,7 +275,7 @@ impl MapUpdater {
         for b in &self.classifier.beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam(self.base.map(), origin, b.hit, b.range_m, &self.params, &mut self.votes);
+                evaluate_changed_beam_cast(&self.base, origin, b.hit, b.range_m, &self.params, &mut self.votes);
             }
         }
         ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
