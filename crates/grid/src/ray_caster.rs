@@ -228,6 +228,28 @@ impl RayCaster {
 }
 
 impl RayCaster {
+    /// A lower bound on how far `p` is from the nearest blocking cell and from the grid's
+    /// border, metres: every point closer than this to `p` lies inside the grid and outside
+    /// every blocking cell. From the clearance of `p`'s cell (minus its `f32` rounding); `-∞`
+    /// when `p`'s cell blocks, `p` is outside the grid or not finite.
+    pub fn free_radius_m(&self, p: Point2) -> f64 {
+        let g = self.map.geometry();
+        let (u, v) = g.world_to_grid(p);
+        let (w, h) = (g.width() as f64, g.height() as f64);
+        if !(u >= 0.0 && v >= 0.0 && u < w && v < h) {
+            return f64::NEG_INFINITY;
+        }
+        let index = floor_i64(v) as usize * g.width() + floor_i64(u) as usize;
+        let jump = self.safe_jump_m[index];
+        if jump == f32::NEG_INFINITY {
+            return f64::NEG_INFINITY;
+        }
+        let r = g.resolution_m();
+        let j = jump as f64;
+        let border = u.min(w - u).min(v).min(h - v) * r;
+        (j - (j.abs() + r) * F32_SLACK).min(border * (1.0 - F32_SLACK))
+    }
+
     /// Visits, in order, exactly the blocking cells (occupied, or unknown if unknown cells
     /// block) that [`traverse_indexed`](crate::traverse_indexed)`(geometry, from, to, ..)`
     /// visits, with each one's linear index. Open stretches are crossed with
@@ -348,6 +370,38 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(300))]
+        #[test]
+        fn free_radius_is_free(seed in any::<u64>(), density in 0.0f64..0.005, rotate in any::<bool>(),
+                               px in -1.5f64..2.5, py in -1.0f64..2.0, unknown_blocks in any::<bool>()) {
+            let map = random_map(seed, density, if rotate { 0.3 } else { 0.0 });
+            let caster = RayCaster::new(&map, unknown_blocks);
+            let g = map.geometry();
+            let p = Point2::new(px, py);
+            let radius = caster.free_radius_m(p);
+            // Brute force: the nearest point of any blocking cell, and the border.
+            let (u, v) = g.world_to_grid(p);
+            let r = g.resolution_m();
+            let mut nearest = (u.min(g.width() as f64 - u).min(v).min(g.height() as f64 - v) * r).max(0.0);
+            if u < 0.0 || v < 0.0 || u >= g.width() as f64 || v >= g.height() as f64 {
+                nearest = 0.0;
+            }
+            for iy in 0..g.height() {
+                for ix in 0..g.width() {
+                    let s = map.cells()[iy * g.width() + ix];
+                    if s == CellState::Occupied || (unknown_blocks && s == CellState::Unknown) {
+                        let dx = (ix as f64 - u).max(u - ix as f64 - 1.0).max(0.0);
+                        let dy = (iy as f64 - v).max(v - iy as f64 - 1.0).max(0.0);
+                        nearest = nearest.min(dx.hypot(dy) * r);
+                    }
+                }
+            }
+            prop_assert!(radius <= nearest, "free radius {} > nearest {}", radius, nearest);
+            if nearest > 2.0 * r {
+                // Not uselessly small: at most the two half-diagonals below.
+                prop_assert!(radius > nearest - 1.5 * r, "free radius {} for nearest {}", radius, nearest);
+            }
+        }
+
         #[test]
         fn visits_the_blocking_cells_traverse_visits(seed in any::<u64>(), density in 0.0f64..0.01, rotate in any::<bool>(),
                                                     ax in -1.5f64..2.5, ay in -1.0f64..2.0, unknown_blocks in any::<bool>(),

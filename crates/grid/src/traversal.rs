@@ -122,6 +122,8 @@ pub struct SegmentWalk {
     /// Where the walk starts (the segment's first point in the grid), grid coordinates: the
     /// parameters above count from here, in units of `d`.
     s: (f64, f64),
+    /// Parameter of `s` along the whole segment (0 if it starts inside the grid).
+    t0: f64,
     /// The whole segment, grid coordinates.
     d: (f64, f64),
 }
@@ -174,6 +176,7 @@ impl SegmentWalk {
             remaining_y,
             t_exit: t1,
             s,
+            t0,
             d,
         })
     }
@@ -202,6 +205,13 @@ impl SegmentWalk {
     #[inline]
     pub fn param_per_cell(&self) -> f64 {
         1.0 / (self.d.0 * self.d.0 + self.d.1 * self.d.1).sqrt()
+    }
+
+    /// The walk's parameter of the point `cells` cell sides along the segment from its `from`
+    /// end (negative before the walk's first cell).
+    #[inline]
+    pub fn param_at(&self, cells: f64) -> f64 {
+        cells * self.param_per_cell() - self.t0
     }
 
     /// The parameter at which the segment's line, going forward, leaves the axis-aligned square

@@ -41,9 +41,10 @@ pub struct Beam {
     pub angle_rad: f64,
     /// Hit point p_i in the map frame.
     pub hit: Point2,
-    /// Whether the beam's direction crosses a tile that holds a cell buffer (set by the
-    /// updater before the unchanged evaluator; beams that do not are skipped there).
-    pub near_buffer: bool,
+    /// Distance from the lidar to the nearest tile holding a cell buffer that the beam's
+    /// direction crosses, metres; +∞ if it crosses none (set by [`BeamClassifier::mark_near`]
+    /// before the unchanged evaluator, which skips beams at +∞ and starts walking near the tile).
+    pub near_buffer_m: f64,
     /// The verdict.
     pub class: BeamClass,
 }
@@ -97,6 +98,10 @@ pub fn virtual_rays(params: &UpdaterParams, increment_rad: f64) -> (i32, f64) {
     }
 }
 
+/// Margin of the no-cast shortcut of [`detects_change_dir`] against the rounding of expected
+/// points (about 1e-14 m at warehouse scale).
+const EXPECTED_POINT_SLACK_M: f64 = 1e-6;
+
 /// Eq. 3-5 for one beam: whether the smallest distance from `hit` (at range `z` along
 /// `angle_rad` from `origin`) to the expected hit points of the 2n_e + 1 rays cast in `base` at
 /// `angle_rad + l·v·increment_rad` exceeds `d_th`. Unknown cells block the rays.
@@ -134,6 +139,13 @@ pub fn detects_change_dir(
     let angle_rad = beam.angle();
     let cast_len = z + d_th + 1e-6;
     let (len, truncated) = if cast_len >= max_range_m { (max_range_m, false) } else { (cast_len, true) };
+    // Exact shortcut: an expected point is on a blocking cell (or the ray's start inside one),
+    // on the grid's border, or — only for a cast that is not truncated — at the maximum range.
+    // With no blocking cell and no border within D_th of p_i (plus a margin far above the
+    // rounding of the expected points), none of them can match: a change, without casting.
+    if truncated && base.free_radius_m(hit) > d_th + EXPECTED_POINT_SLACK_M {
+        return true;
+    }
     let d_th_sq = d_th * d_th;
     for k in 0..=2 * n_e {
         // 0, -1, +1, -2, +2, ...
@@ -202,7 +214,7 @@ impl BeamClassifier {
                         angle_rad,
                         hit: origin,
                         class: BeamClass::Invalid,
-                        near_buffer: false,
+                        near_buffer_m: f64::INFINITY,
                     });
                     continue;
                 }
@@ -214,7 +226,7 @@ impl BeamClassifier {
                 let changed =
                     detects_change_dir(base, origin, &dir, scan.angle_increment_rad, hit, z, n_e, v, max_range_m, d_th);
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
-                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer: false });
+                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer_m: f64::INFINITY });
             }
         }
         self.filter_outliers(params.min_change_run as usize);
@@ -233,7 +245,7 @@ impl BeamClassifier {
     ) {
         use std::f64::consts::{PI, TAU};
         for b in &mut self.beams {
-            b.near_buffer = false;
+            b.near_buffer_m = f64::INFINITY;
         }
         let tile_m = side as f64 * geometry.resolution_m();
         for f in &self.lidars {
@@ -247,9 +259,17 @@ impl BeamClassifier {
                     .map(|(dx, dy)| geometry.grid_to_world((t.ix + dx) as f64, (t.iy + dy) as f64));
                 let centre = geometry.grid_to_world(t.ix as f64 + side as f64 / 2.0, t.iy as f64 + side as f64 / 2.0);
                 if centre.distance(f.origin) <= tile_m {
-                    beams.iter_mut().for_each(|b| b.near_buffer = true);
+                    beams.iter_mut().for_each(|b| b.near_buffer_m = 0.0);
                     break;
                 }
+                // Distance from the lidar to the tile's square (grid coordinates, then metres).
+                let (u, v) = geometry.world_to_grid(f.origin);
+                let (x0, y0) = (t.ix as f64, t.iy as f64);
+                let (x1, y1) = (x0 + side as f64, y0 + side as f64);
+                let du = (x0 - u).max(u - x1).max(0.0);
+                let dv = (y0 - v).max(v - y1).max(0.0);
+                let dist_m = (du * du + dv * dv).sqrt() * geometry.resolution_m();
+                let mut near = |b: &mut Beam| b.near_buffer_m = b.near_buffer_m.min(dist_m);
                 let ac = (centre.y - f.origin.y).atan2(centre.x - f.origin.x);
                 let half = corners
                     .iter()
@@ -266,11 +286,9 @@ impl BeamClassifier {
                     let lo = ((off + shift - half) / inc).ceil().max(0.0);
                     let hi = ((off + shift + half) / inc).floor().min(beams.len() as f64 - 1.0);
                     if lo <= hi && half < PI {
-                        for b in &mut beams[lo as usize..=hi as usize] {
-                            b.near_buffer = true;
-                        }
+                        beams[lo as usize..=hi as usize].iter_mut().for_each(&mut near);
                     } else if half >= PI {
-                        beams.iter_mut().for_each(|b| b.near_buffer = true);
+                        beams.iter_mut().for_each(&mut near);
                     }
                 }
             }

@@ -86,7 +86,8 @@ pub fn evaluate_changed_beam(
 ) {
     let g = base.geometry();
     let cells = base.cells();
-    changed_votes(base, origin, hit, z, params, votes, |from, to, visit| {
+    let all_free = |p, radius| all_free_within(base, p, radius);
+    let non_free_on = |from: Point2, to: Point2, visit: &mut dyn FnMut(CellCoord, usize)| {
         if let Some(mut walk) = SegmentWalk::start(g, from, to) {
             loop {
                 if cells[walk.index()] != CellState::Free {
@@ -97,7 +98,8 @@ pub fn evaluate_changed_beam(
                 }
             }
         }
-    });
+    };
+    changed_votes(base, origin, hit, z, params, votes, non_free_on, all_free);
 }
 
 /// [`evaluate_changed_beam`] with `M_{i-1}` behind a caster whose unknown cells block: the
@@ -114,11 +116,34 @@ pub fn evaluate_changed_beam_cast(
     if !base.unknown_blocks() {
         return evaluate_changed_beam(base.map(), origin, hit, z, params, votes);
     }
-    changed_votes(base.map(), origin, hit, z, params, votes, |from, to, visit| base.visit_blocking(from, to, visit));
+    let all_free = |p, radius| {
+        // Exact shortcuts: p's own cell blocks (it is always among the cells looked at), or
+        // no blocking cell and no border within the radius (plus a margin far above the
+        // rounding of the distances compared).
+        let free = base.free_radius_m(p);
+        if free == f64::NEG_INFINITY {
+            false
+        } else if free > radius * (1.0 + 1e-9) + 1e-9 {
+            true
+        } else {
+            all_free_within(base.map(), p, radius)
+        }
+    };
+    changed_votes(
+        base.map(),
+        origin,
+        hit,
+        z,
+        params,
+        votes,
+        |from, to, visit| base.visit_blocking(from, to, visit),
+        all_free,
+    );
 }
 
 /// The changed evaluator given a way to visit the non-free cells of `M_{i-1}` that the
-/// traversal of a segment visits, in order.
+/// traversal of a segment visits, in order, and [`all_free_within`] or an equivalent.
+#[allow(clippy::too_many_arguments)]
 fn changed_votes(
     base: &OccupancyGrid,
     origin: Point2,
@@ -127,6 +152,7 @@ fn changed_votes(
     params: &UpdaterParams,
     votes: &mut Vec<Vote>,
     non_free_on: impl FnOnce(Point2, Point2, &mut dyn FnMut(CellCoord, usize)),
+    all_free: impl FnOnce(Point2, f64) -> bool,
 ) {
     let g = base.geometry();
     let skip = params.skip_changed_m(z);
@@ -140,7 +166,7 @@ fn changed_votes(
     }
     if let Some(c) = g.world_to_cell(hit)
         && let Some(i) = g.index(c)
-        && all_free_within(base, hit, params.tol_m(z))
+        && all_free(hit, params.tol_m(z))
     {
         votes.push(vote(i, true));
     }

@@ -17,22 +17,34 @@ use mapkeeper_grid::{CellState, OccupancyGrid, Point2, SegmentWalk};
 /// step over at most 2²¹ steps, about 5e-10).
 const TILE_EXIT_MARGIN: f64 = 1e-9;
 
-/// Appends the unchanged evaluator's votes for one beam to `votes`.
+/// Appends the unchanged evaluator's votes for one beam to `votes`. `first_buffer_m`: no cell
+/// closer than this to `origin` along the beam holds a buffer (0 if unknown; see
+/// [`crate::beam_classifier::Beam::near_buffer_m`]), so the walk starts about there.
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate_unchanged_beam(
     base: &OccupancyGrid,
     origin: Point2,
     hit: Point2,
     z: f64,
     params: &UpdaterParams,
+    first_buffer_m: f64,
     probe: &mut TileProbe<'_>,
     votes: &mut Vec<Vote>,
 ) {
     let g = base.geometry();
+    let r = g.resolution_m();
     let skip = params.skip_unchanged_m(z);
-    if let Some(p_th) = threshold_point(origin, hit, z, skip) {
+    // Every cell the walk visits has a point within rounding of the segment, at most z − skip
+    // from the origin; a cell first entered less than `first_buffer_m − r` along it is closer
+    // than `first_buffer_m` (one cell of margin, far above the rounding).
+    let reachable = first_buffer_m <= z - skip + r;
+    if reachable && let Some(p_th) = threshold_point(origin, hit, z, skip) {
         let skip_sq = skip * skip;
         let tile = CellBuffers::TILE_CELLS;
         if let Some(mut walk) = SegmentWalk::start(g, origin, p_th) {
+            if first_buffer_m > r {
+                walk.skip_before(walk.param_at((first_buffer_m - r) / r));
+            }
             loop {
                 let c = walk.cell();
                 match probe.tile(c) {
@@ -140,10 +152,22 @@ mod tests {
                 let z = 0.5 + (k % 17) as f64 * 0.6;
                 let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
                 let mut got = Vec::new();
-                evaluate_unchanged_beam(&base, origin, hit, z, &params, &mut buffers.probe(), &mut got);
+                evaluate_unchanged_beam(&base, origin, hit, z, &params, 0.0, &mut buffers.probe(), &mut got);
                 // The hit cell is free here and has no non-free neighbour: only traversal votes.
-                assert_eq!(got, reference(&base, origin, hit, z, &params, &buffers), "ray {k}");
+                let want = reference(&base, origin, hit, z, &params, &buffers);
+                assert_eq!(got, want, "ray {k}");
                 n_votes += got.len();
+                // Starting the walk at the first buffered cell's distance changes nothing.
+                if let Some(&first) = want.first() {
+                    let c = g.coord((first >> 1) as usize);
+                    let (u, v) = g.world_to_grid(origin);
+                    let du = (c.ix as f64 - u).max(u - c.ix as f64 - 1.0).max(0.0);
+                    let dv = (c.iy as f64 - v).max(v - c.iy as f64 - 1.0).max(0.0);
+                    let nearest_m = du.hypot(dv) * g.resolution_m();
+                    let mut from = Vec::new();
+                    evaluate_unchanged_beam(&base, origin, hit, z, &params, nearest_m, &mut buffers.probe(), &mut from);
+                    assert_eq!(from, want, "ray {k} from {nearest_m} m");
+                }
             }
             assert!(n_votes > 500, "the rays must cross buffered cells ({n_votes} votes)");
         }

@@ -284,7 +284,7 @@ impl MapUpdater {
             self.classifier.mark_near(self.base.map().geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
-                if b.class == BeamClass::Unchanged && b.near_buffer {
+                if b.class == BeamClass::Unchanged && b.near_buffer_m.is_finite() {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
                     evaluate_unchanged_beam(
                         self.base.map(),
@@ -292,6 +292,7 @@ impl MapUpdater {
                         b.hit,
                         b.range_m,
                         &self.params,
+                        b.near_buffer_m,
                         &mut probe,
                         &mut self.votes,
                     );
