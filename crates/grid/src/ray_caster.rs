@@ -250,6 +250,33 @@ impl RayCaster {
         (j - (j.abs() + r) * F32_SLACK).min(border * (1.0 - F32_SLACK))
     }
 
+    /// Whether the point `s_m` along the ray from `origin` along `dir` lies inside a blocking
+    /// cell, away from its sides (by 1e-6 of a cell, far above rounding): then
+    /// [`RayCaster::cast_dir`]`(origin, dir, max_range)` with `max_range ≥ s_m` certainly stops
+    /// at a blocking cell entered at most `s_m` from the origin (its walk visits every cell
+    /// whose inside the ray crosses; its jumps only cross free space).
+    pub fn blocked_at(&self, origin: Point2, dir: &RayDir, s_m: f64) -> bool {
+        let g = self.map.geometry();
+        if dir.grid_yaw.to_bits() != g.origin().yaw.to_bits() || s_m.is_nan() || s_m < 0.0 {
+            return false;
+        }
+        let r = g.resolution_m();
+        let (u0, v0) = g.world_to_grid(origin);
+        // The walk's own parametrisation of the ray.
+        let (u, v) = (u0 + s_m * (dir.grid_cos / r), v0 + s_m * (dir.grid_sin / r));
+        if !(u >= 0.0 && v >= 0.0 && u < g.width() as f64 && v < g.height() as f64) {
+            return false;
+        }
+        let (ix, iy) = (floor_i64(u), floor_i64(v));
+        let (fu, fv) = (u - ix as f64, v - iy as f64);
+        const EDGE: f64 = 1e-6;
+        fu > EDGE
+            && fu < 1.0 - EDGE
+            && fv > EDGE
+            && fv < 1.0 - EDGE
+            && self.safe_jump_m[iy as usize * g.width() + ix as usize] == f32::NEG_INFINITY
+    }
+
     /// Visits, in order, exactly the blocking cells (occupied, or unknown if unknown cells
     /// block) that [`traverse_indexed`](crate::traverse_indexed)`(geometry, from, to, ..)`
     /// visits, with each one's linear index. Open stretches are crossed with
@@ -347,6 +374,24 @@ mod tests {
     }
 
     #[test]
+    fn blocked_at_inside_a_wall_only() {
+        let g = GridGeometry::new(200, 100, 0.05, Pose2::IDENTITY).unwrap();
+        let mut map = OccupancyGrid::filled(g, CellState::Free);
+        for ix in 150..160 {
+            for iy in 0..100 {
+                map.set(CellCoord::new(ix, iy), CellState::Occupied);
+            }
+        }
+        let c = RayCaster::new(&map, true);
+        let o = Point2::new(1.0, 2.5);
+        let dir = c.direction(0.1);
+        let wall = c.cast_dir(o, &dir, 20.0).range_m;
+        assert!(c.blocked_at(o, &dir, wall + 0.13));
+        assert!(!c.blocked_at(o, &dir, wall - 0.01));
+        assert!(!c.blocked_at(o, &dir, 0.5));
+    }
+
+    #[test]
     fn empty_and_full_maps() {
         let g = GridGeometry::new(100, 100, 0.1, Pose2::IDENTITY).unwrap();
         let free = OccupancyGrid::filled(g, CellState::Free);
@@ -370,6 +415,25 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(300))]
+        #[test]
+        fn blocked_points_stop_the_cast(seed in any::<u64>(), density in 0.0f64..0.02, rotate in any::<bool>(),
+                                        ox in -0.5f64..2.5, oy in -0.5f64..1.8, unknown_blocks in any::<bool>()) {
+            let map = random_map(seed, density, if rotate { 0.3 } else { 0.0 });
+            let caster = RayCaster::new(&map, unknown_blocks);
+            let o = Point2::new(ox, oy);
+            for k in 0..64 {
+                let dir = caster.direction(k as f64 * std::f64::consts::TAU / 64.0 + 0.003);
+                for j in 0..40 {
+                    let s = j as f64 * 0.037;
+                    if caster.blocked_at(o, &dir, s) {
+                        let hit = caster.cast_dir(o, &dir, s + 0.5);
+                        prop_assert!(matches!(hit.stop, RayStop::Occupied | RayStop::Unknown), "{hit:?}");
+                        prop_assert!(hit.range_m <= s + 1e-9, "stopped at {} after {s}", hit.range_m);
+                    }
+                }
+            }
+        }
+
         #[test]
         fn free_radius_is_free(seed in any::<u64>(), density in 0.0f64..0.005, rotate in any::<bool>(),
                                px in -1.5f64..2.5, py in -1.0f64..2.0, unknown_blocks in any::<bool>()) {

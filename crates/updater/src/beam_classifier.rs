@@ -147,13 +147,28 @@ pub fn detects_change_dir(
         return true;
     }
     let d_th_sq = d_th * d_th;
+    let r = base.map().geometry().resolution_m();
+    // Where the central ray stopped at a blocking cell (the removed obstacle, for most changes).
+    let mut central_block = None;
     for k in 0..=2 * n_e {
         // 0, -1, +1, -2, +2, ...
         let l = if k % 2 == 0 { -(k / 2) } else { (k + 1) / 2 };
         let a = angle_rad + l as f64 * v * increment_rad;
         // The central ray's angle is the beam's own (bit for bit, then reuse its direction).
         let dir = if a.to_bits() == angle_rad.to_bits() { *beam } else { base.direction(a) };
+        // Exact shortcut for the virtual rays: if a point of this ray just beyond where the
+        // central one stopped lies inside a blocking cell, this ray stops at most there, at
+        // least D_th + slack short of z: its expected point is farther than D_th from p_i.
+        if let Some(zc) = central_block {
+            let limit = z - d_th - EXPECTED_POINT_SLACK_M;
+            if [zc + 0.5 * r, zc + r].iter().any(|&s| s <= limit && base.blocked_at(origin, &dir, s)) {
+                continue;
+            }
+        }
         let ray = base.cast_dir(origin, &dir, len);
+        if k == 0 && matches!(ray.stop, RayStop::Occupied | RayStop::Unknown) {
+            central_block = Some(ray.range_m);
+        }
         if truncated && ray.stop == RayStop::MaxRange {
             continue; // z_e > z + D_th: too far whatever the angle.
         }
