@@ -118,11 +118,27 @@ pub fn detects_change(
     max_range_m: f64,
     d_th: f64,
 ) -> bool {
-    detects_change_dir(base, origin, &base.direction(angle_rad), increment_rad, hit, z, n_e, v, max_range_m, d_th)
+    let mut hint = None;
+    detects_change_dir(
+        base,
+        origin,
+        &base.direction(angle_rad),
+        increment_rad,
+        hit,
+        z,
+        n_e,
+        v,
+        max_range_m,
+        d_th,
+        &mut hint,
+    )
 }
 
 /// [`detects_change`] with the beam's direction prepared by `base` (its sine and cosine are
-/// reused for the central ray; bit for bit the same answer).
+/// reused for the central ray; bit for bit the same answer). `stop_hint`: on entry, a distance
+/// near which this ray may be blocked (where the previous beam's central ray stopped), tried
+/// before casting; on return, where this beam's central ray stopped at a blocking cell (or a
+/// bound for it), if known. Any hint gives the same answer; good ones save casts.
 #[allow(clippy::too_many_arguments)]
 pub fn detects_change_dir(
     base: &RayCaster,
@@ -135,7 +151,9 @@ pub fn detects_change_dir(
     v: f64,
     max_range_m: f64,
     d_th: f64,
+    stop_hint: &mut Option<f64>,
 ) -> bool {
+    let incoming = stop_hint.take();
     let angle_rad = beam.angle();
     let cast_len = z + d_th + 1e-6;
     let (len, truncated) = if cast_len >= max_range_m { (max_range_m, false) } else { (cast_len, true) };
@@ -144,11 +162,20 @@ pub fn detects_change_dir(
     // With no blocking cell and no border within D_th of p_i (plus a margin far above the
     // rounding of the expected points), none of them can match: a change, without casting.
     if truncated && base.free_radius_m(hit) > d_th + EXPECTED_POINT_SLACK_M {
+        *stop_hint = incoming;
         return true;
     }
     let d_th_sq = d_th * d_th;
     let r = base.map().geometry().resolution_m();
-    // Where the central ray stopped at a blocking cell (the removed obstacle, for most changes).
+    // Exact shortcut: a ray whose point at some s ≤ z − D_th − slack lies inside a blocking
+    // cell (away from its sides) stops at most there, so its expected point is farther than
+    // D_th from p_i (the triangle inequality): it cannot match, no need to cast it. Points are
+    // tried just beyond where a neighbouring ray stopped: the removed obstacle of most changes.
+    let limit = z - d_th - EXPECTED_POINT_SLACK_M;
+    let blocked_near = |near: f64, dir: &RayDir| {
+        [near + 0.5 * r, near + r].into_iter().find(|&s| s <= limit && base.blocked_at(origin, dir, s))
+    };
+    // Where the central ray stopped at a blocking cell, or a bound for it.
     let mut central_block = None;
     for k in 0..=2 * n_e {
         // 0, -1, +1, -2, +2, ...
@@ -156,14 +183,12 @@ pub fn detects_change_dir(
         let a = angle_rad + l as f64 * v * increment_rad;
         // The central ray's angle is the beam's own (bit for bit, then reuse its direction).
         let dir = if a.to_bits() == angle_rad.to_bits() { *beam } else { base.direction(a) };
-        // Exact shortcut for the virtual rays: if a point of this ray just beyond where the
-        // central one stopped lies inside a blocking cell, this ray stops at most there, at
-        // least D_th + slack short of z: its expected point is farther than D_th from p_i.
-        if let Some(zc) = central_block {
-            let limit = z - d_th - EXPECTED_POINT_SLACK_M;
-            if [zc + 0.5 * r, zc + r].iter().any(|&s| s <= limit && base.blocked_at(origin, &dir, s)) {
-                continue;
+        let near = if k == 0 { incoming } else { central_block };
+        if let Some(s) = near.and_then(|near| blocked_near(near, &dir)) {
+            if k == 0 {
+                central_block = Some(s);
             }
+            continue;
         }
         let ray = base.cast_dir(origin, &dir, len);
         if k == 0 && matches!(ray.stop, RayStop::Occupied | RayStop::Unknown) {
@@ -175,9 +200,11 @@ pub fn detects_change_dir(
         let (s, c) = (dir.sin(), dir.cos());
         let expected = Point2::new(origin.x + ray.range_m * c, origin.y + ray.range_m * s);
         if expected.distance_sq(hit) <= d_th_sq {
+            *stop_hint = central_block;
             return false;
         }
     }
+    *stop_hint = central_block;
     true
 }
 
@@ -217,6 +244,8 @@ impl BeamClassifier {
             });
             let max_range_m = params.max_range_m.min(scan.range_max_m as f64);
             let (n_e, v) = virtual_rays(params, scan.angle_increment_rad);
+            // Where the previous beam's central ray stopped: a hint for the next one's.
+            let mut hint = None;
             for (i, &r) in scan.ranges_m.iter().enumerate() {
                 let angle_rad = lidar_in_map.yaw + scan.beam_angle(i as f64);
                 let z = r as f64;
@@ -238,8 +267,19 @@ impl BeamClassifier {
                 let (s, c) = (dir.sin(), dir.cos());
                 let hit = Point2::new(origin.x + z * c, origin.y + z * s);
                 let d_th = params.change_distance_m(z);
-                let changed =
-                    detects_change_dir(base, origin, &dir, scan.angle_increment_rad, hit, z, n_e, v, max_range_m, d_th);
+                let changed = detects_change_dir(
+                    base,
+                    origin,
+                    &dir,
+                    scan.angle_increment_rad,
+                    hit,
+                    z,
+                    n_e,
+                    v,
+                    max_range_m,
+                    d_th,
+                    &mut hint,
+                );
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
                 self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer_m: f64::INFINITY });
             }
