@@ -43,8 +43,11 @@ pub struct Beam {
     pub hit: Point2,
     /// Distance from the lidar to the nearest tile holding a cell buffer that the beam's
     /// direction crosses, metres; +∞ if it crosses none (set by [`BeamClassifier::mark_near`]
-    /// before the unchanged evaluator, which skips beams at +∞ and starts walking near the tile).
+    /// before the unchanged evaluator, which skips beams at +∞).
     pub near_buffer_m: f64,
+    /// The same for the bounding boxes of the buffered cells of each tile: the unchanged
+    /// evaluator walks the beam only from about there (+∞: not at all).
+    pub walk_from_m: f64,
     /// The verdict.
     pub class: BeamClass,
 }
@@ -259,6 +262,7 @@ impl BeamClassifier {
                         hit: origin,
                         class: BeamClass::Invalid,
                         near_buffer_m: f64::INFINITY,
+                        walk_from_m: f64::INFINITY,
                     });
                     continue;
                 }
@@ -281,7 +285,15 @@ impl BeamClassifier {
                     &mut hint,
                 );
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
-                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer_m: f64::INFINITY });
+                self.beams.push(Beam {
+                    lidar,
+                    range_m: z,
+                    angle_rad,
+                    hit,
+                    class,
+                    near_buffer_m: f64::INFINITY,
+                    walk_from_m: f64::INFINITY,
+                });
             }
         }
         self.filter_outliers(params.min_change_run as usize);
@@ -291,18 +303,23 @@ impl BeamClassifier {
     }
 
     /// Marks the beams whose direction crosses one of the squares (lower-left cell, side in
-    /// cells) of `tiles` in `grid`'s geometry; the others cannot reach a buffered cell.
+    /// cells) of `tiles` in `grid`'s geometry (`near_buffer_m`; the others cannot reach a
+    /// buffered cell), and those whose direction crosses one of the `boxes` (lowest and highest
+    /// cell, inclusive: the buffered cells of each tile) (`walk_from_m`; only their walks can
+    /// meet a buffered cell).
     pub fn mark_near(
         &mut self,
         geometry: &mapkeeper_grid::GridGeometry,
         tiles: impl Iterator<Item = CellCoord> + Clone,
         side: i32,
+        boxes: impl Iterator<Item = (CellCoord, CellCoord)> + Clone,
     ) {
-        use std::f64::consts::{PI, TAU};
         for b in &mut self.beams {
             b.near_buffer_m = f64::INFINITY;
+            b.walk_from_m = f64::INFINITY;
         }
-        let tile_m = side as f64 * geometry.resolution_m();
+        let r = geometry.resolution_m();
+        let tile_m = side as f64 * r;
         for f in &self.lidars {
             let beams = &mut self.beams[f.first_beam..f.first_beam + f.beam_count];
             let inc = f.increment_rad.abs();
@@ -310,42 +327,15 @@ impl BeamClassifier {
                 continue;
             }
             for t in tiles.clone() {
-                let corners = [(0, 0), (side, 0), (0, side), (side, side)]
-                    .map(|(dx, dy)| geometry.grid_to_world((t.ix + dx) as f64, (t.iy + dy) as f64));
-                let centre = geometry.grid_to_world(t.ix as f64 + side as f64 / 2.0, t.iy as f64 + side as f64 / 2.0);
-                if centre.distance(f.origin) <= tile_m {
-                    beams.iter_mut().for_each(|b| b.near_buffer_m = 0.0);
+                let (lo, hi) = ((t.ix as f64, t.iy as f64), ((t.ix + side) as f64, (t.iy + side) as f64));
+                if mark_square(geometry, f, beams, lo, hi, tile_m, |b, d| b.near_buffer_m = b.near_buffer_m.min(d)) {
                     break;
                 }
-                // Distance from the lidar to the tile's square (grid coordinates, then metres).
-                let (u, v) = geometry.world_to_grid(f.origin);
-                let (x0, y0) = (t.ix as f64, t.iy as f64);
-                let (x1, y1) = (x0 + side as f64, y0 + side as f64);
-                let du = (x0 - u).max(u - x1).max(0.0);
-                let dv = (y0 - v).max(v - y1).max(0.0);
-                let dist_m = (du * du + dv * dv).sqrt() * geometry.resolution_m();
-                let mut near = |b: &mut Beam| b.near_buffer_m = b.near_buffer_m.min(dist_m);
-                let ac = (centre.y - f.origin.y).atan2(centre.x - f.origin.x);
-                let half = corners
-                    .iter()
-                    .map(|c| mapkeeper_grid::angle_diff((c.y - f.origin.y).atan2(c.x - f.origin.x), ac).abs())
-                    .fold(0.0, f64::max)
-                    + inc;
-                // Offset of the tile's direction from beam 0, along the scan's sweep, in [0, 2π).
-                let off = if f.increment_rad > 0.0 {
-                    (ac - f.angle0_rad).rem_euclid(TAU)
-                } else {
-                    (f.angle0_rad - ac).rem_euclid(TAU)
-                };
-                for shift in [-TAU, 0.0, TAU] {
-                    let lo = ((off + shift - half) / inc).ceil().max(0.0);
-                    let hi = ((off + shift + half) / inc).floor().min(beams.len() as f64 - 1.0);
-                    if lo <= hi && half < PI {
-                        beams[lo as usize..=hi as usize].iter_mut().for_each(&mut near);
-                    } else if half >= PI {
-                        beams.iter_mut().for_each(&mut near);
-                    }
-                }
+            }
+            for (c0, c1) in boxes.clone() {
+                let (lo, hi) = ((c0.ix as f64, c0.iy as f64), ((c1.ix + 1) as f64, (c1.iy + 1) as f64));
+                let size_m = (hi.0 - lo.0).max(hi.1 - lo.1) * r;
+                mark_square(geometry, f, beams, lo, hi, size_m, |b, d| b.walk_from_m = b.walk_from_m.min(d));
             }
         }
     }
@@ -392,6 +382,138 @@ impl BeamClassifier {
                     if b.class == BeamClass::Unchanged {
                         b.class = BeamClass::NearChange;
                     }
+                }
+            }
+        }
+    }
+}
+
+/// Calls `mark(beam, distance)` for every beam of lidar frame `f` whose direction may cross the
+/// square `[lo.0, hi.0] × [lo.1, hi.1]` (grid coordinates), with the lidar's distance to the
+/// square, metres: the beams within the angular span of its corners, widened by one beam
+/// increment (far above rounding). If the lidar is within `near_m` of the square's centre,
+/// every beam is marked with distance 0 and `true` is returned.
+fn mark_square(
+    geometry: &mapkeeper_grid::GridGeometry,
+    f: &LidarFrame,
+    beams: &mut [Beam],
+    lo: (f64, f64),
+    hi: (f64, f64),
+    near_m: f64,
+    mut mark: impl FnMut(&mut Beam, f64),
+) -> bool {
+    use std::f64::consts::{PI, TAU};
+    let inc = f.increment_rad.abs();
+    let corners = [(lo.0, lo.1), (hi.0, lo.1), (lo.0, hi.1), (hi.0, hi.1)].map(|(u, v)| geometry.grid_to_world(u, v));
+    let centre = geometry.grid_to_world((lo.0 + hi.0) / 2.0, (lo.1 + hi.1) / 2.0);
+    if centre.distance(f.origin) <= near_m {
+        beams.iter_mut().for_each(|b| mark(b, 0.0));
+        return true;
+    }
+    // Distance from the lidar to the square (grid coordinates, then metres).
+    let (u, v) = geometry.world_to_grid(f.origin);
+    let du = (lo.0 - u).max(u - hi.0).max(0.0);
+    let dv = (lo.1 - v).max(v - hi.1).max(0.0);
+    let dist_m = (du * du + dv * dv).sqrt() * geometry.resolution_m();
+    let ac = (centre.y - f.origin.y).atan2(centre.x - f.origin.x);
+    let half = corners
+        .iter()
+        .map(|c| mapkeeper_grid::angle_diff((c.y - f.origin.y).atan2(c.x - f.origin.x), ac).abs())
+        .fold(0.0, f64::max)
+        + inc;
+    // Offset of the square's direction from beam 0, along the scan's sweep, in [0, 2π).
+    let off =
+        if f.increment_rad > 0.0 { (ac - f.angle0_rad).rem_euclid(TAU) } else { (f.angle0_rad - ac).rem_euclid(TAU) };
+    for shift in [-TAU, 0.0, TAU] {
+        let lo = ((off + shift - half) / inc).ceil().max(0.0);
+        let hi = ((off + shift + half) / inc).floor().min(beams.len() as f64 - 1.0);
+        if lo <= hi && half < PI {
+            beams[lo as usize..=hi as usize].iter_mut().for_each(|b| mark(b, dist_m));
+        } else if half >= PI {
+            beams.iter_mut().for_each(|b| mark(b, dist_m));
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell_buffers::CellBuffers;
+    use mapkeeper_grid::{GridGeometry, traverse};
+    use std::ops::ControlFlow;
+
+    /// Every beam whose walk meets a buffered cell is marked, no farther than that cell.
+    #[test]
+    fn marks_every_beam_whose_walk_meets_a_buffer() {
+        for yaw in [0.0, 0.35] {
+            let g = GridGeometry::new(240, 200, 0.05, Pose2::new(-2.0, 1.0, yaw)).unwrap();
+            let mut buffers = CellBuffers::new();
+            let mut state = 0x9e37_79b9_7f4a_7c15u64;
+            let mut next = move || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state
+            };
+            for (cx, cy) in [(60, 50), (150, 120), (200, 40), (90, 170), (121, 101)] {
+                for _ in 0..25 {
+                    let c = CellCoord::new(cx + (next() % 9) as i32 - 4, cy + (next() % 9) as i32 - 4);
+                    buffers.ensure(g.index(c).unwrap() as u32, c);
+                }
+            }
+            for origin_cell in [(120.3, 100.7), (30.5, 20.2), (123.9, 99.1)] {
+                let origin = g.grid_to_world(origin_cell.0, origin_cell.1);
+                let inc = 0.5f64.to_radians();
+                let angle0 = 0.3;
+                let mut c = BeamClassifier::new();
+                c.lidars.push(LidarFrame {
+                    origin,
+                    first_beam: 0,
+                    beam_count: 720,
+                    angle0_rad: angle0,
+                    increment_rad: inc,
+                });
+                for i in 0..720 {
+                    let a = angle0 + i as f64 * inc;
+                    let z = 9.0;
+                    let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
+                    c.beams.push(Beam {
+                        lidar: 0,
+                        range_m: z,
+                        angle_rad: a,
+                        hit,
+                        class: BeamClass::Unchanged,
+                        near_buffer_m: 0.0,
+                        walk_from_m: 0.0,
+                    });
+                }
+                c.mark_near(&g, buffers.tile_origins(), CellBuffers::TILE_CELLS, buffers.tile_boxes());
+                let mut met = 0;
+                for b in &c.beams {
+                    let mut first = None;
+                    let _ = traverse(&g, origin, b.hit, |cell| {
+                        if buffers.probe().contains(cell) {
+                            first = Some(cell);
+                            return ControlFlow::Break(());
+                        }
+                        ControlFlow::Continue(())
+                    });
+                    if let Some(cell) = first {
+                        met += 1;
+                        // Distance to the cell's square.
+                        let (u, v) = g.world_to_grid(origin);
+                        let du = (cell.ix as f64 - u).max(u - cell.ix as f64 - 1.0).max(0.0);
+                        let dv = (cell.iy as f64 - v).max(v - cell.iy as f64 - 1.0).max(0.0);
+                        let d = du.hypot(dv) * g.resolution_m() + 1e-9;
+                        assert!(b.near_buffer_m <= d, "beam at {}: near {} > {d}", b.angle_rad, b.near_buffer_m);
+                        assert!(b.walk_from_m <= d, "beam at {}: walk from {} > {d}", b.angle_rad, b.walk_from_m);
+                    }
+                }
+                assert!(met > 20, "{met} beams meet a buffer");
+                // Away from the buffers, boxes are tighter than tiles: some beams near a tile never walk.
+                if origin_cell.0 < 100.0 {
+                    assert!(c.beams.iter().any(|b| b.near_buffer_m.is_finite() && b.walk_from_m.is_infinite()));
                 }
             }
         }

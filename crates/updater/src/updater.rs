@@ -281,7 +281,12 @@ impl MapUpdater {
         ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
         let n_changed_votes = self.votes.len();
         if !self.buffers.is_empty() {
-            self.classifier.mark_near(self.base.map().geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
+            self.classifier.mark_near(
+                self.base.map().geometry(),
+                self.buffers.tile_origins(),
+                CellBuffers::TILE_CELLS,
+                self.buffers.tile_boxes(),
+            );
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
                 if b.class == BeamClass::Unchanged && b.near_buffer_m.is_finite() {
@@ -292,7 +297,7 @@ impl MapUpdater {
                         b.hit,
                         b.range_m,
                         &self.params,
-                        b.near_buffer_m,
+                        b.walk_from_m,
                         &mut probe,
                         &mut self.votes,
                     );
