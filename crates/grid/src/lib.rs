@@ -35,7 +35,7 @@ pub use atomic::write_atomic;
 pub use distance::DistanceField;
 pub use grid::{CellCoord, CellState, GridGeometry, MAX_CELLS, MAX_SIDE, OccupancyGrid};
 pub use pose::{Point2, Pose2, angle_diff, wrap_angle};
-pub use ray_caster::{RayCaster, RayDir};
+pub use ray_caster::{FreeDiscs, RayCaster, RayDir};
 pub use traversal::{RayHit, RayStop, SegmentWalk, cast_ray, traverse, traverse_indexed};
 
 /// Errors about grids themselves (file errors have their own type).

@@ -50,6 +50,36 @@ impl RayDir {
     }
 }
 
+/// Discs of free space around points of rays cast from one origin, kept from one ray to the
+/// next: the rays of one scan are close, so most of one ray's discs also cover the next
+/// (scratch for [`RayCaster::stops_between`]; reset it for every new origin).
+#[derive(Clone, Debug, Default)]
+pub struct FreeDiscs {
+    origin: Point2,
+    /// (centre, radius, squared distance of the centre from the origin), in the order of the
+    /// last ray they covered.
+    discs: Vec<(Point2, f64, f64)>,
+    next: Vec<(Point2, f64, f64)>,
+}
+
+impl FreeDiscs {
+    /// Empty scratch.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Forgets the discs and sets the origin of the rays to come.
+    pub fn reset(&mut self, origin: Point2) {
+        self.origin = origin;
+        self.discs.clear();
+    }
+
+    /// Bytes of reusable scratch.
+    pub fn scratch_bytes(&self) -> usize {
+        (self.discs.capacity() + self.next.capacity()) * size_of::<(Point2, f64, f64)>()
+    }
+}
+
 /// A ray caster over one fixed map.
 ///
 /// ```
@@ -250,6 +280,75 @@ impl RayCaster {
         (j - (j.abs() + r) * F32_SLACK).min(border * (1.0 - F32_SLACK))
     }
 
+    /// Whether it is certain, without casting, that [`RayCaster::cast_dir`]`(origin, dir,
+    /// max_range)` with `max_range ≥ hi_m` stops at a blocking cell entered between `lo_m` and
+    /// `hi_m` (to within 1e-9 m), `origin` being the one `discs` was reset to. `false` means
+    /// only "not certain" (then cast).
+    ///
+    /// Two parts: (1) discs of free space ([`RayCaster::free_radius_m`], kept in `discs` from
+    /// ray to ray) cover the ray from the origin to `lo_m`, so the cast meets no blocking cell
+    /// and no border before `lo_m`; (2) a point of the ray between `lo_m` and `hi_m` — tried at
+    /// `probe_m`, half a cell and a cell either side — is inside a blocking cell
+    /// ([`RayCaster::blocked_at`]), so the cast has stopped by there.
+    pub fn stops_between(&self, discs: &mut FreeDiscs, dir: &RayDir, lo_m: f64, hi_m: f64, probe_m: f64) -> bool {
+        let origin = discs.origin;
+        if !(lo_m <= hi_m && lo_m.is_finite() && hi_m.is_finite()) {
+            return false;
+        }
+        let r = self.map.geometry().resolution_m();
+        let found = [0.0, -0.5, 0.5, -1.0, 1.0].iter().any(|k| {
+            let s = probe_m + k * r;
+            s >= lo_m && s <= hi_m && self.blocked_at(origin, dir, s)
+        });
+        if !found {
+            return false;
+        }
+        let (ex, ey) = (dir.cos, dir.sin);
+        let min_step = CHAIN_MIN_STEP_CELLS * r;
+        let FreeDiscs { discs: old, next, .. } = discs;
+        next.clear();
+        // Covered from the origin up to `c` along the ray.
+        let mut c = 0.0f64;
+        let mut i = 0;
+        for _ in 0..CHAIN_STEPS {
+            if c >= lo_m {
+                std::mem::swap(old, next);
+                return true;
+            }
+            // The kept discs, in order: skip those behind `c`, use one that covers `c`.
+            let mut covered = false;
+            while i < old.len() {
+                let (p, f, d2) = old[i];
+                let tc = (p.x - origin.x) * ex + (p.y - origin.y) * ey;
+                let h2 = f * f - (d2 - tc * tc);
+                let h = if h2 > 0.0 { h2.sqrt() * (1.0 - DISC_SLACK) } else { -1.0 };
+                if h <= 0.0 || tc + h <= c {
+                    i += 1; // misses this ray, or behind
+                    continue;
+                }
+                if tc - h <= c {
+                    c = tc + h;
+                    next.push(old[i]);
+                    i += 1;
+                    covered = true;
+                }
+                break;
+            }
+            if covered {
+                continue;
+            }
+            // A new disc at the first point not covered.
+            let p = Point2::new(origin.x + c * ex, origin.y + c * ey);
+            let f = self.free_radius_m(p) * (1.0 - DISC_SLACK);
+            if f.is_nan() || f < min_step {
+                return false;
+            }
+            next.push((p, f, p.distance_sq(origin)));
+            c += f;
+        }
+        false
+    }
+
     /// Whether the point `s_m` along the ray from `origin` along `dir` lies inside a blocking
     /// cell, away from its sides (by 1e-6 of a cell, far above rounding): then
     /// [`RayCaster::cast_dir`]`(origin, dir, max_range)` with `max_range ≥ s_m` certainly stops
@@ -314,6 +413,15 @@ impl RayCaster {
 /// cells (shorter skips cost more than they save).
 const MIN_SKIP_CELLS: f64 = 3.0;
 
+/// Most discs for one ray in [`RayCaster::stops_between`].
+const CHAIN_STEPS: usize = 48;
+
+/// Smallest new disc there, cells.
+const CHAIN_MIN_STEP_CELLS: f64 = 0.5;
+
+/// Relative slack on disc radii and chords there (far above the rounding of their arithmetic).
+const DISC_SLACK: f64 = 1e-9;
+
 /// Relative slack for a clearance stored as `f32` (2⁻²⁰, eight times its rounding).
 const F32_SLACK: f64 = 1.0 / (1u64 << 20) as f64;
 
@@ -374,6 +482,32 @@ mod tests {
     }
 
     #[test]
+    fn stops_between_certifies_plain_cases() {
+        // A wall across a free room: rays towards it are certified within a window around the
+        // wall, not outside it.
+        let g = GridGeometry::new(200, 100, 0.05, Pose2::IDENTITY).unwrap();
+        let mut map = OccupancyGrid::filled(g, CellState::Free);
+        for iy in 0..100 {
+            map.set(CellCoord::new(150, iy), CellState::Occupied);
+        }
+        let c = RayCaster::new(&map, true);
+        let o = Point2::new(1.0, 2.5);
+        let mut discs = FreeDiscs::new();
+        discs.reset(o);
+        let mut certified = 0;
+        for k in -40..=40 {
+            let dir = c.direction(k as f64 * 0.01);
+            let z = c.cast_dir(o, &dir, 20.0).range_m + 0.005;
+            if c.stops_between(&mut discs, &dir, z - 0.2, z + 0.2, z) {
+                certified += 1;
+            }
+            assert!(!c.stops_between(&mut discs, &dir, z - 0.2, z - 0.1, z), "window before the wall");
+            assert!(!c.stops_between(&mut discs, &dir, z + 0.1, z + 0.2, z + 0.1), "window behind the wall");
+        }
+        assert!(certified >= 70, "{certified} of 81 rays certified");
+    }
+
+    #[test]
     fn blocked_at_inside_a_wall_only() {
         let g = GridGeometry::new(200, 100, 0.05, Pose2::IDENTITY).unwrap();
         let mut map = OccupancyGrid::filled(g, CellState::Free);
@@ -429,6 +563,31 @@ mod tests {
                         let hit = caster.cast_dir(o, &dir, s + 0.5);
                         prop_assert!(matches!(hit.stop, RayStop::Occupied | RayStop::Unknown), "{hit:?}");
                         prop_assert!(hit.range_m <= s + 1e-9, "stopped at {} after {s}", hit.range_m);
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn certified_stops_are_where_the_cast_stops(seed in any::<u64>(), density in 0.0f64..0.004, rotate in any::<bool>(),
+                                                   ox in -0.5f64..2.5, oy in -0.5f64..1.8, unknown_blocks in any::<bool>(),
+                                                   width in 0.0f64..0.4) {
+            let map = random_map(seed, density, if rotate { 0.3 } else { 0.0 });
+            let caster = RayCaster::new(&map, unknown_blocks);
+            let o = Point2::new(ox, oy);
+            let mut discs = FreeDiscs::new();
+            discs.reset(o);
+            for k in 0..128 {
+                let a = k as f64 * std::f64::consts::TAU / 128.0 + 0.003;
+                let dir = caster.direction(a);
+                let full = caster.cast_dir(o, &dir, 10.0);
+                // Windows around the true stop (mostly certifiable) and shifted ones.
+                for (centre, probe) in [(full.range_m, full.range_m + 0.01), (full.range_m - 0.1, full.range_m), (full.range_m + 0.1, full.range_m + 0.1)] {
+                    let (lo, hi) = (centre - width, centre + width);
+                    if caster.stops_between(&mut discs, &dir, lo, hi, probe) {
+                        let hit = caster.cast_dir(o, &dir, hi.max(0.0) + 0.5);
+                        prop_assert!(matches!(hit.stop, RayStop::Occupied | RayStop::Unknown), "{hit:?}");
+                        prop_assert!(hit.range_m >= lo - 1e-9 && hit.range_m <= hi + 1e-9, "{} not in [{lo}, {hi}]", hit.range_m);
                     }
                 }
             }

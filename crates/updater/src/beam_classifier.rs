@@ -11,7 +11,7 @@
 //! |z_e − z| from p_i whatever the angle offset.
 
 use crate::UpdaterParams;
-use mapkeeper_grid::{CellCoord, Point2, Pose2, RayCaster, RayDir, RayStop};
+use mapkeeper_grid::{CellCoord, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// The classifier's verdict on one beam.
@@ -87,6 +87,8 @@ pub struct BeamClassifier {
     pub beams: Vec<Beam>,
     /// One frame per valid scan of the last step.
     pub lidars: Vec<LidarFrame>,
+    /// What each beam leaves for the next one of its scan.
+    pub hints: ScanHints,
 }
 
 /// Number of virtual rays each side and their spacing (in beam increments) for one scan.
@@ -121,7 +123,7 @@ pub fn detects_change(
     max_range_m: f64,
     d_th: f64,
 ) -> bool {
-    let mut hint = None;
+    let mut hints = ScanHints::new(origin);
     detects_change_dir(
         base,
         origin,
@@ -133,15 +135,39 @@ pub fn detects_change(
         v,
         max_range_m,
         d_th,
-        &mut hint,
+        &mut hints,
     )
 }
 
+/// What one beam's classification leaves for the next beam of the same scan (reset per scan):
+/// they are close, so where one stopped and the free space around it help the next.
+#[derive(Clone, Debug, Default)]
+pub struct ScanHints {
+    /// Where the previous beam's central ray stopped at a blocking cell (or a bound for it).
+    pub stop_m: Option<f64>,
+    /// Free discs along the previous rays ([`RayCaster::stops_between`]).
+    pub discs: FreeDiscs,
+}
+
+impl ScanHints {
+    /// No hints yet, for rays from `origin`.
+    pub fn new(origin: Point2) -> Self {
+        let mut h = Self::default();
+        h.reset(origin);
+        h
+    }
+
+    /// Forgets the hints, for the rays of a new scan from `origin`.
+    pub fn reset(&mut self, origin: Point2) {
+        self.stop_m = None;
+        self.discs.reset(origin);
+    }
+}
+
 /// [`detects_change`] with the beam's direction prepared by `base` (its sine and cosine are
-/// reused for the central ray; bit for bit the same answer). `stop_hint`: on entry, a distance
-/// near which this ray may be blocked (where the previous beam's central ray stopped), tried
-/// before casting; on return, where this beam's central ray stopped at a blocking cell (or a
-/// bound for it), if known. Any hint gives the same answer; good ones save casts.
+/// reused for the central ray; bit for bit the same answer). `hints` (reset for each scan with
+/// the scan's `origin`): what the previous beams left, updated for the next; any hints give the
+/// same answer, good ones save casts.
 #[allow(clippy::too_many_arguments)]
 pub fn detects_change_dir(
     base: &RayCaster,
@@ -154,9 +180,9 @@ pub fn detects_change_dir(
     v: f64,
     max_range_m: f64,
     d_th: f64,
-    stop_hint: &mut Option<f64>,
+    hints: &mut ScanHints,
 ) -> bool {
-    let incoming = stop_hint.take();
+    let incoming = hints.stop_m.take();
     let angle_rad = beam.angle();
     let cast_len = z + d_th + 1e-6;
     let (len, truncated) = if cast_len >= max_range_m { (max_range_m, false) } else { (cast_len, true) };
@@ -165,8 +191,16 @@ pub fn detects_change_dir(
     // With no blocking cell and no border within D_th of p_i (plus a margin far above the
     // rounding of the expected points), none of them can match: a change, without casting.
     if truncated && base.free_radius_m(hit) > d_th + EXPECTED_POINT_SLACK_M {
-        *stop_hint = incoming;
+        hints.stop_m = incoming;
         return true;
+    }
+    // Exact shortcut: the central ray certainly stops at a blocking cell entered within
+    // D_th − slack of z (and before the cast's length): its expected point is then within D_th
+    // of p_i (same direction), the beam agrees with the map, without casting.
+    let (lo, hi) = (z - d_th + EXPECTED_POINT_SLACK_M, (z + d_th - EXPECTED_POINT_SLACK_M).min(len));
+    if base.stops_between(&mut hints.discs, beam, lo, hi, z) {
+        hints.stop_m = Some(z);
+        return false;
     }
     let d_th_sq = d_th * d_th;
     let r = base.map().geometry().resolution_m();
@@ -203,11 +237,11 @@ pub fn detects_change_dir(
         let (s, c) = (dir.sin(), dir.cos());
         let expected = Point2::new(origin.x + ray.range_m * c, origin.y + ray.range_m * s);
         if expected.distance_sq(hit) <= d_th_sq {
-            *stop_hint = central_block;
+            hints.stop_m = central_block;
             return false;
         }
     }
-    *stop_hint = central_block;
+    hints.stop_m = central_block;
     true
 }
 
@@ -247,8 +281,7 @@ impl BeamClassifier {
             });
             let max_range_m = params.max_range_m.min(scan.range_max_m as f64);
             let (n_e, v) = virtual_rays(params, scan.angle_increment_rad);
-            // Where the previous beam's central ray stopped: a hint for the next one's.
-            let mut hint = None;
+            self.hints.reset(origin);
             for (i, &r) in scan.ranges_m.iter().enumerate() {
                 let angle_rad = lidar_in_map.yaw + scan.beam_angle(i as f64);
                 let z = r as f64;
@@ -282,7 +315,7 @@ impl BeamClassifier {
                     v,
                     max_range_m,
                     d_th,
-                    &mut hint,
+                    &mut self.hints,
                 );
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
                 self.beams.push(Beam {

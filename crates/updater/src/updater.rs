@@ -182,6 +182,7 @@ impl MapUpdater {
         self.classifier.beams.capacity() * size_of::<crate::beam_classifier::Beam>()
             + self.classifier.lidars.capacity() * size_of::<crate::beam_classifier::LidarFrame>()
             + (self.votes.capacity() + self.vote_scratch.capacity()) * size_of::<Vote>()
+            + self.classifier.hints.discs.scratch_bytes()
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
