@@ -10,7 +10,7 @@
 //! a time.
 
 use crate::distance::DistanceField;
-use crate::grid::{CellCoord, CellState, OccupancyGrid};
+use crate::grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
 use crate::pose::Point2;
 use crate::traversal::{RayHit, RayStop, SegmentWalk, cast_ray, entry_distance_grid, floor_i64};
 
@@ -56,10 +56,12 @@ impl RayDir {
 #[derive(Clone, Debug, Default)]
 pub struct FreeDiscs {
     origin: Point2,
-    /// (centre, radius, squared distance of the centre from the origin), in the order of the
-    /// last ray they covered.
-    discs: Vec<(Point2, f64, f64)>,
-    next: Vec<(Point2, f64, f64)>,
+    /// The origin in grid coordinates, once known (for the geometry it was computed in).
+    origin_grid: Option<(GridGeometry, (f64, f64))>,
+    /// (centre u, centre v, radius, squared distance of the centre from the origin), grid
+    /// coordinates and cells, in the order of the last ray they covered.
+    discs: Vec<(f64, f64, f64, f64)>,
+    next: Vec<(f64, f64, f64, f64)>,
 }
 
 impl FreeDiscs {
@@ -71,12 +73,26 @@ impl FreeDiscs {
     /// Forgets the discs and sets the origin of the rays to come.
     pub fn reset(&mut self, origin: Point2) {
         self.origin = origin;
+        self.origin_grid = None;
         self.discs.clear();
+    }
+
+    /// The origin in `g`'s grid coordinates (computed once per origin and geometry).
+    fn origin_grid(&mut self, g: &GridGeometry) -> (f64, f64) {
+        match self.origin_grid {
+            Some((cached, uv)) if cached == *g => uv,
+            _ => {
+                let uv = g.world_to_grid(self.origin);
+                self.origin_grid = Some((*g, uv));
+                self.discs.clear();
+                uv
+            }
+        }
     }
 
     /// Bytes of reusable scratch.
     pub fn scratch_bytes(&self) -> usize {
-        (self.discs.capacity() + self.next.capacity()) * size_of::<(Point2, f64, f64)>()
+        (self.discs.capacity() + self.next.capacity()) * size_of::<(f64, f64, f64, f64)>()
     }
 }
 
@@ -263,21 +279,8 @@ impl RayCaster {
     /// every blocking cell. From the clearance of `p`'s cell (minus its `f32` rounding); `-∞`
     /// when `p`'s cell blocks, `p` is outside the grid or not finite.
     pub fn free_radius_m(&self, p: Point2) -> f64 {
-        let g = self.map.geometry();
-        let (u, v) = g.world_to_grid(p);
-        let (w, h) = (g.width() as f64, g.height() as f64);
-        if !(u >= 0.0 && v >= 0.0 && u < w && v < h) {
-            return f64::NEG_INFINITY;
-        }
-        let index = floor_i64(v) as usize * g.width() + floor_i64(u) as usize;
-        let jump = self.safe_jump_m[index];
-        if jump == f32::NEG_INFINITY {
-            return f64::NEG_INFINITY;
-        }
-        let r = g.resolution_m();
-        let j = jump as f64;
-        let border = u.min(w - u).min(v).min(h - v) * r;
-        (j - (j.abs() + r) * F32_SLACK).min(border * (1.0 - F32_SLACK))
+        let (u, v) = self.map.geometry().world_to_grid(p);
+        self.free_radius_grid(u, v)
     }
 
     /// Whether it is certain, without casting, that [`RayCaster::cast_dir`]`(origin, dir,
@@ -291,39 +294,46 @@ impl RayCaster {
     /// `probe_m`, half a cell and a cell either side — is inside a blocking cell
     /// ([`RayCaster::blocked_at`]), so the cast has stopped by there.
     pub fn stops_between(&self, discs: &mut FreeDiscs, dir: &RayDir, lo_m: f64, hi_m: f64, probe_m: f64) -> bool {
-        let origin = discs.origin;
-        if !(lo_m <= hi_m && lo_m.is_finite() && hi_m.is_finite()) {
+        let g = self.map.geometry();
+        if !(lo_m <= hi_m && lo_m.is_finite() && hi_m.is_finite()) || dir.grid_yaw.to_bits() != g.origin().yaw.to_bits()
+        {
             return false;
         }
-        let r = self.map.geometry().resolution_m();
+        let r = g.resolution_m();
+        // The ray in grid coordinates: (u0, v0) + t·(du, dv), t in metres (the walk's own
+        // parametrisation), computed once for the probes and the discs.
+        let (u0, v0) = discs.origin_grid(g);
+        let (du, dv) = (dir.grid_cos / r, dir.grid_sin / r);
         let found = [0.0, -0.5, 0.5, -1.0, 1.0].iter().any(|k| {
             let s = probe_m + k * r;
-            s >= lo_m && s <= hi_m && self.blocked_at(origin, dir, s)
+            s >= lo_m && s <= hi_m && s >= 0.0 && self.blocked_grid(u0 + s * du, v0 + s * dv)
         });
         if !found {
             return false;
         }
-        let (ex, ey) = (dir.cos, dir.sin);
-        let min_step = CHAIN_MIN_STEP_CELLS * r;
+        // Discs in grid coordinates, radii in cells; the ray's unit direction there.
+        let (ex, ey) = (dir.grid_cos, dir.grid_sin);
+        let (lo, per_m) = (lo_m / r, 1.0 / r);
         let FreeDiscs { discs: old, next, .. } = discs;
         next.clear();
-        // Covered from the origin up to `c` along the ray.
+        // Covered from the origin up to `c` cells along the ray.
         let mut c = 0.0f64;
         let mut i = 0;
         for _ in 0..CHAIN_STEPS {
-            if c >= lo_m {
+            if c >= lo {
                 std::mem::swap(old, next);
                 return true;
             }
-            // The kept discs, in order: skip those behind `c`, use one that covers `c`.
+            // The kept discs, in order: skip those missing the ray or behind `c`, use one that
+            // covers `c`.
             let mut covered = false;
             while i < old.len() {
-                let (p, f, d2) = old[i];
-                let tc = (p.x - origin.x) * ex + (p.y - origin.y) * ey;
+                let (pu, pv, f, d2) = old[i];
+                let tc = (pu - u0) * ex + (pv - v0) * ey;
                 let h2 = f * f - (d2 - tc * tc);
                 let h = if h2 > 0.0 { h2.sqrt() * (1.0 - DISC_SLACK) } else { -1.0 };
                 if h <= 0.0 || tc + h <= c {
-                    i += 1; // misses this ray, or behind
+                    i += 1;
                     continue;
                 }
                 if tc - h <= c {
@@ -338,15 +348,59 @@ impl RayCaster {
                 continue;
             }
             // A new disc at the first point not covered.
-            let p = Point2::new(origin.x + c * ex, origin.y + c * ey);
-            let f = self.free_radius_m(p) * (1.0 - DISC_SLACK);
-            if f.is_nan() || f < min_step {
+            let (pu, pv) = (u0 + c * ex, v0 + c * ey);
+            let f = self.free_radius_grid(pu, pv) * per_m * (1.0 - DISC_SLACK);
+            if f.is_nan() || f < CHAIN_MIN_STEP_CELLS {
                 return false;
             }
-            next.push((p, f, p.distance_sq(origin)));
+            next.push((pu, pv, f, (pu - u0) * (pu - u0) + (pv - v0) * (pv - v0)));
             c += f;
         }
         false
+    }
+
+    /// [`RayCaster::free_radius_m`] at grid coordinates `(u, v)`.
+    #[inline]
+    fn free_radius_grid(&self, u: f64, v: f64) -> f64 {
+        let g = self.map.geometry();
+        let (w, h) = (g.width() as f64, g.height() as f64);
+        if !(u >= 0.0 && v >= 0.0 && u < w && v < h) {
+            return f64::NEG_INFINITY;
+        }
+        // 0 ≤ u < w ≤ 2^20 (so for v): truncation to i32 is the floor.
+        let jump = self.safe_jump_m[(v as i32) as usize * g.width() + (u as i32) as usize];
+        if jump == f32::NEG_INFINITY {
+            return f64::NEG_INFINITY;
+        }
+        let r = g.resolution_m();
+        let j = jump as f64;
+        let free = j - (if j < 0.0 { -j } else { j } + r) * F32_SLACK;
+        let mut b = u;
+        for x in [w - u, v, h - v] {
+            if x < b {
+                b = x;
+            }
+        }
+        let border = b * r * (1.0 - F32_SLACK);
+        if border < free { border } else { free }
+    }
+
+    /// Whether grid point `(u, v)` lies inside a blocking cell, away from its sides (by 1e-6 of
+    /// a cell).
+    #[inline]
+    fn blocked_grid(&self, u: f64, v: f64) -> bool {
+        let g = self.map.geometry();
+        if !(u >= 0.0 && v >= 0.0 && u < g.width() as f64 && v < g.height() as f64) {
+            return false;
+        }
+        let (ix, iy) = (u as i32, v as i32); // the floors: 0 ≤ u < w ≤ 2^20, so for v
+        let (fu, fv) = (u - ix as f64, v - iy as f64);
+        const EDGE: f64 = 1e-6;
+        fu > EDGE
+            && fu < 1.0 - EDGE
+            && fv > EDGE
+            && fv < 1.0 - EDGE
+            && self.safe_jump_m[iy as usize * g.width() + ix as usize] == f32::NEG_INFINITY
     }
 
     /// Whether the point `s_m` along the ray from `origin` along `dir` lies inside a blocking
@@ -362,18 +416,7 @@ impl RayCaster {
         let r = g.resolution_m();
         let (u0, v0) = g.world_to_grid(origin);
         // The walk's own parametrisation of the ray.
-        let (u, v) = (u0 + s_m * (dir.grid_cos / r), v0 + s_m * (dir.grid_sin / r));
-        if !(u >= 0.0 && v >= 0.0 && u < g.width() as f64 && v < g.height() as f64) {
-            return false;
-        }
-        let (ix, iy) = (floor_i64(u), floor_i64(v));
-        let (fu, fv) = (u - ix as f64, v - iy as f64);
-        const EDGE: f64 = 1e-6;
-        fu > EDGE
-            && fu < 1.0 - EDGE
-            && fv > EDGE
-            && fv < 1.0 - EDGE
-            && self.safe_jump_m[iy as usize * g.width() + ix as usize] == f32::NEG_INFINITY
+        self.blocked_grid(u0 + s_m * (dir.grid_cos / r), v0 + s_m * (dir.grid_sin / r))
     }
 
     /// Visits, in order, exactly the blocking cells (occupied, or unknown if unknown cells
