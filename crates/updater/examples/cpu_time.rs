@@ -8,7 +8,7 @@
 //! Instructions per step under callgrind (only the measured laps are counted):
 //! `valgrind --tool=callgrind --toggle-collect='cpu_time::measured_step' \
 //!  $CARGO_TARGET_DIR/release/examples/cpu_time --laps 1 --no-digest paper`, then
-//! Ir / (laps × 630 steps).
+//! Ir divided by the measured steps it reports (632 per lap).
 #![allow(missing_docs, clippy::unwrap_used)]
 #[path = "../tests/common/mod.rs"]
 mod common;
