@@ -35,8 +35,8 @@ pub use atomic::write_atomic;
 pub use distance::DistanceField;
 pub use grid::{CellCoord, CellState, GridGeometry, MAX_CELLS, MAX_SIDE, OccupancyGrid};
 pub use pose::{Point2, Pose2, angle_diff, wrap_angle};
-pub use ray_caster::RayCaster;
-pub use traversal::{RayHit, RayStop, cast_ray, traverse, traverse_indexed};
+pub use ray_caster::{FreeDiscs, RayCaster, RayDir};
+pub use traversal::{RayHit, RayStop, SegmentWalk, cast_ray, traverse, traverse_indexed};
 
 /// Errors about grids themselves (file errors have their own type).
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]

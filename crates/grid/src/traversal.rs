@@ -65,7 +65,7 @@ pub fn traverse_indexed<B, F>(geometry: &GridGeometry, from: Point2, to: Point2,
 where
     F: FnMut(CellCoord, usize) -> ControlFlow<B>,
 {
-    let Some(mut walk) = Walk::start(geometry, from, to) else {
+    let Some(mut walk) = SegmentWalk::start(geometry, from, to) else {
         return ControlFlow::Continue(());
     };
     loop {
@@ -76,8 +76,33 @@ where
     }
 }
 
-/// The state of one Amanatides–Woo walk over a segment clipped to the grid.
-struct Walk {
+/// The state of one Amanatides–Woo walk over a segment clipped to the grid: the cells of
+/// [`traverse_indexed`], for callers that want to drive the loop themselves.
+///
+/// ```
+/// use mapkeeper_grid::{traverse, CellCoord, GridGeometry, Point2, Pose2, SegmentWalk};
+/// use std::ops::ControlFlow;
+/// let g = GridGeometry::new(10, 10, 1.0, Pose2::IDENTITY).unwrap();
+/// let (a, b) = (Point2::new(0.5, 0.5), Point2::new(3.5, 1.5));
+/// let mut walked = Vec::new();
+/// if let Some(mut w) = SegmentWalk::start(&g, a, b) {
+///     loop {
+///         walked.push(w.cell());
+///         assert_eq!(w.index(), g.index(w.cell()).unwrap());
+///         if !w.advance() {
+///             break;
+///         }
+///     }
+/// }
+/// let mut visited = Vec::new();
+/// let _ = traverse(&g, a, b, |c| {
+///     visited.push(c);
+///     ControlFlow::<()>::Continue(())
+/// });
+/// assert_eq!(walked, visited);
+/// ```
+#[derive(Clone, Debug)]
+pub struct SegmentWalk {
     ix: i64,
     iy: i64,
     index: usize,
@@ -94,11 +119,20 @@ struct Walk {
     remaining_y: i64,
     /// Parameter at which the segment leaves the grid (1 if it ends inside).
     t_exit: f64,
+    /// Where the walk starts (the segment's first point in the grid), grid coordinates: the
+    /// parameters above count from here, in units of `d`.
+    s: (f64, f64),
+    /// Parameter of `s` along the whole segment (0 if it starts inside the grid).
+    t0: f64,
+    /// The whole segment, grid coordinates.
+    d: (f64, f64),
 }
 
-impl Walk {
+impl SegmentWalk {
+    /// The walk from `from` to `to` (map frame), positioned on its first cell; `None` if the
+    /// segment misses the grid or an end point is not finite.
     #[inline]
-    fn start(geometry: &GridGeometry, from: Point2, to: Point2) -> Option<Walk> {
+    pub fn start(geometry: &GridGeometry, from: Point2, to: Point2) -> Option<SegmentWalk> {
         let a = geometry.world_to_grid(from);
         let b = geometry.world_to_grid(to);
         if !(a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite()) {
@@ -127,7 +161,7 @@ impl Walk {
         let (t_max_x, t_delta_x) = boundary(s.0, ix, d.0, remaining_x);
         let (t_max_y, t_delta_y) = boundary(s.1, iy, d.1, remaining_y);
         let step_y = (ey - iy).signum();
-        Some(Walk {
+        Some(SegmentWalk {
             ix,
             iy,
             index: (iy * w as i64 + ix) as usize,
@@ -141,12 +175,93 @@ impl Walk {
             remaining_x,
             remaining_y,
             t_exit: t1,
+            s,
+            t0,
+            d,
         })
     }
 
-    /// Moves to the next cell; false when the end cell has been visited.
+    /// The current cell.
     #[inline(always)]
-    fn advance(&mut self) -> bool {
+    pub fn cell(&self) -> CellCoord {
+        CellCoord::new(self.ix as i32, self.iy as i32)
+    }
+
+    /// The current cell's linear index (row-major from the bottom row).
+    #[inline(always)]
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// The parameter at which the walk leaves the current cell (in units of the whole segment,
+    /// counted from where the walk entered the grid); +∞ on the last cell.
+    #[inline(always)]
+    pub fn exit_param(&self) -> f64 {
+        self.t_max_x.min(self.t_max_y)
+    }
+
+    /// The parameter step that covers one cell side of travel along the segment (+∞ for a
+    /// segment of zero length).
+    #[inline]
+    pub fn param_per_cell(&self) -> f64 {
+        1.0 / (self.d.0 * self.d.0 + self.d.1 * self.d.1).sqrt()
+    }
+
+    /// The walk's parameter of the point `cells` cell sides along the segment from its `from`
+    /// end (negative before the walk's first cell).
+    #[inline]
+    pub fn param_at(&self, cells: f64) -> f64 {
+        cells * self.param_per_cell() - self.t0
+    }
+
+    /// The parameter at which the segment's line, going forward, leaves the axis-aligned square
+    /// `[lo.0, hi.0] × [lo.1, hi.1]` (grid coordinates); +∞ along an axis it does not move on.
+    #[inline]
+    pub fn param_leaving(&self, lo: (f64, f64), hi: (f64, f64)) -> f64 {
+        let axis = |s: f64, d: f64, lo: f64, hi: f64| {
+            if d > 0.0 {
+                (hi - s) / d
+            } else if d < 0.0 {
+                (lo - s) / d
+            } else {
+                f64::INFINITY
+            }
+        };
+        axis(self.s.0, self.d.0, lo.0, hi.0).min(axis(self.s.1, self.d.1, lo.1, hi.1))
+    }
+
+    /// Crosses, without visiting the cells in between, every cell boundary whose parameter (as
+    /// the walk computes it) is below `t`: the walk is then on the cell that
+    /// [`SegmentWalk::advance`] would have reached after crossing exactly those boundaries, in
+    /// the same state, so that the cells visited afterwards are the same as without the skip.
+    ///
+    /// The walk crosses boundaries in increasing order of their parameters (x first on a tie),
+    /// and each axis's parameters are the same running sums whatever the interleaving, so
+    /// crossing all of them below `t` on each axis separately gives the state the walk has
+    /// after its last crossing below `t`. Only the cells entered at a parameter below `t` are
+    /// passed over.
+    #[inline]
+    pub fn skip_before(&mut self, t: f64) {
+        let (n, next) = skip_axis(self.t_max_x, self.t_delta_x, t, self.remaining_x);
+        if n > 0 {
+            self.remaining_x -= n;
+            self.t_max_x = if self.remaining_x == 0 { f64::INFINITY } else { next };
+            self.ix += n * self.step_x;
+            self.index = self.index.wrapping_add_signed((n * self.step_x) as isize);
+        }
+        let (n, next) = skip_axis(self.t_max_y, self.t_delta_y, t, self.remaining_y);
+        if n > 0 {
+            self.remaining_y -= n;
+            self.t_max_y = if self.remaining_y == 0 { f64::INFINITY } else { next };
+            self.iy += n * self.step_y;
+            self.index = self.index.wrapping_add_signed(n as isize * self.stride_y);
+        }
+    }
+
+    /// Moves to the next cell; false when the end cell has been visited (the walk then stays
+    /// on it).
+    #[inline(always)]
+    pub fn advance(&mut self) -> bool {
         if self.remaining_x + self.remaining_y == 0 {
             return false;
         }
@@ -163,6 +278,20 @@ impl Walk {
         }
         true
     }
+}
+
+/// The running sum `s, s + d, (s + d) + d, …` of one axis of a walk (each addition rounded):
+/// how many of its terms, from `s` on and at most `limit`, are below `t`, and the term after
+/// them. A plain loop: the skips are a few cells long, where shortcuts through the binade
+/// structure of the sums cost more than they save (measured).
+#[inline(always)]
+fn skip_axis(mut s: f64, d: f64, t: f64, limit: i64) -> (i64, f64) {
+    let mut n = 0i64;
+    while n < limit && s < t {
+        s += d;
+        n += 1;
+    }
+    (n, s)
 }
 
 /// `x.floor() as i64` for finite `x` within the i64 range, without a libm call (the baseline
@@ -206,7 +335,7 @@ pub fn cast_ray(grid: &OccupancyGrid, origin: Point2, angle: f64, max_range_m: f
     let geometry = grid.geometry();
     let (s, c) = angle.sin_cos();
     let end = Point2::new(origin.x + c * max_range_m, origin.y + s * max_range_m);
-    let Some(mut walk) = Walk::start(geometry, origin, end) else {
+    let Some(mut walk) = SegmentWalk::start(geometry, origin, end) else {
         return RayHit { range_m: max_range_m, cell: None, stop: RayStop::LeftGrid };
     };
     let cells = grid.cells();
@@ -238,6 +367,13 @@ pub(crate) fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64
     let (u, v) = geometry.world_to_grid(origin);
     let yaw = angle - geometry.origin().yaw;
     let (dy, dx) = yaw.sin_cos();
+    entry_distance_grid(u, v, dx, dy, cell, geometry.resolution_m())
+}
+
+/// [`entry_distance`] from the origin in grid coordinates `(u, v)` and the direction's cosine
+/// and sine relative to the grid's axes.
+#[inline]
+pub(crate) fn entry_distance_grid(u: f64, v: f64, dx: f64, dy: f64, cell: CellCoord, resolution_m: f64) -> f64 {
     let mut t_in = 0.0f64;
     for (p, d, lo) in [(u, dx, cell.ix as f64), (v, dy, cell.iy as f64)] {
         if d.abs() < 1e-300 {
@@ -247,7 +383,7 @@ pub(crate) fn entry_distance(geometry: &GridGeometry, origin: Point2, angle: f64
         let tb = (lo + 1.0 - p) / d;
         t_in = t_in.max(ta.min(tb));
     }
-    t_in * geometry.resolution_m()
+    t_in * resolution_m
 }
 
 #[cfg(test)]
@@ -427,6 +563,59 @@ mod tests {
             let origin = if rotate { Pose2::new(0.3, -0.2, yaw) } else { Pose2::new(-0.5, 0.25, 0.0) };
             let g = GridGeometry::new(12, 8, 1.0, origin).unwrap();
             check_against_brute(&g, Point2::new(ax, ay), Point2::new(bx, by));
+        }
+
+        #[test]
+        fn skipping_keeps_the_rest_of_the_walk(ax in -2.0f64..14.0, ay in -2.0f64..10.0, bx in -2.0f64..14.0,
+                                               by in -2.0f64..10.0, skips in proptest::collection::vec(0.0f64..0.5, 1..4),
+                                               lattice in any::<bool>()) {
+            // Lattice end points make exact ties (a segment through cell corners).
+            let (a, b) = if lattice {
+                (Point2::new(ax.round(), ay.round()), Point2::new(bx.round(), by.round()))
+            } else {
+                (Point2::new(ax, ay), Point2::new(bx, by))
+            };
+            let origin = if lattice { Pose2::IDENTITY } else { Pose2::new(-0.5, 0.25, 0.0) };
+            let g = GridGeometry::new(12, 8, 1.0, origin).unwrap();
+            // Reference: every cell with the parameter at which it was entered.
+            let mut full = Vec::new();
+            if let Some(mut w) = SegmentWalk::start(&g, a, b) {
+                let mut entered = f64::NEG_INFINITY;
+                loop {
+                    full.push((w.cell(), w.index(), entered));
+                    entered = w.exit_param();
+                    if !w.advance() {
+                        break;
+                    }
+                }
+            }
+            let mut got = Vec::new();
+            if let Some(mut w) = SegmentWalk::start(&g, a, b) {
+                let mut pending = skips.clone();
+                loop {
+                    got.push((w.cell(), w.index()));
+                    if let Some(dt) = pending.pop() {
+                        let t = w.exit_param() + dt;
+                        w.skip_before(t);
+                        // Now on the last cell entered below t: the walk goes on from it.
+                        let last = full.iter().rposition(|&(_, _, e)| e < t).unwrap();
+                        prop_assert_eq!((w.cell(), w.index()), (full[last].0, full[last].1));
+                        if got.last() != Some(&(w.cell(), w.index())) {
+                            got.push((w.cell(), w.index()));
+                        }
+                    }
+                    if !w.advance() {
+                        break;
+                    }
+                }
+            }
+            // What was visited is the full walk with some stretches left out, in order, ending
+            // at the same cell.
+            let mut it = full.iter();
+            for c in &got {
+                prop_assert!(it.any(|f| (f.0, f.1) == *c), "{:?} not in order in {:?}", c, full);
+            }
+            prop_assert_eq!(got.last().map(|c| c.0), full.last().map(|f| f.0));
         }
 
         #[test]

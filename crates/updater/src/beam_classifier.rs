@@ -11,7 +11,7 @@
 //! |z_e − z| from p_i whatever the angle offset.
 
 use crate::UpdaterParams;
-use mapkeeper_grid::{CellCoord, Point2, Pose2, RayCaster, RayStop};
+use mapkeeper_grid::{CellCoord, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// The classifier's verdict on one beam.
@@ -41,9 +41,13 @@ pub struct Beam {
     pub angle_rad: f64,
     /// Hit point p_i in the map frame.
     pub hit: Point2,
-    /// Whether the beam's direction crosses a tile that holds a cell buffer (set by the
-    /// updater before the unchanged evaluator; beams that do not are skipped there).
-    pub near_buffer: bool,
+    /// Distance from the lidar to the nearest tile holding a cell buffer that the beam's
+    /// direction crosses, metres; +∞ if it crosses none (set by [`BeamClassifier::mark_near`]
+    /// before the unchanged evaluator, which skips beams at +∞).
+    pub near_buffer_m: f64,
+    /// The same for the bounding boxes of the buffered cells of each tile: the unchanged
+    /// evaluator walks the beam only from about there (+∞: not at all).
+    pub walk_from_m: f64,
     /// The verdict.
     pub class: BeamClass,
 }
@@ -83,6 +87,8 @@ pub struct BeamClassifier {
     pub beams: Vec<Beam>,
     /// One frame per valid scan of the last step.
     pub lidars: Vec<LidarFrame>,
+    /// What each beam leaves for the next one of its scan.
+    pub hints: ScanHints,
 }
 
 /// Number of virtual rays each side and their spacing (in beam increments) for one scan.
@@ -96,6 +102,10 @@ pub fn virtual_rays(params: &UpdaterParams, increment_rad: f64) -> (i32, f64) {
         (params.virtual_rays_each_side as i32, v)
     }
 }
+
+/// Margin of the no-cast shortcut of [`detects_change_dir`] against the rounding of expected
+/// points (about 1e-14 m at warehouse scale).
+const EXPECTED_POINT_SLACK_M: f64 = 1e-6;
 
 /// Eq. 3-5 for one beam: whether the smallest distance from `hit` (at range `z` along
 /// `angle_rad` from `origin`) to the expected hit points of the 2n_e + 1 rays cast in `base` at
@@ -113,23 +123,125 @@ pub fn detects_change(
     max_range_m: f64,
     d_th: f64,
 ) -> bool {
+    let mut hints = ScanHints::new(origin);
+    detects_change_dir(
+        base,
+        origin,
+        &base.direction(angle_rad),
+        increment_rad,
+        hit,
+        z,
+        n_e,
+        v,
+        max_range_m,
+        d_th,
+        &mut hints,
+    )
+}
+
+/// What one beam's classification leaves for the next beam of the same scan (reset per scan):
+/// they are close, so where one stopped and the free space around it help the next.
+#[derive(Clone, Debug, Default)]
+pub struct ScanHints {
+    /// Where the previous beam's central ray stopped at a blocking cell (or a bound for it).
+    pub stop_m: Option<f64>,
+    /// Free discs along the previous rays ([`RayCaster::stops_between`]).
+    pub discs: FreeDiscs,
+}
+
+impl ScanHints {
+    /// No hints yet, for rays from `origin`.
+    pub fn new(origin: Point2) -> Self {
+        let mut h = Self::default();
+        h.reset(origin);
+        h
+    }
+
+    /// Forgets the hints, for the rays of a new scan from `origin`.
+    pub fn reset(&mut self, origin: Point2) {
+        self.stop_m = None;
+        self.discs.reset(origin);
+    }
+}
+
+/// [`detects_change`] with the beam's direction prepared by `base` (its sine and cosine are
+/// reused for the central ray; bit for bit the same answer). `hints` (reset for each scan with
+/// the scan's `origin`): what the previous beams left, updated for the next; any hints give the
+/// same answer, good ones save casts.
+#[allow(clippy::too_many_arguments)]
+pub fn detects_change_dir(
+    base: &RayCaster,
+    origin: Point2,
+    beam: &RayDir,
+    increment_rad: f64,
+    hit: Point2,
+    z: f64,
+    n_e: i32,
+    v: f64,
+    max_range_m: f64,
+    d_th: f64,
+    hints: &mut ScanHints,
+) -> bool {
+    let incoming = hints.stop_m.take();
+    let angle_rad = beam.angle();
     let cast_len = z + d_th + 1e-6;
     let (len, truncated) = if cast_len >= max_range_m { (max_range_m, false) } else { (cast_len, true) };
+    // Exact shortcut: an expected point is on a blocking cell (or the ray's start inside one),
+    // on the grid's border, or — only for a cast that is not truncated — at the maximum range.
+    // With no blocking cell and no border within D_th of p_i (plus a margin far above the
+    // rounding of the expected points), none of them can match: a change, without casting.
+    if truncated && base.free_radius_m(hit) > d_th + EXPECTED_POINT_SLACK_M {
+        hints.stop_m = incoming;
+        return true;
+    }
+    // Exact shortcut: the central ray certainly stops at a blocking cell entered within
+    // D_th − slack of z (and before the cast's length): its expected point is then within D_th
+    // of p_i (same direction), the beam agrees with the map, without casting.
+    let (lo, hi) = (z - d_th + EXPECTED_POINT_SLACK_M, (z + d_th - EXPECTED_POINT_SLACK_M).min(len));
+    if base.stops_between(&mut hints.discs, beam, lo, hi, z) {
+        hints.stop_m = Some(z);
+        return false;
+    }
     let d_th_sq = d_th * d_th;
+    let r = base.map().geometry().resolution_m();
+    // Exact shortcut: a ray whose point at some s ≤ z − D_th − slack lies inside a blocking
+    // cell (away from its sides) stops at most there, so its expected point is farther than
+    // D_th from p_i (the triangle inequality): it cannot match, no need to cast it. Points are
+    // tried just beyond where a neighbouring ray stopped: the removed obstacle of most changes.
+    let limit = z - d_th - EXPECTED_POINT_SLACK_M;
+    let blocked_near = |near: f64, dir: &RayDir| {
+        [near + 0.5 * r, near + r].into_iter().find(|&s| s <= limit && base.blocked_at(origin, dir, s))
+    };
+    // Where the central ray stopped at a blocking cell, or a bound for it.
+    let mut central_block = None;
     for k in 0..=2 * n_e {
         // 0, -1, +1, -2, +2, ...
         let l = if k % 2 == 0 { -(k / 2) } else { (k + 1) / 2 };
         let a = angle_rad + l as f64 * v * increment_rad;
-        let ray = base.cast(origin, a, len);
+        // The central ray's angle is the beam's own (bit for bit, then reuse its direction).
+        let dir = if a.to_bits() == angle_rad.to_bits() { *beam } else { base.direction(a) };
+        let near = if k == 0 { incoming } else { central_block };
+        if let Some(s) = near.and_then(|near| blocked_near(near, &dir)) {
+            if k == 0 {
+                central_block = Some(s);
+            }
+            continue;
+        }
+        let ray = base.cast_dir(origin, &dir, len);
+        if k == 0 && matches!(ray.stop, RayStop::Occupied | RayStop::Unknown) {
+            central_block = Some(ray.range_m);
+        }
         if truncated && ray.stop == RayStop::MaxRange {
             continue; // z_e > z + D_th: too far whatever the angle.
         }
-        let (s, c) = a.sin_cos();
+        let (s, c) = (dir.sin(), dir.cos());
         let expected = Point2::new(origin.x + ray.range_m * c, origin.y + ray.range_m * s);
         if expected.distance_sq(hit) <= d_th_sq {
+            hints.stop_m = central_block;
             return false;
         }
     }
+    hints.stop_m = central_block;
     true
 }
 
@@ -169,6 +281,7 @@ impl BeamClassifier {
             });
             let max_range_m = params.max_range_m.min(scan.range_max_m as f64);
             let (n_e, v) = virtual_rays(params, scan.angle_increment_rad);
+            self.hints.reset(origin);
             for (i, &r) in scan.ranges_m.iter().enumerate() {
                 let angle_rad = lidar_in_map.yaw + scan.beam_angle(i as f64);
                 let z = r as f64;
@@ -181,18 +294,20 @@ impl BeamClassifier {
                         angle_rad,
                         hit: origin,
                         class: BeamClass::Invalid,
-                        near_buffer: false,
+                        near_buffer_m: f64::INFINITY,
+                        walk_from_m: f64::INFINITY,
                     });
                     continue;
                 }
                 counts.n_valid += 1;
-                let (s, c) = angle_rad.sin_cos();
+                let dir = base.direction(angle_rad);
+                let (s, c) = (dir.sin(), dir.cos());
                 let hit = Point2::new(origin.x + z * c, origin.y + z * s);
                 let d_th = params.change_distance_m(z);
-                let changed = detects_change(
+                let changed = detects_change_dir(
                     base,
                     origin,
-                    angle_rad,
+                    &dir,
                     scan.angle_increment_rad,
                     hit,
                     z,
@@ -200,9 +315,18 @@ impl BeamClassifier {
                     v,
                     max_range_m,
                     d_th,
+                    &mut self.hints,
                 );
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
-                self.beams.push(Beam { lidar, range_m: z, angle_rad, hit, class, near_buffer: false });
+                self.beams.push(Beam {
+                    lidar,
+                    range_m: z,
+                    angle_rad,
+                    hit,
+                    class,
+                    near_buffer_m: f64::INFINITY,
+                    walk_from_m: f64::INFINITY,
+                });
             }
         }
         self.filter_outliers(params.min_change_run as usize);
@@ -212,18 +336,23 @@ impl BeamClassifier {
     }
 
     /// Marks the beams whose direction crosses one of the squares (lower-left cell, side in
-    /// cells) of `tiles` in `grid`'s geometry; the others cannot reach a buffered cell.
+    /// cells) of `tiles` in `grid`'s geometry (`near_buffer_m`; the others cannot reach a
+    /// buffered cell), and those whose direction crosses one of the `boxes` (lowest and highest
+    /// cell, inclusive: the buffered cells of each tile) (`walk_from_m`; only their walks can
+    /// meet a buffered cell).
     pub fn mark_near(
         &mut self,
         geometry: &mapkeeper_grid::GridGeometry,
         tiles: impl Iterator<Item = CellCoord> + Clone,
         side: i32,
+        boxes: impl Iterator<Item = (CellCoord, CellCoord)> + Clone,
     ) {
-        use std::f64::consts::{PI, TAU};
         for b in &mut self.beams {
-            b.near_buffer = false;
+            b.near_buffer_m = f64::INFINITY;
+            b.walk_from_m = f64::INFINITY;
         }
-        let tile_m = side as f64 * geometry.resolution_m();
+        let r = geometry.resolution_m();
+        let tile_m = side as f64 * r;
         for f in &self.lidars {
             let beams = &mut self.beams[f.first_beam..f.first_beam + f.beam_count];
             let inc = f.increment_rad.abs();
@@ -231,36 +360,15 @@ impl BeamClassifier {
                 continue;
             }
             for t in tiles.clone() {
-                let corners = [(0, 0), (side, 0), (0, side), (side, side)]
-                    .map(|(dx, dy)| geometry.grid_to_world((t.ix + dx) as f64, (t.iy + dy) as f64));
-                let centre = geometry.grid_to_world(t.ix as f64 + side as f64 / 2.0, t.iy as f64 + side as f64 / 2.0);
-                if centre.distance(f.origin) <= tile_m {
-                    beams.iter_mut().for_each(|b| b.near_buffer = true);
+                let (lo, hi) = ((t.ix as f64, t.iy as f64), ((t.ix + side) as f64, (t.iy + side) as f64));
+                if mark_square(geometry, f, beams, lo, hi, tile_m, |b, d| b.near_buffer_m = b.near_buffer_m.min(d)) {
                     break;
                 }
-                let ac = (centre.y - f.origin.y).atan2(centre.x - f.origin.x);
-                let half = corners
-                    .iter()
-                    .map(|c| mapkeeper_grid::angle_diff((c.y - f.origin.y).atan2(c.x - f.origin.x), ac).abs())
-                    .fold(0.0, f64::max)
-                    + inc;
-                // Offset of the tile's direction from beam 0, along the scan's sweep, in [0, 2π).
-                let off = if f.increment_rad > 0.0 {
-                    (ac - f.angle0_rad).rem_euclid(TAU)
-                } else {
-                    (f.angle0_rad - ac).rem_euclid(TAU)
-                };
-                for shift in [-TAU, 0.0, TAU] {
-                    let lo = ((off + shift - half) / inc).ceil().max(0.0);
-                    let hi = ((off + shift + half) / inc).floor().min(beams.len() as f64 - 1.0);
-                    if lo <= hi && half < PI {
-                        for b in &mut beams[lo as usize..=hi as usize] {
-                            b.near_buffer = true;
-                        }
-                    } else if half >= PI {
-                        beams.iter_mut().for_each(|b| b.near_buffer = true);
-                    }
-                }
+            }
+            for (c0, c1) in boxes.clone() {
+                let (lo, hi) = ((c0.ix as f64, c0.iy as f64), ((c1.ix + 1) as f64, (c1.iy + 1) as f64));
+                let size_m = (hi.0 - lo.0).max(hi.1 - lo.1) * r;
+                mark_square(geometry, f, beams, lo, hi, size_m, |b, d| b.walk_from_m = b.walk_from_m.min(d));
             }
         }
     }
@@ -307,6 +415,138 @@ impl BeamClassifier {
                     if b.class == BeamClass::Unchanged {
                         b.class = BeamClass::NearChange;
                     }
+                }
+            }
+        }
+    }
+}
+
+/// Calls `mark(beam, distance)` for every beam of lidar frame `f` whose direction may cross the
+/// square `[lo.0, hi.0] × [lo.1, hi.1]` (grid coordinates), with the lidar's distance to the
+/// square, metres: the beams within the angular span of its corners, widened by one beam
+/// increment (far above rounding). If the lidar is within `near_m` of the square's centre,
+/// every beam is marked with distance 0 and `true` is returned.
+fn mark_square(
+    geometry: &mapkeeper_grid::GridGeometry,
+    f: &LidarFrame,
+    beams: &mut [Beam],
+    lo: (f64, f64),
+    hi: (f64, f64),
+    near_m: f64,
+    mut mark: impl FnMut(&mut Beam, f64),
+) -> bool {
+    use std::f64::consts::{PI, TAU};
+    let inc = f.increment_rad.abs();
+    let corners = [(lo.0, lo.1), (hi.0, lo.1), (lo.0, hi.1), (hi.0, hi.1)].map(|(u, v)| geometry.grid_to_world(u, v));
+    let centre = geometry.grid_to_world((lo.0 + hi.0) / 2.0, (lo.1 + hi.1) / 2.0);
+    if centre.distance(f.origin) <= near_m {
+        beams.iter_mut().for_each(|b| mark(b, 0.0));
+        return true;
+    }
+    // Distance from the lidar to the square (grid coordinates, then metres).
+    let (u, v) = geometry.world_to_grid(f.origin);
+    let du = (lo.0 - u).max(u - hi.0).max(0.0);
+    let dv = (lo.1 - v).max(v - hi.1).max(0.0);
+    let dist_m = (du * du + dv * dv).sqrt() * geometry.resolution_m();
+    let ac = (centre.y - f.origin.y).atan2(centre.x - f.origin.x);
+    let half = corners
+        .iter()
+        .map(|c| mapkeeper_grid::angle_diff((c.y - f.origin.y).atan2(c.x - f.origin.x), ac).abs())
+        .fold(0.0, f64::max)
+        + inc;
+    // Offset of the square's direction from beam 0, along the scan's sweep, in [0, 2π).
+    let off =
+        if f.increment_rad > 0.0 { (ac - f.angle0_rad).rem_euclid(TAU) } else { (f.angle0_rad - ac).rem_euclid(TAU) };
+    for shift in [-TAU, 0.0, TAU] {
+        let lo = ((off + shift - half) / inc).ceil().max(0.0);
+        let hi = ((off + shift + half) / inc).floor().min(beams.len() as f64 - 1.0);
+        if lo <= hi && half < PI {
+            beams[lo as usize..=hi as usize].iter_mut().for_each(|b| mark(b, dist_m));
+        } else if half >= PI {
+            beams.iter_mut().for_each(|b| mark(b, dist_m));
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell_buffers::CellBuffers;
+    use mapkeeper_grid::{GridGeometry, traverse};
+    use std::ops::ControlFlow;
+
+    /// Every beam whose walk meets a buffered cell is marked, no farther than that cell.
+    #[test]
+    fn marks_every_beam_whose_walk_meets_a_buffer() {
+        for yaw in [0.0, 0.35] {
+            let g = GridGeometry::new(240, 200, 0.05, Pose2::new(-2.0, 1.0, yaw)).unwrap();
+            let mut buffers = CellBuffers::new();
+            let mut state = 0x9e37_79b9_7f4a_7c15u64;
+            let mut next = move || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state
+            };
+            for (cx, cy) in [(60, 50), (150, 120), (200, 40), (90, 170), (121, 101)] {
+                for _ in 0..25 {
+                    let c = CellCoord::new(cx + (next() % 9) as i32 - 4, cy + (next() % 9) as i32 - 4);
+                    buffers.ensure(g.index(c).unwrap() as u32, c);
+                }
+            }
+            for origin_cell in [(120.3, 100.7), (30.5, 20.2), (123.9, 99.1)] {
+                let origin = g.grid_to_world(origin_cell.0, origin_cell.1);
+                let inc = 0.5f64.to_radians();
+                let angle0 = 0.3;
+                let mut c = BeamClassifier::new();
+                c.lidars.push(LidarFrame {
+                    origin,
+                    first_beam: 0,
+                    beam_count: 720,
+                    angle0_rad: angle0,
+                    increment_rad: inc,
+                });
+                for i in 0..720 {
+                    let a = angle0 + i as f64 * inc;
+                    let z = 9.0;
+                    let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
+                    c.beams.push(Beam {
+                        lidar: 0,
+                        range_m: z,
+                        angle_rad: a,
+                        hit,
+                        class: BeamClass::Unchanged,
+                        near_buffer_m: 0.0,
+                        walk_from_m: 0.0,
+                    });
+                }
+                c.mark_near(&g, buffers.tile_origins(), CellBuffers::TILE_CELLS, buffers.tile_boxes());
+                let mut met = 0;
+                for b in &c.beams {
+                    let mut first = None;
+                    let _ = traverse(&g, origin, b.hit, |cell| {
+                        if buffers.probe().contains(cell) {
+                            first = Some(cell);
+                            return ControlFlow::Break(());
+                        }
+                        ControlFlow::Continue(())
+                    });
+                    if let Some(cell) = first {
+                        met += 1;
+                        // Distance to the cell's square.
+                        let (u, v) = g.world_to_grid(origin);
+                        let du = (cell.ix as f64 - u).max(u - cell.ix as f64 - 1.0).max(0.0);
+                        let dv = (cell.iy as f64 - v).max(v - cell.iy as f64 - 1.0).max(0.0);
+                        let d = du.hypot(dv) * g.resolution_m() + 1e-9;
+                        assert!(b.near_buffer_m <= d, "beam at {}: near {} > {d}", b.angle_rad, b.near_buffer_m);
+                        assert!(b.walk_from_m <= d, "beam at {}: walk from {} > {d}", b.angle_rad, b.walk_from_m);
+                    }
+                }
+                assert!(met > 20, "{met} beams meet a buffer");
+                // Away from the buffers, boxes are tighter than tiles: some beams near a tile never walk.
+                if origin_cell.0 < 100.0 {
+                    assert!(c.beams.iter().any(|b| b.near_buffer_m.is_finite() && b.walk_from_m.is_infinite()));
                 }
             }
         }

@@ -86,8 +86,9 @@ impl TileMask {
     fn bit(c: CellCoord) -> usize {
         (((c.iy & 15) << 4) | (c.ix & 15)) as usize
     }
+    /// Whether `c` (a cell of this tile) holds a buffer.
     #[inline]
-    fn contains(&self, c: CellCoord) -> bool {
+    pub fn contains(&self, c: CellCoord) -> bool {
         let b = Self::bit(c);
         self.bits[b >> 6] & (1u64 << (b & 63)) != 0
     }
@@ -114,16 +115,22 @@ pub struct TileProbe<'a> {
     mask: Option<&'a TileMask>,
 }
 
-impl TileProbe<'_> {
+impl<'a> TileProbe<'a> {
     /// Whether `c` holds a buffer.
     #[inline]
     pub fn contains(&mut self, c: CellCoord) -> bool {
+        self.tile(c).is_some_and(|m| m.contains(c))
+    }
+
+    /// The mask of the tile that holds `c`, if any cell of that tile holds a buffer.
+    #[inline]
+    pub fn tile(&mut self, c: CellCoord) -> Option<&'a TileMask> {
         let key = tile_key(c);
         if key != self.key {
             self.key = key;
             self.mask = self.tiles.get(&key);
         }
-        self.mask.is_some_and(|m| m.contains(c))
+        self.mask
     }
 }
 
@@ -161,6 +168,27 @@ impl CellBuffers {
     /// must not let this order reach an output).
     pub fn tile_origins(&self) -> impl Iterator<Item = CellCoord> + Clone + '_ {
         self.tiles.keys().map(|&k| CellCoord::new(((k >> 16) as i32) << 4, ((k & 0xffff) as i32) << 4))
+    }
+
+    /// For every tile that holds a buffer, the lowest and the highest cell (inclusive) of the
+    /// bounding box of its buffered cells (unordered, like [`CellBuffers::tile_origins`]).
+    pub fn tile_boxes(&self) -> impl Iterator<Item = (CellCoord, CellCoord)> + Clone + '_ {
+        self.tiles.iter().map(|(&k, m)| {
+            let (x0, y0) = (((k >> 16) as i32) << 4, ((k & 0xffff) as i32) << 4);
+            // Rows: 16 bits each, four to a word.
+            let row = |y: usize| (m.bits[y / 4] >> ((y % 4) * 16)) as u16;
+            let (mut cols, mut y_lo, mut y_hi) = (0u16, 16, 0);
+            for y in 0..16 {
+                let bits = row(y);
+                if bits != 0 {
+                    cols |= bits;
+                    y_lo = y_lo.min(y);
+                    y_hi = y;
+                }
+            }
+            let (x_lo, x_hi) = (cols.trailing_zeros() as i32, 15 - cols.leading_zeros() as i32);
+            (CellCoord::new(x0 + x_lo, y0 + y_lo as i32), CellCoord::new(x0 + x_hi, y0 + y_hi as i32))
+        })
     }
 
     /// Creates an empty buffer for the cell if it has none.
@@ -235,6 +263,25 @@ mod tests {
             full.push(true, 32);
         }
         assert_eq!(full.changed(), 32);
+    }
+
+    #[test]
+    fn tile_boxes_bound_the_buffered_cells() {
+        let mut bufs = CellBuffers::new();
+        for (i, c) in [
+            (1, CellCoord::new(17, 33)),
+            (2, CellCoord::new(20, 40)),
+            (3, CellCoord::new(18, 35)),
+            (4, CellCoord::new(3, 2)),
+        ] {
+            bufs.ensure(i, c);
+        }
+        let mut boxes: Vec<_> = bufs.tile_boxes().collect();
+        boxes.sort();
+        assert_eq!(
+            boxes,
+            vec![(CellCoord::new(3, 2), CellCoord::new(3, 2)), (CellCoord::new(17, 33), CellCoord::new(20, 40)),]
+        );
     }
 
     #[test]

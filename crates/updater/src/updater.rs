@@ -4,7 +4,7 @@ use crate::UpdaterError;
 use crate::beam_classifier::{BeamClass, BeamClassifier};
 use crate::cell_buffers::CellBuffers;
 use crate::cell_update::{CellChange, CellUpdater};
-use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam};
+use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam_cast, merge_sorted_tail};
 use crate::free_pass::evaluate_free_pass;
 use crate::gating::{GateReason, UpdateGate};
 use crate::hit_index::HitIndex;
@@ -105,6 +105,9 @@ pub struct MapUpdater {
     buffers: CellBuffers,
     cell_updater: CellUpdater,
     votes: Vec<Vote>,
+    /// Scratch of the vote sort.
+    vote_scratch: Vec<Vote>,
+    /// The step's measured hit points (hit clearance of the removal vote).
     hits: HitIndex,
     pose_updater: PoseUpdater,
     log_odds: Option<LogOddsBaseline>,
@@ -137,6 +140,7 @@ impl MapUpdater {
             buffers: CellBuffers::new(),
             cell_updater: CellUpdater::new(&initial_map),
             votes: Vec::new(),
+            vote_scratch: Vec::new(),
             hits: HitIndex::new(),
             pose_updater: PoseUpdater::new(),
             log_odds,
@@ -182,7 +186,8 @@ impl MapUpdater {
     pub fn scratch_bytes(&self) -> usize {
         self.classifier.beams.capacity() * size_of::<crate::beam_classifier::Beam>()
             + self.classifier.lidars.capacity() * size_of::<crate::beam_classifier::LidarFrame>()
-            + self.votes.capacity() * size_of::<Vote>()
+            + (self.votes.capacity() + self.vote_scratch.capacity()) * size_of::<Vote>()
+            + self.classifier.hints.discs.scratch_bytes()
             + self.hits.capacity_bytes()
     }
 
@@ -284,8 +289,8 @@ impl MapUpdater {
         for b in beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam(
-                    self.base.map(),
+                evaluate_changed_beam_cast(
+                    &self.base,
                     origin,
                     b.hit,
                     b.range_m,
@@ -295,12 +300,18 @@ impl MapUpdater {
                 );
             }
         }
-        ensure_buffers(&mut self.votes, self.base.map().geometry().width(), &mut self.buffers);
+        ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
+        let n_changed_votes = self.votes.len();
         if !self.buffers.is_empty() {
-            self.classifier.mark_near(self.base.map().geometry(), self.buffers.tile_origins(), CellBuffers::TILE_CELLS);
+            self.classifier.mark_near(
+                self.base.map().geometry(),
+                self.buffers.tile_origins(),
+                CellBuffers::TILE_CELLS,
+                self.buffers.tile_boxes(),
+            );
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
-                if self.params.free_pass_votes && b.class == BeamClass::Changed && b.near_buffer {
+                if self.params.free_pass_votes && b.class == BeamClass::Changed && b.near_buffer_m.is_finite() {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
                     evaluate_free_pass(
                         self.base.map(),
@@ -312,7 +323,7 @@ impl MapUpdater {
                         &mut self.votes,
                     );
                 }
-                if b.class == BeamClass::Unchanged && b.near_buffer {
+                if b.class == BeamClass::Unchanged && b.near_buffer_m.is_finite() {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
                     evaluate_unchanged_beam(
                         self.base.map(),
@@ -320,11 +331,15 @@ impl MapUpdater {
                         b.hit,
                         b.range_m,
                         &self.params,
+                        b.walk_from_m,
                         &mut probe,
                         &mut self.votes,
                     );
                 }
             }
+            // The cells update sorts the votes again: hand them over sorted, so that costs one
+            // linear check.
+            merge_sorted_tail(&mut self.votes, n_changed_votes, &mut self.vote_scratch);
         }
         self.cell_updater.apply(
             &mut self.votes,

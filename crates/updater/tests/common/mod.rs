@@ -3,6 +3,7 @@
 #![allow(dead_code, clippy::unwrap_used)]
 
 pub mod bench_scene;
+pub mod digest;
 
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, RayStop, cast_ray};
 use mapkeeper_sensor::LaserScan;

@@ -1,0 +1,142 @@
+//! Output digests of the updater over fixed scenarios built on the benchmark scene: every
+//! step's report (verdict, n, n_dc, cell changes, pose recovery), the number of buffered cells
+//! after each step, and the final map's cells. Speed work must leave them bit-identical
+//! (tests/output_digest.rs pins them; the CPU-time example prints them).
+#![allow(dead_code)]
+
+use super::bench_scene::{route, warehouse};
+use super::s300_pair;
+use mapkeeper_grid::RayCaster;
+use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2};
+use mapkeeper_sensor::LaserScan;
+use mapkeeper_updater::beam_classifier::BeamClassifier;
+use mapkeeper_updater::{MapUpdater, UpdaterParams};
+
+/// 64-bit FNV-1a, fed with bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv(pub u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv {
+    pub fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 = (self.0 ^ x as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    pub fn u64(&mut self, x: u64) {
+        self.bytes(&x.to_le_bytes());
+    }
+}
+
+/// One digest scenario: a preset, the map geometry's origin, how many steps of the route, and
+/// whether the pose handed to the updater carries a deterministic error (with a large one every
+/// 40th step, so that Lost and pose updating are exercised).
+#[derive(Clone, Copy, Debug)]
+pub struct Scenario {
+    pub name: &'static str,
+    pub preset: &'static str,
+    pub map_origin: Pose2,
+    pub steps: usize,
+    pub pose_error: bool,
+}
+
+/// The pinned scenarios.
+pub const SCENARIOS: [Scenario; 4] = [
+    Scenario {
+        name: "paper, exact poses, one lap",
+        preset: "paper",
+        map_origin: Pose2::IDENTITY,
+        steps: 630,
+        pose_error: false,
+    },
+    Scenario { name: "paper, pose errors", preset: "paper", map_origin: Pose2::IDENTITY, steps: 320, pose_error: true },
+    Scenario {
+        name: "reference, pose errors",
+        preset: "reference",
+        map_origin: Pose2::IDENTITY,
+        steps: 320,
+        pose_error: true,
+    },
+    Scenario {
+        name: "paper, rotated map origin, pose errors",
+        preset: "paper",
+        map_origin: Pose2::new(-3.0, 2.0, 0.3),
+        steps: 320,
+        pose_error: true,
+    },
+];
+
+fn moved(m: &OccupancyGrid, origin: Pose2) -> OccupancyGrid {
+    let g = m.geometry();
+    let mut out = OccupancyGrid::filled(
+        GridGeometry::new(g.width(), g.height(), g.resolution_m(), origin).unwrap(),
+        CellState::Free,
+    );
+    out.cells_mut().copy_from_slice(m.cells());
+    out
+}
+
+/// The steps of a scenario: (true robot pose in the map, scans), in order.
+pub fn scenario_steps(s: &Scenario) -> (OccupancyGrid, Vec<(Pose2, Vec<LaserScan>)>) {
+    let (map, world) = warehouse();
+    let (map, world) = (moved(&map, s.map_origin), moved(&world, s.map_origin));
+    let poses = route();
+    let steps = (0..s.steps)
+        .map(|k| {
+            let p = s.map_origin.compose(&poses[k % poses.len()]);
+            (p, s300_pair(&world, p, k as u64 * 400_000_000))
+        })
+        .collect();
+    (map, steps)
+}
+
+/// The pose handed to the updater at step `k`.
+pub fn estimate(s: &Scenario, k: usize, truth: Pose2) -> Pose2 {
+    if !s.pose_error {
+        return truth;
+    }
+    let kf = k as f64;
+    let mut e = Pose2::new(0.03 * (0.7 * kf).sin(), 0.02 * (1.1 * kf).cos(), 0.012 * (0.37 * kf).sin());
+    if k % 40 == 39 {
+        e = Pose2::new(0.6, -0.4, 0.6);
+    }
+    truth.compose(&e)
+}
+
+/// The digest of one scenario and its number of processed steps.
+pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
+    let (map, steps) = scenario_steps(s);
+    let params = UpdaterParams::preset(s.preset).unwrap();
+    // The classifier alone as well, so that each beam's class and hit point are pinned too.
+    let caster = RayCaster::new(&map, true);
+    let mut classifier = BeamClassifier::new();
+    let mut up = MapUpdater::new(map, params.clone()).unwrap();
+    let mut h = Fnv::default();
+    let mut processed = 0;
+    for (k, (truth, scans)) in steps.iter().enumerate() {
+        let odom = s.map_origin.inverse().compose(truth);
+        let est = estimate(s, k, *truth);
+        let counts = classifier.classify(&caster, &est, scans, &params);
+        h.bytes(format!("{counts:?}").as_bytes());
+        for b in &classifier.beams {
+            h.bytes(&[b.class as u8]);
+            h.u64(b.hit.x.to_bits());
+            h.u64(b.hit.y.to_bits());
+            h.u64(b.range_m.to_bits());
+        }
+        let r = up.process(est, odom, scans);
+        if r.verdict.is_some() {
+            processed += 1;
+        }
+        h.bytes(format!("{r:?}").as_bytes());
+        h.u64(up.buffered_cells() as u64);
+    }
+    h.bytes(&up.map().cells().iter().map(|&c| c as u8).collect::<Vec<_>>());
+    h.bytes(format!("{:?}", up.stats()).as_bytes());
+    (h.0, processed)
+}
