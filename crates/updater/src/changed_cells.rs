@@ -185,7 +185,7 @@ fn changed_votes(
         let mut prev: Option<CellCoord> = None;
         non_free_on(origin, p_th, &mut |c, i| {
             if let Some(p) = prev
-                && (c.ix - p.ix).abs() + (c.iy - p.iy).abs() - 1 >= SHADOW_CLEAR_CELLS
+                && (c.ix - p.ix).abs() + (c.iy - p.iy).abs() > SHADOW_CLEAR_CELLS
             {
                 shadowed = false;
             }
