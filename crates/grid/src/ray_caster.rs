@@ -121,6 +121,10 @@ pub struct RayCaster {
     /// `-∞` for a blocking cell, so that one load answers both "blocks?" and "how far?".
     safe_jump_m: Vec<f32>,
     min_jump_m: f64,
+    /// How far inside a blocking cell, in cells, a point must be for [`RayCaster::blocked_at`]:
+    /// 1e-6 plus what the `f32` rounding of the longest jump could add to it (a jump's landing
+    /// point may lie that much closer to a blocking cell than the clearance promises).
+    edge_cells: f64,
 }
 
 impl RayCaster {
@@ -136,13 +140,15 @@ impl RayCaster {
         let field = DistanceField::from_sites(&g, w.hypot(h) + r, |i| blocking(cells[i]));
         // Margin: r√2 for the two half-diagonals, plus a hair for rounding.
         let margin = r * std::f64::consts::SQRT_2 + 1e-6 * r;
-        let safe_jump_m = field
+        let safe_jump_m: Vec<f32> = field
             .distances_m()
             .iter()
             .zip(cells)
             .map(|(&d, &s)| if blocking(s) { f32::NEG_INFINITY } else { (d as f64 - margin) as f32 })
             .collect();
-        Self { map: map.clone(), unknown_blocks, safe_jump_m, min_jump_m: MIN_JUMP_CELLS * r }
+        let longest_jump = safe_jump_m.iter().fold(0.0f64, |m: f64, &j: &f32| m.max(j as f64));
+        let edge_cells = 1e-6 + longest_jump * F32_SLACK / r;
+        Self { map: map.clone(), unknown_blocks, safe_jump_m, min_jump_m: MIN_JUMP_CELLS * r, edge_cells }
     }
 
     /// The map the caster answers for.
@@ -385,8 +391,8 @@ impl RayCaster {
         if border < free { border } else { free }
     }
 
-    /// Whether grid point `(u, v)` lies inside a blocking cell, away from its sides (by 1e-6 of
-    /// a cell).
+    /// Whether grid point `(u, v)` lies inside a blocking cell, away from its sides (by
+    /// `edge_cells`).
     #[inline]
     fn blocked_grid(&self, u: f64, v: f64) -> bool {
         let g = self.map.geometry();
@@ -395,16 +401,17 @@ impl RayCaster {
         }
         let (ix, iy) = (u as i32, v as i32); // the floors: 0 ≤ u < w ≤ 2^20, so for v
         let (fu, fv) = (u - ix as f64, v - iy as f64);
-        const EDGE: f64 = 1e-6;
-        fu > EDGE
-            && fu < 1.0 - EDGE
-            && fv > EDGE
-            && fv < 1.0 - EDGE
+        let edge = self.edge_cells;
+        fu > edge
+            && fu < 1.0 - edge
+            && fv > edge
+            && fv < 1.0 - edge
             && self.safe_jump_m[iy as usize * g.width() + ix as usize] == f32::NEG_INFINITY
     }
 
     /// Whether the point `s_m` along the ray from `origin` along `dir` lies inside a blocking
-    /// cell, away from its sides (by 1e-6 of a cell, far above rounding): then
+    /// cell, away from its sides (by 1e-6 of a cell plus 2⁻²⁰ of the longest jump, above the
+    /// rounding of the ray and of the jumps' `f32` clearances): then
     /// [`RayCaster::cast_dir`]`(origin, dir, max_range)` with `max_range ≥ s_m` certainly stops
     /// at a blocking cell entered at most `s_m` from the origin (its walk visits every cell
     /// whose inside the ray crosses; its jumps only cross free space).
