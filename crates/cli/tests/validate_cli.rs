@@ -41,7 +41,7 @@ fn scratch() -> PathBuf {
 
 /// The number of `#[test]` functions in this file: the last one to pass removes the scratch
 /// folder (it is kept when a test fails, or when tests are filtered).
-const TESTS: usize = 5;
+const TESTS: usize = 6;
 
 /// Called at the end of each test.
 fn done() {
@@ -356,6 +356,46 @@ fn bad_shards_are_refused_before_any_work() {
         ]);
         assert!(!r.status.success(), "--shard {shard} accepted");
         assert!(stderr(&r).contains(want), "--shard {shard}: {}", stderr(&r));
+        assert!(!out.exists());
+    }
+    done();
+}
+
+/// A sweep over two presets: the (preset × seed) jobs sliced into three shards and merged preset
+/// by preset equal the unsharded sweep file for file; the second preset's folder equals a
+/// single-preset run of it. Bad preset lists are refused before any work.
+#[test]
+fn preset_sweeps_shard_over_preset_and_seed_jobs() {
+    let common = ["--worlds", "2", "--seeds", "2", "--no-timing", "--presets", "paper,no-update"];
+    let all = validate("sweep-all", &common);
+    assert!(all.join("paper/summary.json").is_file() && all.join("no-update/summary.json").is_file());
+    // Jobs (paper,1) (paper,2) (no-update,1) (no-update,2) in three shards: [p1] [p2] [n1 n2].
+    let mut parts = Vec::new();
+    for k in 1..=3 {
+        let shard = format!("{k}/3");
+        let mut args = common.to_vec();
+        args.extend(["--shard", &shard]);
+        parts.push(validate(&format!("sweep-{k}"), &args));
+    }
+    assert!(parts[0].join("paper").is_dir() && !parts[0].join("no-update").exists());
+    assert!(parts[2].join("no-update").is_dir() && !parts[2].join("paper").exists());
+    let merged = scratch().join("sweep-merged");
+    for (preset, dirs) in [("paper", vec![&parts[0], &parts[1]]), ("no-update", vec![&parts[2]])] {
+        let out = merged.join(preset);
+        let mut args = vec!["merge".to_string()];
+        args.extend(dirs.iter().map(|d| d.join(preset).to_str().unwrap().to_string()));
+        args.extend(["--out".to_string(), out.to_str().unwrap().to_string()]);
+        let r = mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(r.status.success(), "{}", stderr(&r));
+        assert_eq!(files(&out), files(&all.join(preset)), "{preset}: merged shards differ from the sweep");
+    }
+    let single = validate("sweep-single", &["--worlds", "2", "--seeds", "2", "--no-timing", "--preset", "no-update"]);
+    assert_eq!(files(&single), files(&all.join("no-update")));
+    for (list, want) in [("paper,paper", "twice"), ("paper,bogus", "bogus"), ("paper,", "preset names")] {
+        let out = scratch().join(format!("bad-presets-{}", list.replace(',', "_")));
+        let r = mapkeeper(&["validate", "--worlds", "2", "--presets", list, "--out", out.to_str().unwrap()]);
+        assert!(!r.status.success(), "--presets {list} accepted");
+        assert!(stderr(&r).contains(want), "--presets {list}: {}", stderr(&r));
         assert!(!out.exists());
     }
     done();

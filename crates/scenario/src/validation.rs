@@ -296,10 +296,10 @@ pub struct Shard {
 }
 
 impl Shard {
-    /// The seeds of this shard: the `index`-th of `count` contiguous, nearly equal slices of
-    /// `seeds` (slice sizes differ by at most one). `None` if the shard is out of range or
+    /// The seeds (or jobs) of this shard: the `index`-th of `count` contiguous, nearly equal
+    /// slices of `seeds` (slice sizes differ by at most one). `None` if the shard is out of range or
     /// there are fewer seeds than shards (some shard would be empty).
-    pub fn slice<'a>(&self, seeds: &'a [u64]) -> Option<&'a [u64]> {
+    pub fn slice<'a, T>(&self, seeds: &'a [T]) -> Option<&'a [T]> {
         if self.count == 0 || self.index == 0 || self.index > self.count || self.count > seeds.len() as u64 {
             return None;
         }

@@ -20,7 +20,10 @@ report.md, edits.json, plots/ (Fig. 24-27, SVG and PNG), seed-S/maps (M_i, G_i o
 W_N), seed-S/trajectories (TUM: true, chain, baseline). Results are identical whatever --jobs; only \
 wall_time_s and median_scan_us vary (not with --no-timing).\n\n\
 Sharding: --shard k/N runs the k-th of N contiguous slices of the seeds; `mapkeeper merge` combines the \
-shards' folders into the folder of the whole run.")]
+shards' folders into the folder of the whole run.\n\n\
+Sweeps over presets: --presets a,b,… makes the job list (preset × seed), preset by preset; each preset's \
+results go to OUT/<preset>/ (a folder as above), and --shard slices that job list. Merge the shards \
+preset by preset: mapkeeper merge s1/paper s2/paper --out all/paper.")]
 pub struct Args {
     /// Number of worlds N.
     #[arg(long, default_value_t = 100)]
@@ -34,6 +37,10 @@ pub struct Args {
     /// Updater preset: paper, reference, always-update, no-update, log-odds.
     #[arg(long, default_value = "paper")]
     pub preset: String,
+    /// A sweep over several presets (comma-separated, e.g. paper,always-update): jobs are
+    /// (preset × seed); each preset's results go to OUT/<preset>/.
+    #[arg(long, value_name = "P1,P2,…", conflicts_with = "preset", value_delimiter = ',')]
+    pub presets: Option<Vec<String>>,
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -92,33 +99,63 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
     }
-    let mut params = ValidationParams::new(args.worlds, &args.preset)?;
-    if let Some(len) = args.route_length {
-        if !(len.is_finite() && len > 0.0) {
-            bail!("--route-length must be a positive number of metres, got {len}");
+    let sweep = args.presets.is_some();
+    let presets: Vec<String> = args.presets.clone().unwrap_or_else(|| vec![args.preset.clone()]);
+    if presets.is_empty() || presets.iter().any(|p| p.trim().is_empty()) {
+        bail!("--presets needs preset names separated by commas");
+    }
+    if let Some((i, p)) = presets.iter().enumerate().find(|(i, p)| presets[..*i].contains(p)) {
+        bail!("--presets names '{p}' twice (entry {})", i + 1);
+    }
+    let mut params_of = Vec::with_capacity(presets.len());
+    for preset in &presets {
+        let mut params =
+            ValidationParams::new(args.worlds, preset).with_context(|| format!("--preset(s): '{preset}'"))?;
+        if let Some(len) = args.route_length {
+            if !(len.is_finite() && len > 0.0) {
+                bail!("--route-length must be a positive number of metres, got {len}");
+            }
+            params.route = ValidationParams::short_route(len);
         }
-        params.route = ValidationParams::short_route(len);
+        params_of.push(params);
     }
     let all_seeds: Vec<u64> = (0..args.seeds).map(|k| args.seed.saturating_add(k)).collect();
     if all_seeds.windows(2).any(|w| w[0] == w[1]) {
         bail!("--seed {} with --seeds {} runs past the largest seed", args.seed, args.seeds);
     }
-    let seeds: Vec<u64> = match args.shard {
-        None => all_seeds,
-        Some(sh) => match sh.slice(&all_seeds) {
+    // The job list: (preset index, seed), preset by preset.
+    let all_jobs: Vec<(usize, u64)> = (0..presets.len()).flat_map(|p| all_seeds.iter().map(move |&s| (p, s))).collect();
+    let jobs: Vec<(usize, u64)> = match args.shard {
+        None => all_jobs,
+        Some(sh) => match sh.slice(&all_jobs) {
             Some(s) => s.to_vec(),
             None => bail!(
-                "--shard {}/{}: {} seed(s) cannot make {} non-empty shards",
+                "--shard {}/{}: {} job(s) ({} preset(s) × {} seed(s)) cannot make {} non-empty shards",
                 sh.index,
                 sh.count,
+                all_jobs.len(),
+                presets.len(),
                 args.seeds,
                 sh.count
             ),
         },
     };
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
-    let dir = StagedDir::create(&out, args.force)?;
-    let total = seeds.len() as u64 * args.worlds as u64;
+    // Validate the output folders before running anything.
+    let groups: Vec<usize> = (0..presets.len()).filter(|&p| jobs.iter().any(|j| j.0 == p)).collect();
+    let mut dirs = Vec::with_capacity(groups.len());
+    if sweep {
+        if out.is_file() {
+            bail!("{}: exists and is not a folder", out.display());
+        }
+        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+        for &p in &groups {
+            dirs.push(StagedDir::create(&out.join(&presets[p]), args.force)?);
+        }
+    } else {
+        dirs.push(StagedDir::create(&out, args.force)?);
+    }
+    let total = jobs.len() as u64 * args.worlds as u64;
     let bar = ProgressBar::new(total);
     if std::io::stderr().is_terminal() {
         bar.set_style(
@@ -136,14 +173,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let wall = Wall(Instant::now());
     let runs: Vec<SeedRun> = pool.install(|| {
-        seeds
-            .par_iter()
-            .map(|&s| {
+        jobs.par_iter()
+            .map(|&(p, s)| {
                 let progress = |_: usize| bar.inc(1);
                 if args.no_timing {
-                    run_seed(&params, s, &NoClock, &progress)
+                    run_seed(&params_of[p], s, &NoClock, &progress)
                 } else {
-                    run_seed(&params, s, &wall, &progress)
+                    run_seed(&params_of[p], s, &wall, &progress)
                 }
             })
             .collect::<Result<Vec<_>, _>>()
@@ -151,19 +187,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let wall_time_s = start.elapsed().as_secs_f64();
     let timing = !args.no_timing;
-    let record = ValidationRecord::new(&params, &runs, timing, if timing { wall_time_s } else { 0.0 }, args.shard);
-    let summary = write_validation(&dir, &runs, &record)?;
-    let out = dir.finish()?;
-    let shard = args.shard.map(|s| format!(" (shard {}/{}: seeds {:?})", s.index, s.count, seeds)).unwrap_or_default();
-    println!(
-        "validate: {} seed(s) × {} worlds, preset {}, {:.1} s wall{shard}",
-        seeds.len(),
-        args.worlds,
-        args.preset,
-        wall_time_s
-    );
-    print_summary(&summary);
-    println!("wrote {}", out.display());
+    for (&p, dir) in groups.iter().zip(dirs) {
+        let group: Vec<SeedRun> = jobs.iter().zip(&runs).filter(|(j, _)| j.0 == p).map(|(_, r)| r.clone()).collect();
+        let seeds: Vec<u64> = group.iter().map(|r| r.seed).collect();
+        let record =
+            ValidationRecord::new(&params_of[p], &group, timing, if timing { wall_time_s } else { 0.0 }, args.shard);
+        let summary = write_validation(&dir, &group, &record)?;
+        let written = dir.finish()?;
+        let shard =
+            args.shard.map(|s| format!(" (shard {}/{}: seeds {:?})", s.index, s.count, seeds)).unwrap_or_default();
+        println!(
+            "validate: {} seed(s) × {} worlds, preset {}, {:.1} s wall{shard}",
+            seeds.len(),
+            args.worlds,
+            presets[p],
+            wall_time_s
+        );
+        print_summary(&summary);
+        println!("wrote {}", written.display());
+    }
     Ok(())
 }
 
