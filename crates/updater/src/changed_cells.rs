@@ -196,8 +196,9 @@ fn changed_votes(
             let centre = g.cell_center(c);
             let off = ((centre.x - origin.x) * dy - (centre.y - origin.y) * dx).abs() * inv_len;
             if centre.distance_sq(hit) > skip_sq && off <= max_off {
-                if hits.any_within(centre)
-                    || grazing::meets_a_free_face_grazing(base, c, sin_x, sin_y, min_sin)
+                // Cheapest test first (the result is their "or").
+                if grazing::meets_a_free_face_grazing(base, c, sin_x, sin_y, min_sin)
+                    || hits.any_within(centre)
                     || grazing::is_grazing(base, c, dx, dy, min_sin)
                 {
                     shadowed = true;

@@ -13,17 +13,26 @@
 
 use mapkeeper_grid::Point2;
 
-/// Hit points sorted by square bucket (side = the query radius).
+/// Hit points bucketed on a square grid over their bounding box (bucket side ≥ the query
+/// radius), stored bucket by bucket (compressed rows: `starts[b]..starts[b + 1]` indexes
+/// `points`).
 #[derive(Clone, Debug, Default)]
 pub struct HitIndex {
     bucket_m: f64,
     radius_sq: f64,
-    entries: Vec<(i64, Point2)>,
+    /// Lower-left corner of bucket (0, 0).
+    x0: f64,
+    y0: f64,
+    nx: usize,
+    ny: usize,
+    starts: Vec<u32>,
+    points: Vec<Point2>,
+    /// Scratch: each point's bucket.
+    keys: Vec<u32>,
 }
 
-/// Bucket rows are packed as `row * ROW_STRIDE + column`; columns are offset to stay positive.
-const ROW_STRIDE: i64 = 1 << 32;
-const COLUMN_OFFSET: i64 = 1 << 31;
+/// Most buckets of an index; a larger bounding box gets larger buckets.
+const MAX_BUCKETS: f64 = (1 << 20) as f64;
 
 impl HitIndex {
     /// An empty index.
@@ -32,56 +41,76 @@ impl HitIndex {
     }
 
     /// Refills the index with `points` for queries of radius `radius_m` (> 0). Non-finite
-    /// points are ignored.
+    /// points are ignored; a non-positive or non-finite radius empties the index.
     pub fn rebuild(&mut self, radius_m: f64, points: impl Iterator<Item = Point2>) {
-        self.entries.clear();
+        self.points.clear();
+        self.starts.clear();
+        self.keys.clear();
+        self.nx = 0;
+        self.ny = 0;
         if !(radius_m.is_finite() && radius_m > 0.0) {
-            self.bucket_m = 0.0;
             return;
         }
-        self.bucket_m = radius_m;
         self.radius_sq = radius_m * radius_m;
-        for p in points {
-            if let Some(key) = self.key(p) {
-                self.entries.push((key, p));
-            }
+        self.points.extend(points.filter(|p| p.x.is_finite() && p.y.is_finite() && p.x.abs() < 1e9 && p.y.abs() < 1e9));
+        if self.points.is_empty() {
+            return;
         }
-        self.entries.sort_unstable_by_key(|e| e.0);
+        let (mut lo, mut hi) = (self.points[0], self.points[0]);
+        for p in &self.points {
+            lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
+            hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
+        }
+        let area = ((hi.x - lo.x) / radius_m + 1.0) * ((hi.y - lo.y) / radius_m + 1.0);
+        self.bucket_m = if area > MAX_BUCKETS { radius_m * (area / MAX_BUCKETS).sqrt().ceil() } else { radius_m };
+        self.x0 = lo.x;
+        self.y0 = lo.y;
+        self.nx = ((hi.x - lo.x) / self.bucket_m).floor() as usize + 1;
+        self.ny = ((hi.y - lo.y) / self.bucket_m).floor() as usize + 1;
+        self.starts.resize(self.nx * self.ny + 1, 0);
+        for k in 0..self.points.len() {
+            let p = self.points[k];
+            let b = self.bucket_of(p);
+            self.keys.push(b as u32);
+            self.starts[b + 1] += 1;
+        }
+        for b in 0..self.nx * self.ny {
+            self.starts[b + 1] += self.starts[b];
+        }
+        // Place the points bucket by bucket (a counting sort; `keys` keeps the input order).
+        let mut next: Vec<u32> = self.starts[..self.nx * self.ny].to_vec();
+        let mut sorted = vec![Point2::new(0.0, 0.0); self.points.len()];
+        for (p, &b) in self.points.iter().zip(&self.keys) {
+            sorted[next[b as usize] as usize] = *p;
+            next[b as usize] += 1;
+        }
+        self.points = sorted;
     }
 
-    fn bucket(&self, p: Point2) -> Option<(i64, i64)> {
-        let (bx, by) = ((p.x / self.bucket_m).floor(), (p.y / self.bucket_m).floor());
-        // Far beyond any map: ignore rather than wrap.
-        let limit = (COLUMN_OFFSET / 2) as f64;
-        (bx.abs() < limit && by.abs() < limit).then_some((bx as i64, by as i64))
-    }
-
-    fn key(&self, p: Point2) -> Option<i64> {
-        if self.bucket_m <= 0.0 {
-            return None;
-        }
-        self.bucket(p).map(|(bx, by)| by * ROW_STRIDE + bx + COLUMN_OFFSET)
+    /// The bucket of a point inside the bounding box.
+    fn bucket_of(&self, p: Point2) -> usize {
+        let bx = (((p.x - self.x0) / self.bucket_m).floor() as usize).min(self.nx - 1);
+        let by = (((p.y - self.y0) / self.bucket_m).floor() as usize).min(self.ny - 1);
+        by * self.nx + bx
     }
 
     /// Whether a point of the index lies strictly closer than the radius to `p`.
     pub fn any_within(&self, p: Point2) -> bool {
-        if self.entries.is_empty() || self.bucket_m <= 0.0 {
+        if self.points.is_empty() || !(p.x.is_finite() && p.y.is_finite()) {
             return false;
         }
-        let Some((bx, by)) = self.bucket(p) else {
+        let (fx, fy) = (((p.x - self.x0) / self.bucket_m).floor(), ((p.y - self.y0) / self.bucket_m).floor());
+        // Buckets fx-1 ..= fx+1 (and the same in y) that exist.
+        if fx < -1.0 || fy < -1.0 || fx > self.nx as f64 || fy > self.ny as f64 {
             return false;
-        };
-        for row in by - 1..=by + 1 {
-            let lo = row * ROW_STRIDE + bx - 1 + COLUMN_OFFSET;
-            let hi = lo + 2;
-            let start = self.entries.partition_point(|e| e.0 < lo);
-            for &(key, q) in &self.entries[start..] {
-                if key > hi {
-                    break;
-                }
-                if q.distance_sq(p) < self.radius_sq {
-                    return true;
-                }
+        }
+        let (bx, by) = (fx as i64, fy as i64);
+        let (x_lo, x_hi) = ((bx - 1).max(0) as usize, ((bx + 1) as usize).min(self.nx - 1));
+        let (y_lo, y_hi) = ((by - 1).max(0) as usize, ((by + 1) as usize).min(self.ny - 1));
+        for row in y_lo..=y_hi {
+            let (a, b) = (self.starts[row * self.nx + x_lo] as usize, self.starts[row * self.nx + x_hi + 1] as usize);
+            if self.points[a..b].iter().any(|q| q.distance_sq(p) < self.radius_sq) {
+                return true;
             }
         }
         false
@@ -89,17 +118,18 @@ impl HitIndex {
 
     /// Points held.
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.points.len()
     }
 
     /// Whether the index is empty.
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.points.is_empty()
     }
 
     /// Heap bytes held (scratch, reused from step to step).
     pub fn capacity_bytes(&self) -> usize {
-        self.entries.capacity() * size_of::<(i64, Point2)>()
+        self.points.capacity() * size_of::<Point2>()
+            + (self.starts.capacity() + self.keys.capacity()) * size_of::<u32>()
     }
 }
 

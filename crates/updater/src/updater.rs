@@ -319,6 +319,7 @@ impl MapUpdater {
                         b.hit,
                         b.range_m,
                         &self.params,
+                        b.walk_from_m,
                         &mut probe,
                         &mut self.votes,
                     );
