@@ -11,13 +11,10 @@
 //! chunk of `skip_unchanged_m(z)` skipped, and only cells that already hold a buffer.
 
 use crate::UpdaterParams;
-use crate::cell_buffers::{CellBuffers, TileProbe};
-use crate::changed_cells::{Vote, threshold_point, vote};
-use mapkeeper_grid::{CellState, OccupancyGrid, Point2, SegmentWalk};
-
-/// See `unchanged_cells`: margin before a tile's exit when a walk crosses a tile without
-/// buffers, in units of the walked segment (far above the walk's rounding).
-const TILE_EXIT_MARGIN: f64 = 1e-9;
+use crate::cell_buffers::TileProbe;
+use crate::changed_cells::{Vote, vote};
+use crate::unchanged_cells::buffered_cells_before_chunk;
+use mapkeeper_grid::{CellState, OccupancyGrid, Point2};
 
 /// Appends "unchanged" votes for the cells free in `base` that the detected-change beam from
 /// `origin` to `hit` (range `z`) crossed before its final chunk, where a buffer exists.
@@ -36,45 +33,21 @@ pub fn evaluate_free_pass(
     votes: &mut Vec<Vote>,
 ) {
     let g = base.geometry();
-    let r = g.resolution_m();
     let cells = base.cells();
     let skip = params.skip_unchanged_m(z);
-    if first_buffer_m > z - skip + r {
-        return;
-    }
-    let Some(p_th) = threshold_point(origin, hit, z, skip) else { return };
     let skip_sq = skip * skip;
-    let tile = CellBuffers::TILE_CELLS;
-    let Some(mut walk) = SegmentWalk::start(g, origin, p_th) else { return };
-    if first_buffer_m > r {
-        walk.skip_before(walk.param_at((first_buffer_m - r) / r));
-    }
-    loop {
-        let c = walk.cell();
-        match probe.tile(c) {
-            Some(mask) => {
-                if cells[walk.index()] == CellState::Free
-                    && mask.contains(c)
-                    && g.cell_center(c).distance_sq(hit) > skip_sq
-                {
-                    votes.push(vote(walk.index(), false));
-                }
-            }
-            None => {
-                let (x0, y0) = ((c.ix & !(tile - 1)) as f64, (c.iy & !(tile - 1)) as f64);
-                let exit = walk.param_leaving((x0, y0), (x0 + tile as f64, y0 + tile as f64));
-                walk.skip_before(exit - TILE_EXIT_MARGIN);
-            }
+    buffered_cells_before_chunk(g, origin, hit, z, skip, first_buffer_m, probe, |c, i| {
+        if cells[i] == CellState::Free && g.cell_center(c).distance_sq(hit) > skip_sq {
+            votes.push(vote(i, false));
         }
-        if !walk.advance() {
-            break;
-        }
-    }
+    });
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cell_buffers::CellBuffers;
+    use crate::changed_cells::threshold_point;
     use mapkeeper_grid::{CellCoord, GridGeometry, Pose2, traverse};
     use std::ops::ControlFlow;
 

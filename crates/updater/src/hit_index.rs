@@ -27,8 +27,10 @@ pub struct HitIndex {
     ny: usize,
     starts: Vec<u32>,
     points: Vec<Point2>,
-    /// Scratch: each point's bucket.
+    /// Scratch: each point's bucket, the next free slot of each bucket, the points unsorted.
     keys: Vec<u32>,
+    next: Vec<u32>,
+    unsorted: Vec<Point2>,
 }
 
 /// Most buckets of an index; a larger bounding box gets larger buckets.
@@ -44,6 +46,7 @@ impl HitIndex {
     /// points are ignored; a non-positive or non-finite radius empties the index.
     pub fn rebuild(&mut self, radius_m: f64, points: impl Iterator<Item = Point2>) {
         self.points.clear();
+        self.unsorted.clear();
         self.starts.clear();
         self.keys.clear();
         self.nx = 0;
@@ -52,12 +55,13 @@ impl HitIndex {
             return;
         }
         self.radius_sq = radius_m * radius_m;
-        self.points.extend(points.filter(|p| p.x.is_finite() && p.y.is_finite() && p.x.abs() < 1e9 && p.y.abs() < 1e9));
-        if self.points.is_empty() {
+        self.unsorted
+            .extend(points.filter(|p| p.x.is_finite() && p.y.is_finite() && p.x.abs() < 1e9 && p.y.abs() < 1e9));
+        if self.unsorted.is_empty() {
             return;
         }
-        let (mut lo, mut hi) = (self.points[0], self.points[0]);
-        for p in &self.points {
+        let (mut lo, mut hi) = (self.unsorted[0], self.unsorted[0]);
+        for p in &self.unsorted {
             lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
             hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
         }
@@ -68,23 +72,22 @@ impl HitIndex {
         self.nx = ((hi.x - lo.x) / self.bucket_m).floor() as usize + 1;
         self.ny = ((hi.y - lo.y) / self.bucket_m).floor() as usize + 1;
         self.starts.resize(self.nx * self.ny + 1, 0);
-        for k in 0..self.points.len() {
-            let p = self.points[k];
-            let b = self.bucket_of(p);
+        for k in 0..self.unsorted.len() {
+            let b = self.bucket_of(self.unsorted[k]);
             self.keys.push(b as u32);
             self.starts[b + 1] += 1;
         }
         for b in 0..self.nx * self.ny {
             self.starts[b + 1] += self.starts[b];
         }
-        // Place the points bucket by bucket (a counting sort; `keys` keeps the input order).
-        let mut next: Vec<u32> = self.starts[..self.nx * self.ny].to_vec();
-        let mut sorted = vec![Point2::new(0.0, 0.0); self.points.len()];
-        for (p, &b) in self.points.iter().zip(&self.keys) {
-            sorted[next[b as usize] as usize] = *p;
-            next[b as usize] += 1;
+        // Place the points bucket by bucket (a counting sort; within a bucket, input order).
+        self.next.clear();
+        self.next.extend_from_slice(&self.starts[..self.nx * self.ny]);
+        self.points.resize(self.unsorted.len(), Point2::new(0.0, 0.0));
+        for (p, &b) in self.unsorted.iter().zip(&self.keys) {
+            self.points[self.next[b as usize] as usize] = *p;
+            self.next[b as usize] += 1;
         }
-        self.points = sorted;
     }
 
     /// The bucket of a point inside the bounding box.
@@ -128,8 +131,8 @@ impl HitIndex {
 
     /// Heap bytes held (scratch, reused from step to step).
     pub fn capacity_bytes(&self) -> usize {
-        self.points.capacity() * size_of::<Point2>()
-            + (self.starts.capacity() + self.keys.capacity()) * size_of::<u32>()
+        (self.points.capacity() + self.unsorted.capacity()) * size_of::<Point2>()
+            + (self.starts.capacity() + self.keys.capacity() + self.next.capacity()) * size_of::<u32>()
     }
 }
 

@@ -10,7 +10,7 @@
 use crate::UpdaterParams;
 use crate::cell_buffers::{CellBuffers, TileProbe};
 use crate::changed_cells::{Vote, threshold_point, vote};
-use mapkeeper_grid::{CellState, OccupancyGrid, Point2, SegmentWalk};
+use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, SegmentWalk};
 
 /// Margin, in units of the walked segment, kept before a tile's exit when a walk crosses a tile
 /// without buffers: above the rounding of the walk's boundary parameters (at most 2⁻⁵² per
@@ -32,42 +32,13 @@ pub fn evaluate_unchanged_beam(
     votes: &mut Vec<Vote>,
 ) {
     let g = base.geometry();
-    let r = g.resolution_m();
     let skip = params.skip_unchanged_m(z);
-    // Every cell the walk visits has a point within rounding of the segment, at most z − skip
-    // from the origin; a cell first entered less than `first_buffer_m − r` along it is closer
-    // than `first_buffer_m` (one cell of margin, far above the rounding).
-    let reachable = first_buffer_m <= z - skip + r;
-    if reachable && let Some(p_th) = threshold_point(origin, hit, z, skip) {
-        let skip_sq = skip * skip;
-        let tile = CellBuffers::TILE_CELLS;
-        if let Some(mut walk) = SegmentWalk::start(g, origin, p_th) {
-            if first_buffer_m > r {
-                walk.skip_before(walk.param_at((first_buffer_m - r) / r));
-            }
-            loop {
-                let c = walk.cell();
-                match probe.tile(c) {
-                    Some(mask) => {
-                        if mask.contains(c) && g.cell_center(c).distance_sq(hit) > skip_sq {
-                            votes.push(vote(walk.index(), false));
-                        }
-                    }
-                    None => {
-                        // No buffer in this tile: cross it without visiting its cells. Only
-                        // boundaries strictly inside the tile are crossed (TILE_EXIT_MARGIN
-                        // exceeds the walk's rounding), so no cell outside it is passed over.
-                        let (x0, y0) = ((c.ix & !(tile - 1)) as f64, (c.iy & !(tile - 1)) as f64);
-                        let exit = walk.param_leaving((x0, y0), (x0 + tile as f64, y0 + tile as f64));
-                        walk.skip_before(exit - TILE_EXIT_MARGIN);
-                    }
-                }
-                if !walk.advance() {
-                    break;
-                }
-            }
+    let skip_sq = skip * skip;
+    buffered_cells_before_chunk(g, origin, hit, z, skip, first_buffer_m, probe, |c, i| {
+        if g.cell_center(c).distance_sq(hit) > skip_sq {
+            votes.push(vote(i, false));
         }
-    }
+    });
     let Some(c) = g.world_to_cell(hit) else { return };
     match base.get(c) {
         Some(CellState::Free) => {
@@ -88,6 +59,59 @@ pub fn evaluate_unchanged_beam(
             }
         }
         None => {}
+    }
+}
+
+/// Calls `visit(cell, index)` for every cell that holds a buffer, in the order the traversal
+/// from `origin` towards `hit` visits them, up to p_th (`skip_m` before `hit`, range `z`).
+/// `first_buffer_m`: no cell closer than this to `origin` along the beam holds a buffer (0 if
+/// unknown; see [`crate::beam_classifier::Beam::walk_from_m`]), so the walk starts about there;
+/// tiles without buffers are crossed without visiting their cells. The same cells as a plain
+/// cell-by-cell walk filtered by the probe (tests in this module and in `free_pass`).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn buffered_cells_before_chunk(
+    g: &GridGeometry,
+    origin: Point2,
+    hit: Point2,
+    z: f64,
+    skip_m: f64,
+    first_buffer_m: f64,
+    probe: &mut TileProbe<'_>,
+    mut visit: impl FnMut(CellCoord, usize),
+) {
+    let r = g.resolution_m();
+    // Every cell the walk visits has a point within rounding of the segment, at most z − skip
+    // from the origin; a cell first entered less than `first_buffer_m − r` along it is closer
+    // than `first_buffer_m` (one cell of margin, far above the rounding).
+    if first_buffer_m > z - skip_m + r {
+        return;
+    }
+    let Some(p_th) = threshold_point(origin, hit, z, skip_m) else { return };
+    let Some(mut walk) = SegmentWalk::start(g, origin, p_th) else { return };
+    let tile = CellBuffers::TILE_CELLS;
+    if first_buffer_m > r {
+        walk.skip_before(walk.param_at((first_buffer_m - r) / r));
+    }
+    loop {
+        let c = walk.cell();
+        match probe.tile(c) {
+            Some(mask) => {
+                if mask.contains(c) {
+                    visit(c, walk.index());
+                }
+            }
+            None => {
+                // No buffer in this tile: cross it without visiting its cells. Only boundaries
+                // strictly inside the tile are crossed (TILE_EXIT_MARGIN exceeds the walk's
+                // rounding), so no cell outside it is passed over.
+                let (x0, y0) = ((c.ix & !(tile - 1)) as f64, (c.iy & !(tile - 1)) as f64);
+                let exit = walk.param_leaving((x0, y0), (x0 + tile as f64, y0 + tile as f64));
+                walk.skip_before(exit - TILE_EXIT_MARGIN);
+            }
+        }
+        if !walk.advance() {
+            break;
+        }
     }
 }
 
