@@ -3,27 +3,14 @@
 // Helpers outside `#[test]` functions unwrap too: a failure is a test failure.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
+use common::{mapkeeper, s, scratch};
+
 use mapkeeper_grid::metrics::{MetricParams, map_metrics};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, RayStop, cast_ray, map_io};
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, LogWriter, TruePose};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-/// A fresh folder for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("mapkeeper-metrics-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn mapkeeper(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(args).output().unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use std::path::Path;
 
 /// A 4 m × 3 m walled room in a 6 m × 5 m grid at 0.05 m, unknown outside.
 fn room(origin: Pose2) -> OccupancyGrid {
@@ -40,7 +27,7 @@ fn room(origin: Pose2) -> OccupancyGrid {
 
 #[test]
 fn metrics_of_a_map_with_itself_is_100_in_json() {
-    let dir = scratch("self");
+    let dir = scratch("metrics-cli", "self");
     let a = dir.join("a.yaml");
     map_io::save_map(&room(Pose2::new(-1.0, -1.0, 0.0)), &a).unwrap();
     let out = mapkeeper(&["metrics", s(&a), s(&a), "--json"]);
@@ -65,7 +52,7 @@ fn metrics_of_a_map_with_itself_is_100_in_json() {
 
 #[test]
 fn mismatched_maps_fail_naming_both_unless_resampled() {
-    let dir = scratch("mismatch");
+    let dir = scratch("metrics-cli", "mismatch");
     let a = dir.join("first_map.yaml");
     let b = dir.join("second_map.yaml");
     let truth = room(Pose2::new(-1.0, -1.0, 0.0));
@@ -113,7 +100,7 @@ fn png_header(path: &Path) -> (u32, u32, u8, u8) {
 
 #[test]
 fn render_writes_a_png_and_a_diff() {
-    let dir = scratch("render");
+    let dir = scratch("metrics-cli", "render");
     let a = dir.join("a.yaml");
     let b = dir.join("b.yaml");
     let m = room(Pose2::IDENTITY);
@@ -153,7 +140,7 @@ fn render_writes_a_png_and_a_diff() {
 
 #[test]
 fn map_from_a_logged_room_run_matches_the_room() {
-    let dir = scratch("map");
+    let dir = scratch("metrics-cli", "map");
     let truth_map = room(Pose2::new(-1.0, -1.0, 0.0));
     // Drive along a line inside the room; the lidar is mounted 0.2 m ahead, turned by 0.1 rad.
     let mount = Pose2::new(0.2, 0.0, 0.1);

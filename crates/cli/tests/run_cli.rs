@@ -2,27 +2,13 @@
 //! as the real binary in a temporary folder.
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("mapkeeper-run-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn mapkeeper(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(args).output().unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use common::{mapkeeper, s, scratch};
 
 #[test]
 fn run_one_world_end_to_end() {
-    let dir = scratch("one");
+    let dir = scratch("run-cli", "one");
     let gen_dir = dir.join("gen");
     let out = mapkeeper(&["generate", "--worlds", "2", "--seed", "3", "--out", s(&gen_dir)]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

@@ -2,12 +2,10 @@
 //! pose-recovery stress suite; the wall clock is read here (not in the libraries).
 
 use anyhow::{Context, bail};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mapkeeper_scenario::recovery::report::write_recovery;
 use mapkeeper_scenario::recovery::{KidnapSummary, Progress};
 use mapkeeper_scenario::{RecoveryParams, StagedDir, run_recovery};
 use mapkeeper_sim::World;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -95,20 +93,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
     let dir = StagedDir::create(&out, args.force)?;
     let cases = if params.kidnap.best_case { 2 } else { 1 };
-    let bar = ProgressBar::new(4 + (cases * args.trials) as u64);
-    if std::io::stderr().is_terminal() {
-        bar.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps, eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-    } else {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    }
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(j) = args.jobs {
-        builder = builder.num_threads(j.max(1));
-    }
-    let pool = builder.build().context("thread pool")?;
+    let bar = super::progress_bar(4 + (cases * args.trials) as u64, "steps");
+    let pool = super::thread_pool(args.jobs)?;
     let start = Instant::now();
     let w1 = World::default_warehouse();
     let progress = |_: Progress| bar.inc(1);

@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
-use mapkeeper_scenario::{Clock, RunInputs, RunnerParams, StagedDir, run_world};
+use mapkeeper_scenario::{RunInputs, RunnerParams, StagedDir, run_world};
 use mapkeeper_sensor::tum::format_tum;
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;
@@ -48,14 +48,6 @@ pub struct Args {
     pub force: bool,
 }
 
-struct Wall(Instant);
-
-impl Clock for Wall {
-    fn now_ns(&self) -> u64 {
-        u64::try_from(self.0.elapsed().as_nanos()).unwrap_or(u64::MAX).max(1)
-    }
-}
-
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let world = World::load(&args.world)?;
@@ -77,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = StagedDir::create(&args.out, args.force)?;
     let start = Instant::now();
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline };
-    let r = run_world(&inputs, &params, args.seed, "run", &Wall(Instant::now())).context("closed-loop run")?;
+    let r = run_world(&inputs, &params, args.seed, "run", &super::Wall::start()).context("closed-loop run")?;
     let wall = start.elapsed().as_secs_f64();
     save_map(&r.map, &dir.file("map.yaml")?)?;
     if let Some(t) = &r.trajectories {

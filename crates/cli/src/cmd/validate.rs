@@ -2,11 +2,9 @@
 //! seeds in parallel; the wall clock is read here (not in the libraries).
 
 use anyhow::{Context, bail};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mapkeeper_scenario::report::write_validation;
-use mapkeeper_scenario::{Clock, NoClock, SeedRun, Shard, StagedDir, ValidationParams, ValidationRecord, run_seed};
+use mapkeeper_scenario::{NoClock, SeedRun, Shard, StagedDir, ValidationParams, ValidationRecord, run_seed};
 use rayon::prelude::*;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -72,14 +70,6 @@ fn parse_shard(s: &str) -> Result<Shard, String> {
         return Err(bad());
     }
     Ok(Shard { index, count })
-}
-
-struct Wall(Instant);
-
-impl Clock for Wall {
-    fn now_ns(&self) -> u64 {
-        u64::try_from(self.0.elapsed().as_nanos()).unwrap_or(u64::MAX).max(1)
-    }
 }
 
 fn default_out(seed: u64, worlds: usize, shard: Option<Shard>) -> PathBuf {
@@ -156,22 +146,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         dirs.push(StagedDir::create(&out, args.force)?);
     }
     let total = jobs.len() as u64 * args.worlds as u64;
-    let bar = ProgressBar::new(total);
-    if std::io::stderr().is_terminal() {
-        bar.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} worlds, eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-    } else {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    }
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(j) = args.jobs {
-        builder = builder.num_threads(j.max(1));
-    }
-    let pool = builder.build().context("thread pool")?;
+    let bar = super::progress_bar(total, "worlds");
+    let pool = super::thread_pool(args.jobs)?;
     let start = Instant::now();
-    let wall = Wall(Instant::now());
+    let wall = super::Wall::start();
     let runs: Vec<SeedRun> = pool.install(|| {
         jobs.par_iter()
             .map(|&(p, s)| {
