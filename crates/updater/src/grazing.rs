@@ -18,7 +18,7 @@ const HALF: i32 = 2;
 const LINE_RATIO: f64 = 4.0;
 
 fn non_free(map: &OccupancyGrid, c: CellCoord) -> bool {
-    map.get(c) != Some(CellState::Free) && map.get(c).is_some()
+    matches!(map.get(c), Some(CellState::Occupied | CellState::Unknown))
 }
 
 fn is_boundary(map: &OccupancyGrid, c: CellCoord) -> bool {

@@ -311,22 +311,16 @@ impl MapUpdater {
             );
             let mut probe = self.buffers.probe();
             for b in &self.classifier.beams {
-                if self.params.free_pass_votes && b.class == BeamClass::Changed && b.near_buffer_m.is_finite() {
+                // Beams that agree with the map: the unchanged evaluator; detected changes: the
+                // free-pass votes on the free cells they crossed. Both walk buffered cells only.
+                let evaluate = match b.class {
+                    BeamClass::Unchanged => evaluate_unchanged_beam,
+                    BeamClass::Changed if self.params.free_pass_votes => evaluate_free_pass,
+                    _ => continue,
+                };
+                if b.near_buffer_m.is_finite() {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
-                    evaluate_free_pass(
-                        self.base.map(),
-                        origin,
-                        b.hit,
-                        b.range_m,
-                        &self.params,
-                        b.walk_from_m,
-                        &mut probe,
-                        &mut self.votes,
-                    );
-                }
-                if b.class == BeamClass::Unchanged && b.near_buffer_m.is_finite() {
-                    let origin = self.classifier.lidars[b.lidar as usize].origin;
-                    evaluate_unchanged_beam(
+                    evaluate(
                         self.base.map(),
                         origin,
                         b.hit,
