@@ -22,6 +22,9 @@ pub enum ScenarioError {
     /// The updater refused its parameters or map.
     #[error("updater: {0}")]
     Updater(#[from] mapkeeper_updater::UpdaterError),
+    /// The closed loop failed (a source, a control or the baseline's thread).
+    #[error("closed loop: {0}")]
+    Loop(#[from] mapkeeper_harness::HarnessError),
     /// The mapper refused its parameters.
     #[error("mapper: {0}")]
     Mapper(#[from] mapkeeper_grid::mapper::MapperError),

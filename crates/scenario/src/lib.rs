@@ -26,6 +26,7 @@ pub mod recovery;
 pub mod report;
 pub mod run_events;
 pub mod runner;
+pub mod sim_source;
 pub mod validation;
 
 pub use error::ScenarioError;
@@ -33,10 +34,11 @@ pub use generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_stor
 pub use mapping::{InitialMap, MappingParams, build_initial_map};
 pub use output::StagedDir;
 pub use recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
-pub use run_events::{Kidnap, KidnapRecord, TimelineSample, TrackSample};
+pub use run_events::{Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample, TrackSample};
 pub use runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
 };
+pub use sim_source::SimSource;
 pub use validation::{
     Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed, run_seed_in,
     summarise, summarise_records,

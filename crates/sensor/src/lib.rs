@@ -33,4 +33,6 @@ pub use log::{
     TruePose,
 };
 pub use scan::{BeamValidity, LaserScan, MAX_BEAMS, ScanError};
-pub use tum::{StampedPose, TumError, format_tum, interpolate, read_tum, write_tum, write_tum_with_comment};
+pub use tum::{
+    StampedPose, TumError, format_tum, interpolate, interpolate_within, read_tum, write_tum, write_tum_with_comment,
+};

@@ -134,27 +134,41 @@ pub fn parse_tum(text: &str, path: &Path) -> Result<Vec<StampedPose>, TumError> 
 
 /// The pose at `stamp_ns`, linearly interpolated between the two nearest poses (yaw along the
 /// shorter arc); clamped to the first or last pose outside the covered time. `None` if empty.
-/// `poses` must be sorted by time.
+/// `poses` must be sorted by time. Same as [`interpolate_within`] with no gap limit.
 pub fn interpolate(poses: &[StampedPose], stamp_ns: u64) -> Option<Pose2> {
-    let first = poses.first()?;
+    interpolate_within(poses, stamp_ns, u64::MAX)
+}
+
+/// The pose at `stamp_ns` from a time-sorted track, with a limit on how far poses may be from
+/// it: a pose stamped exactly then (the last of several); else the linear interpolation of the
+/// poses just before and after (yaw along the shorter arc) when they are at most
+/// 2 × `max_gap_ns` apart; else the nearer of the two (the earlier on a tie) if it is within
+/// `max_gap_ns`; else `None`. With `u64::MAX` the track is interpolated inside its time span
+/// and clamped to its first or last pose outside it.
+pub fn interpolate_within(poses: &[StampedPose], stamp_ns: u64, max_gap_ns: u64) -> Option<Pose2> {
     let k = poses.partition_point(|p| p.stamp_ns <= stamp_ns);
-    if k == 0 {
-        return Some(first.pose);
-    }
-    let a = &poses[k - 1];
-    let Some(b) = poses.get(k) else {
-        return Some(a.pose);
-    };
-    if b.stamp_ns == a.stamp_ns {
+    let prev = k.checked_sub(1).and_then(|i| poses.get(i));
+    if let Some(a) = prev
+        && a.stamp_ns == stamp_ns
+    {
         return Some(a.pose);
     }
-    let f = (stamp_ns - a.stamp_ns) as f64 / (b.stamp_ns - a.stamp_ns) as f64;
-    let dyaw = mapkeeper_grid::angle_diff(b.pose.yaw, a.pose.yaw);
-    Some(Pose2::new(
-        a.pose.x + f * (b.pose.x - a.pose.x),
-        a.pose.y + f * (b.pose.y - a.pose.y),
-        mapkeeper_grid::wrap_angle(a.pose.yaw + f * dyaw),
-    ))
+    let next = poses.get(k);
+    match (prev, next) {
+        (Some(a), Some(b)) if b.stamp_ns - a.stamp_ns <= max_gap_ns.saturating_mul(2) => {
+            let f = (stamp_ns - a.stamp_ns) as f64 / (b.stamp_ns - a.stamp_ns) as f64;
+            let dyaw = mapkeeper_grid::angle_diff(b.pose.yaw, a.pose.yaw);
+            Some(Pose2::new(
+                a.pose.x + f * (b.pose.x - a.pose.x),
+                a.pose.y + f * (b.pose.y - a.pose.y),
+                mapkeeper_grid::wrap_angle(a.pose.yaw + f * dyaw),
+            ))
+        }
+        _ => {
+            let gap = |p: &StampedPose| p.stamp_ns.abs_diff(stamp_ns);
+            [prev, next].into_iter().flatten().filter(|p| gap(p) <= max_gap_ns).min_by_key(|p| gap(p)).map(|p| p.pose)
+        }
+    }
 }
 
 #[cfg(test)]

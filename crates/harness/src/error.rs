@@ -1,0 +1,31 @@
+//! The harness's error type.
+
+use crate::source::SourceError;
+
+/// What can go wrong while running the loop.
+#[derive(Debug, thiserror::Error)]
+pub enum HarnessError {
+    /// The source could not deliver a step.
+    #[error(transparent)]
+    Source(#[from] SourceError),
+    /// The localiser refused a request (initialisation at a non-finite pose or covariance).
+    #[error("localiser: {0}")]
+    Localiser(#[from] mapkeeper_localiser::LocaliserError),
+    /// The updater could not be built.
+    #[error("updater: {0}")]
+    Updater(#[from] mapkeeper_updater::UpdaterError),
+    /// A request the session cannot serve (e.g. setting the estimate of a recorded track).
+    #[error("{0}")]
+    Unsupported(String),
+    /// The baseline localiser's thread panicked.
+    #[error("the baseline localiser's thread panicked")]
+    BaselinePanicked,
+    /// A parameter file could not be read, parsed or validated.
+    #[error("{path}: {message}")]
+    Config {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong, and where.
+        message: String,
+    },
+}

@@ -1,0 +1,38 @@
+//! # mapkeeper-harness
+//!
+//! One loop for simulated and recorded data. A [`SensorSource`] (the simulator, a replayed
+//! log) yields [`Step`]s: a [`SensorFrame`] for the estimators and, apart, the [`Truth`]. A
+//! [`Session`] owns the estimators (the chain localiser or a recorded track, the map updater,
+//! an optional baseline localiser) and processes one frame at a time; it never sees the truth.
+//! [`Observer`]s (statistics, trajectories, timelines) read the step, truth included, and the
+//! session's report; [`Control`]s are what an experiment does: bias the estimate, stop, resume
+//! or move the robot, hand a recovered pose back. [`run`] drives them all.
+//!
+//! This crate depends on no simulator: the replay path builds without rapier.
+//!
+//! ```
+//! use mapkeeper_harness::{LogSource, NoClock, PoseSource, ReplayOptions, Session, run};
+//! use mapkeeper_sensor::{LogHeader, SensorLog};
+//! let log = SensorLog { header: LogHeader::new(Default::default()), records: Vec::new() };
+//! let mut source = LogSource::new(log, "empty", ReplayOptions::default());
+//! let mut session = Session::new(PoseSource::None, None, None, &NoClock);
+//! assert_eq!(run(&mut source, &mut session, &mut [], &mut []).unwrap(), 0);
+//! ```
+#![warn(missing_docs)]
+
+pub mod clock;
+pub mod config;
+pub mod driver;
+mod error;
+pub mod replay;
+pub mod session;
+pub mod source;
+pub mod stats;
+
+pub use clock::{Clock, NoClock};
+pub use driver::{Control, Observer, run, step_once};
+pub use error::HarnessError;
+pub use replay::{LogSource, OdometryAt, ReplayOptions};
+pub use session::{Baseline, BaselineSample, PoseSource, Session, SessionOutput, Skip, StepReport};
+pub use source::{RobotControl, SensorFrame, SensorSource, SourceError, Step, Truth};
+pub use stats::{ErrorSample, LocAcc, LocScore, LocStats, Trajectories, UpdaterWork};

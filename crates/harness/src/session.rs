@@ -1,0 +1,252 @@
+//! The estimators of one run, stepped together: a pose source (the chain localiser, or a
+//! recorded trajectory), the map updater fed with that pose, and an optional baseline
+//! localiser on another map. A [`Session`] sees only [`SensorFrame`]s; truth never reaches it.
+
+use crate::HarnessError;
+use crate::clock::Clock;
+use crate::source::SensorFrame;
+use mapkeeper_grid::{OccupancyGrid, Pose2};
+use mapkeeper_localiser::{Covariance3, Estimate, Localiser, UpdateReport};
+use mapkeeper_sensor::{StampedPose, interpolate};
+use mapkeeper_updater::{MapUpdater, StepOutcome, StepReport as UpdaterStep};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::thread::JoinHandle;
+
+/// Where the session's robot pose comes from.
+#[derive(Debug)]
+pub enum PoseSource {
+    /// A particle filter on the session's map (the paper's chain localiser).
+    Localiser(Box<Localiser>),
+    /// A recorded trajectory (e.g. a localiser's TUM output), interpolated at each stamp.
+    Track(Vec<StampedPose>),
+    /// No pose: the session only passes frames to observers (e.g. mapping at true poses).
+    None,
+}
+
+/// Why a step was not given to the estimators.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Skip {
+    /// The localiser needs odometry and the frame has none.
+    NoOdometry,
+    /// The recorded trajectory has no pose (it is empty).
+    NoPose,
+}
+
+/// What the session did with one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepReport {
+    /// The frame's stamp, nanoseconds.
+    pub stamp_ns: u64,
+    /// The robot pose the updater was given (the localiser's estimate after this frame, or the
+    /// recorded pose); `None` if the step was skipped or the session has no pose source.
+    pub pose_in_map: Option<Pose2>,
+    /// The chain localiser's report (with [`PoseSource::Localiser`]).
+    pub localiser: Option<UpdateReport>,
+    /// The updater's report (with an updater).
+    pub updater: Option<UpdaterStep>,
+    /// Time the updater took on a processed step, nanoseconds on the session's clock (`None`
+    /// without a clock or when the step was not processed).
+    pub updater_ns: Option<u64>,
+    /// The updater's change state after the step, bytes (0 without an updater or when the
+    /// step was not processed).
+    pub updater_state_bytes: u64,
+    /// Why the step was skipped, if it was.
+    pub skipped: Option<Skip>,
+}
+
+impl StepReport {
+    fn skipped(stamp_ns: u64, why: Skip) -> Self {
+        Self {
+            stamp_ns,
+            pose_in_map: None,
+            localiser: None,
+            updater: None,
+            updater_ns: None,
+            updater_state_bytes: 0,
+            skipped: Some(why),
+        }
+    }
+}
+
+/// One update of the baseline localiser, in processing order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaselineSample {
+    /// The frame's stamp, nanoseconds.
+    pub stamp_ns: u64,
+    /// Whether the filter's sensor update ran.
+    pub sensor_update: bool,
+    /// The estimate after the frame.
+    pub estimate: Estimate,
+}
+
+/// The baseline localiser: on the caller's thread, or on one of its own (same results, in the
+/// same order; the frames are queued).
+#[derive(Debug)]
+pub enum Baseline {
+    /// Stepped inline after the chain localiser and the updater.
+    Inline(Box<Localiser>, Vec<BaselineSample>),
+    /// Stepped on a thread of its own.
+    Threaded(SyncSender<SensorFrame>, JoinHandle<Vec<BaselineSample>>),
+}
+
+impl Baseline {
+    /// A baseline stepped inline.
+    pub fn inline(localiser: Localiser) -> Self {
+        Self::Inline(Box::new(localiser), Vec::new())
+    }
+
+    /// A baseline stepped on a thread of its own.
+    pub fn threaded(localiser: Localiser) -> Self {
+        let (tx, rx): (SyncSender<SensorFrame>, Receiver<SensorFrame>) = sync_channel(256);
+        let worker = std::thread::spawn(move || {
+            let mut loc = localiser;
+            let mut samples = Vec::new();
+            for frame in rx {
+                samples.extend(baseline_step(&mut loc, &frame));
+            }
+            samples
+        });
+        Self::Threaded(tx, worker)
+    }
+
+    fn feed(&mut self, frame: &SensorFrame) {
+        match self {
+            Self::Inline(loc, samples) => samples.extend(baseline_step(loc, frame)),
+            // The worker stops only when the channel closes, so a send cannot fail while it lives.
+            Self::Threaded(tx, _) => drop(tx.send(frame.clone())),
+        }
+    }
+
+    fn finish(self) -> Result<Vec<BaselineSample>, HarnessError> {
+        match self {
+            Self::Inline(_, samples) => Ok(samples),
+            Self::Threaded(tx, worker) => {
+                drop(tx);
+                worker.join().map_err(|_| HarnessError::BaselinePanicked)
+            }
+        }
+    }
+}
+
+fn baseline_step(loc: &mut Localiser, frame: &SensorFrame) -> Option<BaselineSample> {
+    let odometry = frame.odometry?;
+    let r = loc.update(odometry, &frame.scans);
+    Some(BaselineSample { stamp_ns: frame.stamp_ns, sensor_update: r.sensor_update, estimate: r.estimate })
+}
+
+/// What a finished session leaves.
+#[derive(Debug)]
+pub struct SessionOutput {
+    /// The updater (with `M_i`, its statistics), if the session had one.
+    pub updater: Option<MapUpdater>,
+    /// The baseline localiser's updates, in order (empty without a baseline).
+    pub baseline: Vec<BaselineSample>,
+}
+
+/// The estimators of one run, stepped by [`Session::process`].
+pub struct Session<'c> {
+    pose: PoseSource,
+    updater: Option<MapUpdater>,
+    baseline: Option<Baseline>,
+    clock: &'c dyn Clock,
+}
+
+impl std::fmt::Debug for Session<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session").field("pose", &self.pose).field("updater", &self.updater.is_some()).finish()
+    }
+}
+
+impl<'c> Session<'c> {
+    /// A session; the updater's time per step is read from `clock`.
+    pub fn new(
+        pose: PoseSource,
+        updater: Option<MapUpdater>,
+        baseline: Option<Baseline>,
+        clock: &'c dyn Clock,
+    ) -> Self {
+        Self { pose, updater, baseline, clock }
+    }
+
+    /// Steps every estimator with one frame: the pose source first, then the updater with
+    /// that pose (and the frame's odometry, or the pose where there is none), then the
+    /// baseline.
+    pub fn process(&mut self, frame: &SensorFrame) -> StepReport {
+        let (pose, localiser) = match &mut self.pose {
+            PoseSource::Localiser(loc) => {
+                let Some(odometry) = frame.odometry else {
+                    return StepReport::skipped(frame.stamp_ns, Skip::NoOdometry);
+                };
+                let r = loc.update(odometry, &frame.scans);
+                (Some(r.estimate.pose_in_map), Some(r))
+            }
+            PoseSource::Track(track) => match interpolate(track, frame.stamp_ns) {
+                Some(p) => (Some(p), None),
+                None => return StepReport::skipped(frame.stamp_ns, Skip::NoPose),
+            },
+            PoseSource::None => (None, None),
+        };
+        let (mut updater_ns, mut updater_state_bytes) = (None, 0);
+        let updater = match (self.updater.as_mut(), pose) {
+            (Some(u), Some(p)) => {
+                let t0 = self.clock.now_ns();
+                let step = u.process(p, frame.odometry.unwrap_or(p), &frame.scans);
+                let t1 = self.clock.now_ns();
+                if step.outcome == StepOutcome::Processed {
+                    updater_ns = (t1 > 0).then(|| t1.saturating_sub(t0));
+                    updater_state_bytes = u.state_bytes() as u64;
+                }
+                Some(step)
+            }
+            _ => None,
+        };
+        if let Some(b) = self.baseline.as_mut() {
+            b.feed(frame);
+        }
+        StepReport {
+            stamp_ns: frame.stamp_ns,
+            pose_in_map: pose,
+            localiser,
+            updater,
+            updater_ns,
+            updater_state_bytes,
+            skipped: None,
+        }
+    }
+
+    /// Re-initialises the chain localiser at `pose_in_map` with `covariance` (an experiment
+    /// biasing the estimate, or pose updating handing a pose back).
+    pub fn set_estimate(&mut self, pose_in_map: Pose2, covariance: Covariance3) -> Result<(), HarnessError> {
+        match &mut self.pose {
+            PoseSource::Localiser(loc) => Ok(loc.init_pose(pose_in_map, covariance)?),
+            _ => Err(HarnessError::Unsupported("the session's pose comes from no localiser".into())),
+        }
+    }
+
+    /// Tells the updater that `pose_in_map` (at odometry `pose_in_odom`) is its new last good
+    /// pose (after a recovery).
+    pub fn reset_updater_reference(&mut self, pose_in_map: Pose2, pose_in_odom: Pose2) {
+        if let Some(u) = self.updater.as_mut() {
+            u.reset_reference_pose(pose_in_map, pose_in_odom);
+        }
+    }
+
+    /// The updater, if any.
+    pub fn updater(&self) -> Option<&MapUpdater> {
+        self.updater.as_ref()
+    }
+
+    /// The updated map so far, if the session has an updater.
+    pub fn map(&self) -> Option<&OccupancyGrid> {
+        self.updater.as_ref().map(MapUpdater::map)
+    }
+
+    /// Ends the session: joins the baseline and hands back the updater.
+    pub fn finish(self) -> Result<SessionOutput, HarnessError> {
+        let baseline = match self.baseline {
+            Some(b) => b.finish()?,
+            None => Vec::new(),
+        };
+        Ok(SessionOutput { updater: self.updater, baseline })
+    }
+}
