@@ -17,6 +17,9 @@ pub enum HarnessError {
     /// A request the session cannot serve (e.g. setting the estimate of a recorded track).
     #[error("{0}")]
     Unsupported(String),
+    /// A job's input cannot be used (a log without scans, a pose track without poses).
+    #[error("{0}")]
+    Invalid(String),
     /// The baseline localiser's thread panicked.
     #[error("the baseline localiser's thread panicked")]
     BaselinePanicked,

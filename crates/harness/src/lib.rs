@@ -24,6 +24,7 @@ pub mod clock;
 pub mod config;
 pub mod driver;
 mod error;
+pub mod jobs;
 pub mod replay;
 pub mod session;
 pub mod source;

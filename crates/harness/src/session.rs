@@ -44,8 +44,8 @@ pub struct StepReport {
     pub localiser: Option<UpdateReport>,
     /// The updater's report (with an updater).
     pub updater: Option<UpdaterStep>,
-    /// Time the updater took on a processed step, nanoseconds on the session's clock (`None`
-    /// without a clock or when the step was not processed).
+    /// Time the updater call took, nanoseconds on the session's clock (`None` without a clock
+    /// or without an updater call).
     pub updater_ns: Option<u64>,
     /// The updater's change state after the step, bytes (0 without an updater or when the
     /// step was not processed).
@@ -192,8 +192,8 @@ impl<'c> Session<'c> {
                 let t0 = self.clock.now_ns();
                 let step = u.process(p, frame.odometry.unwrap_or(p), &frame.scans);
                 let t1 = self.clock.now_ns();
+                updater_ns = (t1 > 0).then(|| t1.saturating_sub(t0));
                 if step.outcome == StepOutcome::Processed {
-                    updater_ns = (t1 > 0).then(|| t1.saturating_sub(t0));
                     updater_state_bytes = u.state_bytes() as u64;
                 }
                 Some(step)

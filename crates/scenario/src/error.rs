@@ -45,9 +45,9 @@ pub enum ScenarioError {
         /// The cause.
         source: std::io::Error,
     },
-    /// An output folder exists and is not empty (and overwriting was not asked for).
-    #[error("{0}: exists and is not empty (use --force to replace it)")]
-    OutputExists(PathBuf),
+    /// An output could not be written (or exists and replacing it was not asked for).
+    #[error(transparent)]
+    Output(#[from] mapkeeper_grid::OutputError),
     /// Serialising an output failed.
     #[error("{what}: {message}")]
     Serialise {

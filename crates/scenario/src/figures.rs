@@ -19,8 +19,8 @@
 //! band the range (min-max) over seeds.
 
 use crate::ScenarioError;
-use crate::output::StagedDir;
 use crate::validation::{ValidationRecord, WorldRow};
+use mapkeeper_grid::StagedDir;
 use mapkeeper_plot::{LineChart, Series};
 
 /// Size of the PNG figures, px.

@@ -21,7 +21,6 @@ pub mod generator;
 pub mod mapping;
 pub mod merge;
 pub mod outline;
-pub mod output;
 pub mod recovery;
 pub mod report;
 pub mod run_events;
@@ -31,8 +30,8 @@ pub mod validation;
 
 pub use error::ScenarioError;
 pub use generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
+pub use mapkeeper_grid::StagedDir;
 pub use mapping::{InitialMap, MappingParams, build_initial_map};
-pub use output::StagedDir;
 pub use recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
 pub use run_events::{Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample, TrackSample};
 pub use runner::{

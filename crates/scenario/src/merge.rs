@@ -11,9 +11,9 @@
 //! appears twice.
 
 use crate::ScenarioError;
-use crate::output::StagedDir;
 use crate::report::write_results;
 use crate::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, Summary, ValidationRecord};
+use mapkeeper_grid::StagedDir;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -11,9 +11,9 @@
 use crate::ScenarioError;
 use crate::figures::{Figure, write_figures};
 use crate::generator::WorldChain;
-use crate::output::StagedDir;
 use crate::validation::{SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
 use mapkeeper_grid::GridGeometry;
+use mapkeeper_grid::StagedDir;
 use mapkeeper_grid::map_io::save_map;
 use mapkeeper_sensor::tum::format_tum;
 use mapkeeper_sim::{Route, ground_truth_map};

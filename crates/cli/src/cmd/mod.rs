@@ -14,8 +14,48 @@ pub mod validate;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use mapkeeper_grid::Pose2;
 use std::io::IsTerminal;
+use std::path::Path;
 use std::time::Instant;
+
+/// Every parameter file of every command: `base` (a preset or the defaults), overridden key by
+/// key by the TOML file if one is given, then validated once.
+pub fn load_params<T, E>(base: T, file: Option<&Path>, validate: impl FnOnce(&T) -> Result<(), E>) -> anyhow::Result<T>
+where
+    T: serde::Serialize + serde::de::DeserializeOwned,
+    E: std::fmt::Display,
+{
+    Ok(mapkeeper_harness::config::load_params(base, file, validate)?)
+}
+
+/// Parses `x,y,yaw` (three finite numbers).
+pub fn parse_pose(s: &str) -> Result<Pose2, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected x,y,yaw (three comma-separated numbers), got '{s}'"));
+    }
+    let mut v = [0.0; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        *slot = p.parse::<f64>().map_err(|e| format!("'{p}' is not a number: {e}"))?;
+        if !slot.is_finite() {
+            return Err(format!("'{p}' is not finite"));
+        }
+    }
+    Ok(Pose2::new(v[0], v[1], v[2]))
+}
+
+/// A finite number ≥ 0 (a flag's value parser).
+pub fn non_negative(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|e| format!("'{s}' is not a number: {e}"))?;
+    if v.is_finite() && v >= 0.0 { Ok(v) } else { Err(format!("must be a finite number ≥ 0, got {s}")) }
+}
+
+/// A finite number > 0 (a flag's value parser).
+pub fn positive(s: &str) -> Result<f64, String> {
+    let v = non_negative(s).map_err(|_| format!("must be a finite number > 0, got {s}"))?;
+    if v > 0.0 { Ok(v) } else { Err(format!("must be a finite number > 0, got {s}")) }
+}
 
 /// The wall clock the libraries get injected (they read none themselves).
 pub struct Wall(pub Instant);
@@ -27,7 +67,7 @@ impl Wall {
     }
 }
 
-impl mapkeeper_scenario::Clock for Wall {
+impl mapkeeper_harness::Clock for Wall {
     fn now_ns(&self) -> u64 {
         u64::try_from(self.0.elapsed().as_nanos()).unwrap_or(u64::MAX).max(1)
     }
@@ -56,4 +96,27 @@ pub fn thread_pool(jobs: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
         builder = builder.num_threads(j.max(1));
     }
     builder.build().context("thread pool")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_poses() {
+        assert_eq!(parse_pose("1, -2.5,0.3"), Ok(Pose2::new(1.0, -2.5, 0.3)));
+        assert!(parse_pose("1,2").is_err());
+        assert!(parse_pose("1,x,3").is_err());
+        assert!(parse_pose("1,NaN,3").is_err());
+    }
+
+    #[test]
+    fn number_flags_refuse_nan_negative_and_infinite() {
+        assert_eq!(non_negative("0"), Ok(0.0));
+        assert_eq!(positive("0.5"), Ok(0.5));
+        for bad in ["NaN", "-1", "inf", "x", ""] {
+            assert!(non_negative(bad).is_err() && positive(bad).is_err(), "{bad}");
+        }
+        assert!(positive("0").is_err());
+    }
 }

@@ -61,7 +61,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => Route::default_warehouse(),
     };
     let params = RunnerParams {
-        updater: super::update::load_params(&args.preset, args.params.as_deref())?,
+        updater: super::update::load_updater_params(&args.preset, args.params.as_deref())?,
         start_error_m: args.start_error,
         record_trajectories: true,
         ..RunnerParams::default()

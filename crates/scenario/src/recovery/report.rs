@@ -3,8 +3,8 @@
 
 use super::{KidnapSummary, KidnapTrial, LostRun, RecoveryResults, RecoverySummary, Table1Run};
 use crate::ScenarioError;
-use crate::output::StagedDir;
 use crate::run_events::TimelineSample;
+use mapkeeper_grid::StagedDir;
 use std::fmt::Write as _;
 
 /// The columns of `kidnap_trials.csv`, in order.

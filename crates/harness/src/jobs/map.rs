@@ -1,0 +1,231 @@
+//! An occupancy map from scans at known poses, with the log-odds mapper of
+//! `mapkeeper_grid::mapper`: from a recorded log at its true poses, or online from any source
+//! ([`TruthMapper`], the exploration run that builds M_1).
+
+use crate::HarnessError;
+use crate::NoClock;
+use crate::driver::Observer;
+use crate::replay::LogSource;
+use crate::session::{PoseSource, Session, StepReport};
+use crate::source::Step;
+use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
+use mapkeeper_sensor::{BeamValidity, LaserScan};
+
+/// What one beam contributes to a map.
+enum Beam {
+    Hit(Point2),
+    Clear(Point2),
+    Ignore,
+}
+
+/// A valid return is a hit; a beam with no return (+inf, or at or beyond range_max) clears up
+/// to min(range_max, `clear_m`); NaN, -inf and readings below range_min are ignored.
+fn beam(scan: &LaserScan, lidar_in_map: &Pose2, i: usize, clear_m: f64) -> Beam {
+    let r = scan.ranges_m.get(i).copied().unwrap_or(f32::NAN);
+    let no_return = match scan.validity(i) {
+        BeamValidity::Valid => return scan.hit_point(lidar_in_map, i).map_or(Beam::Ignore, Beam::Hit),
+        BeamValidity::NotFinite => r == f32::INFINITY,
+        BeamValidity::AtOrBeyondMax => true,
+        BeamValidity::BelowMin => false,
+    };
+    let reach = clear_m.min(scan.range_max_m as f64);
+    if !no_return || reach <= 0.0 {
+        return Beam::Ignore;
+    }
+    let a = lidar_in_map.yaw + scan.beam_angle(i as f64);
+    Beam::Clear(Point2::new(lidar_in_map.x + reach * a.cos(), lidar_in_map.y + reach * a.sin()))
+}
+
+/// Beams integrated into a map, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BeamCounts {
+    /// Returns marked occupied (the cells before them cleared).
+    pub hits: u64,
+    /// No-return beams that cleared cells.
+    pub clears: u64,
+    /// Beams ignored.
+    pub ignored: u64,
+}
+
+/// Integrates every beam of `scan`, seen from `lidar_in_map`, into `mapper`.
+pub fn integrate_scan(
+    mapper: &mut LogOddsMapper,
+    scan: &LaserScan,
+    lidar_in_map: &Pose2,
+    clear_m: f64,
+    counts: &mut BeamCounts,
+) {
+    let origin = lidar_in_map.position();
+    for i in 0..scan.len() {
+        match beam(scan, lidar_in_map, i, clear_m) {
+            Beam::Hit(p) => {
+                counts.hits += 1;
+                mapper.integrate_ray(origin, p, true);
+            }
+            Beam::Clear(p) => {
+                counts.clears += 1;
+                mapper.integrate_ray(origin, p, false);
+            }
+            Beam::Ignore => counts.ignored += 1,
+        }
+    }
+}
+
+/// Maps every `stride`-th step's scans at the true pose, as they come (the geometry is known).
+#[derive(Debug)]
+pub struct TruthMapper {
+    /// The mapper.
+    pub mapper: LogOddsMapper,
+    /// Integrate every this-many steps with truth (≥ 1).
+    pub stride: u64,
+    /// Reach of a no-return beam's clearing, metres (0: no-return beams are ignored).
+    pub clear_m: f64,
+    /// Steps with truth seen.
+    pub steps: u64,
+    /// Scans integrated.
+    pub scans: u64,
+    /// Beams integrated, by kind.
+    pub beams: BeamCounts,
+}
+
+impl TruthMapper {
+    /// A mapper over `geometry`.
+    pub fn new(geometry: GridGeometry, params: MapperParams, stride: u64, clear_m: f64) -> Result<Self, HarnessError> {
+        let mapper = LogOddsMapper::new(geometry, params).map_err(|e| HarnessError::Invalid(format!("mapper: {e}")))?;
+        Ok(Self { mapper, stride: stride.max(1), clear_m, steps: 0, scans: 0, beams: BeamCounts::default() })
+    }
+}
+
+impl Observer for TruthMapper {
+    fn on_step(&mut self, step: &Step, _report: &StepReport) {
+        let Some(truth) = step.truth else { return };
+        self.steps += 1;
+        if !self.steps.is_multiple_of(self.stride) {
+            return;
+        }
+        for scan in &step.frame.scans {
+            let lidar = scan.lidar_in_map(&truth.pose_in_map);
+            integrate_scan(&mut self.mapper, scan, &lidar, self.clear_m, &mut self.beams);
+            self.scans += 1;
+        }
+    }
+}
+
+/// Collects every scan with its lidar pose at the true robot pose (for a geometry fitted
+/// afterwards); counts the scans of steps without a true pose.
+#[derive(Default)]
+struct Placer {
+    placed: Vec<(LaserScan, Pose2)>,
+    skipped: u64,
+}
+
+impl Observer for Placer {
+    fn on_step(&mut self, step: &Step, _report: &StepReport) {
+        match step.truth {
+            Some(t) => {
+                self.placed.extend(step.frame.scans.iter().map(|s| (s.clone(), s.lidar_in_map(&t.pose_in_map))));
+            }
+            None => self.skipped += step.frame.scans.len() as u64,
+        }
+    }
+}
+
+/// How to map a log.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapLogParams {
+    /// The mapper.
+    pub mapper: MapperParams,
+    /// Reach of a no-return beam's clearing, metres.
+    pub no_return_clear_m: f64,
+    /// With no geometry given: the fitted grid's resolution, metres.
+    pub resolution_m: f64,
+    /// With no geometry given: the margin around everything observed, metres.
+    pub margin_m: f64,
+}
+
+/// A map built from a log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapLogRun {
+    /// The map.
+    pub map: OccupancyGrid,
+    /// Scans mapped.
+    pub scans_mapped: u64,
+    /// Scans without a true pose near enough, skipped.
+    pub scans_skipped: u64,
+    /// Beams, by kind.
+    pub beams: BeamCounts,
+}
+
+/// Maps `source` at its true poses (the source's truth-gap rule decides which scans have one)
+/// on `geometry`, or on the axis-aligned grid fitted to everything observed.
+pub fn map_log(
+    mut source: LogSource,
+    geometry: Option<GridGeometry>,
+    params: &MapLogParams,
+) -> Result<MapLogRun, HarnessError> {
+    if source.truth().is_empty() {
+        return Err(HarnessError::Invalid(format!("{}: no truth records, cannot map at true poses", source.name())));
+    }
+    let mut session = Session::new(PoseSource::None, None, None, &NoClock);
+    let mut placer = Placer::default();
+    crate::run(&mut source, &mut session, &mut [], &mut [&mut placer])?;
+    if placer.placed.is_empty() {
+        return Err(HarnessError::Invalid(format!("{}: no scan has a true pose near enough", source.name())));
+    }
+    let geometry = match geometry {
+        Some(g) => g,
+        None => fit_geometry(&placer.placed, params.no_return_clear_m, params.resolution_m, params.margin_m)?,
+    };
+    let mut mapper =
+        LogOddsMapper::new(geometry, params.mapper).map_err(|e| HarnessError::Invalid(format!("mapper: {e}")))?;
+    let mut beams = BeamCounts::default();
+    for (scan, lidar_in_map) in &placer.placed {
+        integrate_scan(&mut mapper, scan, lidar_in_map, params.no_return_clear_m, &mut beams);
+    }
+    Ok(MapLogRun {
+        map: mapper.to_grid(),
+        scans_mapped: placer.placed.len() as u64,
+        scans_skipped: placer.skipped,
+        beams,
+    })
+}
+
+/// The axis-aligned geometry covering every lidar position and beam end point, plus
+/// `margin_m`, with its origin on a multiple of the resolution.
+fn fit_geometry(
+    placed: &[(LaserScan, Pose2)],
+    clear_m: f64,
+    resolution_m: f64,
+    margin_m: f64,
+) -> Result<GridGeometry, HarnessError> {
+    let invalid = |m: String| Err(HarnessError::Invalid(m));
+    if !(resolution_m.is_finite() && resolution_m > 0.0) {
+        return invalid(format!("--resolution must be a finite positive number of metres, got {resolution_m}"));
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let mut add = |p: Point2| {
+        lo = [lo[0].min(p.x), lo[1].min(p.y)];
+        hi = [hi[0].max(p.x), hi[1].max(p.y)];
+    };
+    for (scan, lidar_in_map) in placed {
+        add(lidar_in_map.position());
+        for i in 0..scan.len() {
+            if let Beam::Hit(p) | Beam::Clear(p) = beam(scan, lidar_in_map, i, clear_m) {
+                add(p);
+            }
+        }
+    }
+    let x0 = ((lo[0] - margin_m) / resolution_m).floor() * resolution_m;
+    let y0 = ((lo[1] - margin_m) / resolution_m).floor() * resolution_m;
+    let w = ((hi[0] + margin_m - x0) / resolution_m).ceil().max(1.0);
+    let h = ((hi[1] + margin_m - y0) / resolution_m).ceil().max(1.0);
+    if !(w.is_finite() && h.is_finite() && w < 1e9 && h < 1e9) {
+        return invalid(format!("observed area is not finite or too large for resolution {resolution_m} m"));
+    }
+    GridGeometry::new(w as usize, h as usize, resolution_m, Pose2::new(x0, y0, 0.0)).map_err(|e| {
+        HarnessError::Invalid(format!(
+            "the observed area does not fit a grid ({e}); use a coarser --resolution or --like"
+        ))
+    })
+}

@@ -1,0 +1,21 @@
+//! Whole replay jobs over a recorded log, each one call for the command line: localise,
+//! update, map. Each is a [`LogSource`](crate::LogSource), a session and observers run by
+//! [`crate::run`].
+
+pub mod localise;
+pub mod map;
+pub mod update;
+
+/// `ns` as seconds with 9 decimals, exactly (the time column of the jobs' tables).
+pub fn seconds(ns: u64) -> String {
+    format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn seconds_are_exact() {
+        assert_eq!(super::seconds(0), "0.000000000");
+        assert_eq!(super::seconds(12_000_000_345), "12.000000345");
+    }
+}

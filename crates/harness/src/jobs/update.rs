@@ -1,0 +1,129 @@
+//! The map updater over a recorded log and a map: the path by which a real robot's logs are
+//! processed (the paper's §5.5 used recorded bags).
+
+use crate::HarnessError;
+use crate::clock::Clock;
+use crate::driver::Observer;
+use crate::replay::LogSource;
+use crate::session::{PoseSource, Session, StepReport};
+use crate::source::Step;
+use mapkeeper_grid::{OccupancyGrid, Pose2};
+use mapkeeper_sensor::StampedPose;
+use mapkeeper_updater::{MapUpdater, PoseRecovery, StepOutcome, UpdaterParams, UpdaterStats};
+use std::fmt::Write as _;
+
+/// Where the robot pose given to the updater comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PoseInput {
+    /// A recorded trajectory (e.g. a localiser's TUM output), interpolated at each step.
+    Track(Vec<StampedPose>),
+    /// The log's truth records (the user asks for the logged poses as the estimate).
+    LoggedTruth,
+    /// The log's odometry, aligned so that its first pose coincides with the first true pose
+    /// if the log has truth records, otherwise with the map frame's origin.
+    AlignedOdometry,
+}
+
+/// What the updater did over the log.
+#[derive(Debug)]
+pub struct UpdateRun {
+    /// M_i.
+    pub map: OccupancyGrid,
+    /// The updater's totals.
+    pub stats: UpdaterStats,
+    /// One row per step: `time_s,outcome,verdict,n,n_invalid,n_dc,cells_changed,recovery,microseconds`.
+    pub steps_csv: String,
+    /// The poses pose updating returned, in order.
+    pub recovered_poses: Vec<StampedPose>,
+}
+
+/// Writes one row per step.
+struct Rows {
+    csv: String,
+    recovered: Vec<StampedPose>,
+}
+
+impl Observer for Rows {
+    fn on_step(&mut self, _step: &Step, report: &StepReport) {
+        let Some(r) = &report.updater else { return };
+        let outcome = match r.outcome {
+            StepOutcome::Processed => "processed",
+            StepOutcome::Gated(_) => "gated",
+            StepOutcome::NoValidBeams => "no_valid_beams",
+        };
+        let recovery = match &r.pose_recovery {
+            Some(PoseRecovery::Recovered { pose_in_map, .. }) => {
+                self.recovered.push(StampedPose { stamp_ns: report.stamp_ns, pose: *pose_in_map });
+                "recovered"
+            }
+            Some(PoseRecovery::NotRecovered { .. }) => "not_recovered",
+            None => "",
+        };
+        let us = report.updater_ns.unwrap_or(0) as f64 / 1e3;
+        let _ = writeln!(
+            self.csv,
+            "{},{},{},{},{},{},{},{},{:.1}",
+            super::seconds(report.stamp_ns),
+            outcome,
+            r.verdict.map_or("", |v| v.name()),
+            r.n_valid,
+            r.n_invalid,
+            r.n_dc,
+            r.changed_cells.len(),
+            recovery,
+            us
+        );
+    }
+}
+
+/// The pose track the updater is given.
+fn pose_track(source: &LogSource, poses: PoseInput) -> Result<Vec<StampedPose>, HarnessError> {
+    let name = source.name();
+    match poses {
+        PoseInput::Track(t) if t.is_empty() => Err(HarnessError::Invalid("the pose track has no poses".into())),
+        PoseInput::Track(t) => Ok(t),
+        PoseInput::LoggedTruth if source.truth().is_empty() => {
+            Err(HarnessError::Invalid(format!("{name}: --true-poses given but the log has no truth records")))
+        }
+        PoseInput::LoggedTruth => Ok(source.truth().to_vec()),
+        PoseInput::AlignedOdometry => {
+            let Some(first) = source.odometry().first() else {
+                return Err(HarnessError::Invalid(format!(
+                    "{name}: no odometry records; give --poses or --true-poses"
+                )));
+            };
+            let anchor = source.truth().first().map_or(Pose2::IDENTITY, |t| t.pose);
+            let align = anchor.compose(&first.pose.inverse());
+            Ok(source
+                .odometry()
+                .iter()
+                .map(|o| StampedPose { stamp_ns: o.stamp_ns, pose: align.compose(&o.pose) })
+                .collect())
+        }
+    }
+}
+
+/// Runs the updater over `source` (replayed with interpolated odometry) on `map`; the time
+/// per step is read from `clock`.
+pub fn update_log(
+    mut source: LogSource,
+    map: OccupancyGrid,
+    params: UpdaterParams,
+    poses: PoseInput,
+    clock: &dyn Clock,
+) -> Result<UpdateRun, HarnessError> {
+    if source.is_empty() {
+        return Err(HarnessError::Invalid(format!("{}: the log has no scan records", source.name())));
+    }
+    let track = pose_track(&source, poses)?;
+    let updater = MapUpdater::new(map, params)?;
+    let mut session = Session::new(PoseSource::Track(track), Some(updater), None, clock);
+    let mut rows = Rows {
+        csv: "time_s,outcome,verdict,n,n_invalid,n_dc,cells_changed,recovery,microseconds\n".into(),
+        recovered: Vec::new(),
+    };
+    crate::run(&mut source, &mut session, &mut [], &mut [&mut rows])?;
+    let out = session.finish()?;
+    let Some(u) = out.updater else { return Err(HarnessError::Invalid("the session lost its updater".into())) };
+    Ok(UpdateRun { stats: u.stats(), map: u.map().clone(), steps_csv: rows.csv, recovered_poses: rows.recovered })
+}
