@@ -49,28 +49,36 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod beam_classifier;
-pub mod cell_buffers;
-pub mod cell_update;
-pub mod changed_cells;
+/// The modules of the paper's §4, one per block of Fig. 5 / Fig. 6.
+pub mod paper {
+    pub mod beam_classifier;
+    pub mod cell_buffers;
+    pub mod cell_update;
+    pub mod changed_cells;
+    pub mod gating;
+    pub mod icp;
+    pub mod localisation_check;
+    pub mod pose_updating;
+    pub mod unchanged_cells;
+}
+
+/// The project's own additions, not in the paper: each names the failure it prevents.
+pub mod additions {
+    pub mod free_pass;
+    pub mod grazing;
+    pub mod hit_index;
+    pub mod log_odds_baseline;
+}
+
 mod error;
-pub mod free_pass;
-pub mod gating;
-pub mod grazing;
-pub mod hit_index;
-pub mod icp;
-pub mod localisation_check;
-pub mod log_odds_baseline;
 pub mod params;
-pub mod pose_updating;
-pub mod unchanged_cells;
 mod updater;
 
-pub use cell_update::CellChange;
 pub use error::UpdaterError;
-pub use gating::GateReason;
-pub use icp::Fitness;
-pub use localisation_check::Verdict;
+pub use paper::cell_update::CellChange;
+pub use paper::gating::GateReason;
+pub use paper::icp::Fitness;
+pub use paper::localisation_check::Verdict;
+pub use paper::pose_updating::{PoseRecovery, RecoveryFailure};
 pub use params::{PRESET_NAMES, PoseUpdatingParams, UpdateMethod, UpdaterParams};
-pub use pose_updating::{PoseRecovery, RecoveryFailure};
 pub use updater::{MapUpdater, StepOutcome, StepReport, UpdaterStats};

@@ -1,18 +1,18 @@
 //! `MapUpdater`: the modules of Fig. 5 / Fig. 6 wired in the paper's order.
 
 use crate::UpdaterError;
-use crate::beam_classifier::{BeamClass, BeamClassifier};
-use crate::cell_buffers::CellBuffers;
-use crate::cell_update::{CellChange, CellUpdater};
-use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam_cast, merge_sorted_tail};
-use crate::free_pass::evaluate_free_pass;
-use crate::gating::{GateReason, UpdateGate};
-use crate::hit_index::HitIndex;
-use crate::localisation_check::{Verdict, localisation_check};
-use crate::log_odds_baseline::LogOddsBaseline;
+use crate::additions::free_pass::evaluate_free_pass;
+use crate::additions::hit_index::HitIndex;
+use crate::additions::log_odds_baseline::LogOddsBaseline;
+use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
+use crate::paper::cell_buffers::CellBuffers;
+use crate::paper::cell_update::{CellChange, CellUpdater};
+use crate::paper::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam_cast, merge_sorted_tail};
+use crate::paper::gating::{GateReason, UpdateGate};
+use crate::paper::localisation_check::{Verdict, localisation_check};
+use crate::paper::pose_updating::{PoseRecovery, PoseUpdater};
+use crate::paper::unchanged_cells::evaluate_unchanged_beam;
 use crate::params::{UpdateMethod, UpdaterParams};
-use crate::pose_updating::{PoseRecovery, PoseUpdater};
-use crate::unchanged_cells::evaluate_unchanged_beam;
 use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
 use mapkeeper_sensor::LaserScan;
 
@@ -184,8 +184,8 @@ impl MapUpdater {
 
     /// Bytes of reusable per-step scratch (grows with beams per step, never with the map).
     pub fn scratch_bytes(&self) -> usize {
-        self.classifier.beams.capacity() * size_of::<crate::beam_classifier::Beam>()
-            + self.classifier.lidars.capacity() * size_of::<crate::beam_classifier::LidarFrame>()
+        self.classifier.beams.capacity() * size_of::<crate::paper::beam_classifier::Beam>()
+            + self.classifier.lidars.capacity() * size_of::<crate::paper::beam_classifier::LidarFrame>()
             + (self.votes.capacity() + self.vote_scratch.capacity()) * size_of::<Vote>()
             + self.classifier.hints.discs.scratch_bytes()
             + self.hits.capacity_bytes()

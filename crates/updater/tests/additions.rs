@@ -119,8 +119,8 @@ fn added_box_face_is_not_smeared_towards_the_robot() {
 #[test]
 fn a_withheld_vote_shadows_the_obstacle_behind_it() {
     use mapkeeper_grid::{GridGeometry, Point2};
-    use mapkeeper_updater::changed_cells::evaluate_changed_beam;
-    use mapkeeper_updater::hit_index::HitIndex;
+    use mapkeeper_updater::additions::hit_index::HitIndex;
+    use mapkeeper_updater::paper::changed_cells::evaluate_changed_beam;
     for (gap, expect_votes_in_b) in [(1, false), (3, true)] {
         let g = GridGeometry::new(40, 80, 0.05, Pose2::IDENTITY).unwrap();
         let mut base = OccupancyGrid::filled(g, CellState::Free);

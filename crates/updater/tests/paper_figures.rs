@@ -6,11 +6,11 @@ mod common;
 
 use common::{fill_rect, room, scan360};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, cast_ray};
-use mapkeeper_updater::beam_classifier::detects_change;
-use mapkeeper_updater::cell_buffers::CellBuffers;
-use mapkeeper_updater::cell_update::CellUpdater;
-use mapkeeper_updater::changed_cells::{evaluate_changed_beam, vote};
-use mapkeeper_updater::hit_index::HitIndex;
+use mapkeeper_updater::additions::hit_index::HitIndex;
+use mapkeeper_updater::paper::beam_classifier::detects_change;
+use mapkeeper_updater::paper::cell_buffers::CellBuffers;
+use mapkeeper_updater::paper::cell_update::CellUpdater;
+use mapkeeper_updater::paper::changed_cells::{evaluate_changed_beam, vote};
 use mapkeeper_updater::{MapUpdater, StepOutcome, UpdaterParams, Verdict};
 
 fn decode(votes: &[u32], width: usize) -> Vec<(CellCoord, bool)> {

@@ -6,7 +6,7 @@ mod common;
 use common::{fill_rect, room, room_in, s300_pair, scan360, synth_scan};
 use mapkeeper_grid::{CellState, OccupancyGrid, Pose2};
 use mapkeeper_sensor::LaserScan;
-use mapkeeper_updater::pose_updating::PoseUpdater;
+use mapkeeper_updater::paper::pose_updating::PoseUpdater;
 use mapkeeper_updater::{
     GateReason, MapUpdater, PoseRecovery, PoseUpdatingParams, StepOutcome, UpdaterParams, Verdict,
 };

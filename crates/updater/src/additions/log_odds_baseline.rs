@@ -7,7 +7,7 @@
 //! mapper's own thresholds, so `M_i` always equals `mapper.to_grid()` without a map-sized copy
 //! per scan.
 
-use crate::cell_update::CellChange;
+use crate::paper::cell_update::CellChange;
 use mapkeeper_grid::mapper::{LogOddsMapper, MapperError, MapperParams};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, traverse};
 use std::ops::ControlFlow;

@@ -8,9 +8,9 @@
 //!   some other, mapped obstacle, so some cell near p_i is occupied and no vote is cast.
 
 use crate::UpdaterParams;
-use crate::cell_buffers::CellBuffers;
-use crate::grazing;
-use crate::hit_index::HitIndex;
+use crate::additions::grazing;
+use crate::additions::hit_index::HitIndex;
+use crate::paper::cell_buffers::CellBuffers;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid, Point2, RayCaster, SegmentWalk};
 
 /// A vote of one beam on one cell during a step, packed as `index << 1 | changed`.

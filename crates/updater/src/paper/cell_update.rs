@@ -14,8 +14,8 @@
 //! when the robot sees into it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
-use crate::cell_buffers::{CellBuffers, RollingBuffer};
-use crate::changed_cells::Vote;
+use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
+use crate::paper::changed_cells::Vote;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
 

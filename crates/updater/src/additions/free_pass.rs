@@ -11,15 +11,15 @@
 //! chunk of `skip_unchanged_m(z)` skipped, and only cells that already hold a buffer.
 
 use crate::UpdaterParams;
-use crate::cell_buffers::TileProbe;
-use crate::changed_cells::{Vote, vote};
-use crate::unchanged_cells::buffered_cells_before_chunk;
+use crate::paper::cell_buffers::TileProbe;
+use crate::paper::changed_cells::{Vote, vote};
+use crate::paper::unchanged_cells::buffered_cells_before_chunk;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2};
 
 /// Appends "unchanged" votes for the cells free in `base` that the detected-change beam from
 /// `origin` to `hit` (range `z`) crossed before its final chunk, where a buffer exists.
 /// `first_buffer_m`: no cell closer than this to `origin` along the beam holds a buffer (see
-/// [`crate::beam_classifier::Beam::walk_from_m`]); the walk starts about there and crosses tiles
+/// [`crate::paper::beam_classifier::Beam::walk_from_m`]); the walk starts about there and crosses tiles
 /// without buffers without visiting their cells (the same votes as a cell-by-cell walk).
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_free_pass(
@@ -46,8 +46,8 @@ pub fn evaluate_free_pass(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cell_buffers::CellBuffers;
-    use crate::changed_cells::threshold_point;
+    use crate::paper::cell_buffers::CellBuffers;
+    use crate::paper::changed_cells::threshold_point;
     use mapkeeper_grid::{CellCoord, GridGeometry, Pose2, traverse};
     use std::ops::ControlFlow;
 

@@ -5,11 +5,11 @@
 //!
 //! Only cells that already hold a buffer are voted on: an "unchanged" flag in a cell without a
 //! buffer would create a buffer without a "changed" flag, which is dropped at once
-//! (see [`crate::cell_buffers`]).
+//! (see [`crate::paper::cell_buffers`]).
 
 use crate::UpdaterParams;
-use crate::cell_buffers::{CellBuffers, TileProbe};
-use crate::changed_cells::{Vote, threshold_point, vote};
+use crate::paper::cell_buffers::{CellBuffers, TileProbe};
+use crate::paper::changed_cells::{Vote, threshold_point, vote};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, SegmentWalk};
 
 /// Margin, in units of the walked segment, kept before a tile's exit when a walk crosses a tile
@@ -19,7 +19,7 @@ const TILE_EXIT_MARGIN: f64 = 1e-9;
 
 /// Appends the unchanged evaluator's votes for one beam to `votes`. `first_buffer_m`: no cell
 /// closer than this to `origin` along the beam holds a buffer (0 if unknown; see
-/// [`crate::beam_classifier::Beam::near_buffer_m`]), so the walk starts about there.
+/// [`crate::paper::beam_classifier::Beam::near_buffer_m`]), so the walk starts about there.
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_unchanged_beam(
     base: &OccupancyGrid,
@@ -65,7 +65,7 @@ pub fn evaluate_unchanged_beam(
 /// Calls `visit(cell, index)` for every cell that holds a buffer, in the order the traversal
 /// from `origin` towards `hit` visits them, up to p_th (`skip_m` before `hit`, range `z`).
 /// `first_buffer_m`: no cell closer than this to `origin` along the beam holds a buffer (0 if
-/// unknown; see [`crate::beam_classifier::Beam::walk_from_m`]), so the walk starts about there;
+/// unknown; see [`crate::paper::beam_classifier::Beam::walk_from_m`]), so the walk starts about there;
 /// tiles without buffers are crossed without visiting their cells. The same cells as a plain
 /// cell-by-cell walk filtered by the probe (tests in this module and in `free_pass`).
 #[allow(clippy::too_many_arguments)]
@@ -118,7 +118,7 @@ pub(crate) fn buffered_cells_before_chunk(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cell_buffers::CellBuffers;
+    use crate::paper::cell_buffers::CellBuffers;
     use mapkeeper_grid::{CellCoord, GridGeometry, Pose2, traverse};
     use std::ops::ControlFlow;
 

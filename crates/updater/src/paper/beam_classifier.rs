@@ -472,7 +472,7 @@ fn mark_square(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cell_buffers::CellBuffers;
+    use crate::paper::cell_buffers::CellBuffers;
     use mapkeeper_grid::{GridGeometry, traverse};
     use std::ops::ControlFlow;
 

@@ -8,7 +8,7 @@
 //! is what is compared). The best must pass a fitness gate (inlier ratio, RMSE) and must not be
 //! ambiguous; otherwise the answer is "not recovered" — never a wrong pose silently.
 
-use crate::icp::{Fitness, PointGrid, fitness, icp_from};
+use crate::paper::icp::{Fitness, PointGrid, fitness, icp_from};
 use crate::params::PoseUpdatingParams;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
