@@ -7,12 +7,14 @@ use crate::additions::log_odds_baseline::LogOddsBaseline;
 use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
 use crate::paper::cell_buffers::CellBuffers;
 use crate::paper::cell_update::{CellChange, CellUpdater};
-use crate::paper::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam_cast, merge_sorted_tail};
+use crate::paper::changed_cells::evaluate_changed_beam_cast;
 use crate::paper::gating::{GateReason, UpdateGate};
 use crate::paper::localisation_check::{Verdict, localisation_check};
 use crate::paper::pose_updating::{PoseRecovery, PoseUpdater};
 use crate::paper::unchanged_cells::evaluate_unchanged_beam;
 use crate::params::{UpdateMethod, UpdaterParams};
+use crate::support::beam_walk::BeamGeometry;
+use crate::support::votes::{Vote, ensure_buffers, merge_sorted_tail};
 use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
 use mapkeeper_sensor::LaserScan;
 
@@ -289,15 +291,8 @@ impl MapUpdater {
         for b in beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam_cast(
-                    &self.base,
-                    origin,
-                    b.hit,
-                    b.range_m,
-                    &self.params,
-                    &self.hits,
-                    &mut self.votes,
-                );
+                let beam = BeamGeometry::new(origin, b.hit, b.range_m);
+                evaluate_changed_beam_cast(&self.base, &beam, &self.params, &self.hits, &mut self.votes);
             }
         }
         ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
@@ -320,16 +315,8 @@ impl MapUpdater {
                 };
                 if b.near_buffer_m.is_finite() {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
-                    evaluate(
-                        self.base.map(),
-                        origin,
-                        b.hit,
-                        b.range_m,
-                        &self.params,
-                        b.walk_from_m,
-                        &mut probe,
-                        &mut self.votes,
-                    );
+                    let beam = BeamGeometry::new(origin, b.hit, b.range_m);
+                    evaluate(self.base.map(), &beam, &self.params, b.walk_from_m, &mut probe, &mut self.votes);
                 }
             }
             // The cells update sorts the votes again: hand them over sorted, so that costs one

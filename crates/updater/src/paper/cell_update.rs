@@ -15,7 +15,7 @@
 
 use crate::UpdaterParams;
 use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
-use crate::paper::changed_cells::Vote;
+use crate::support::votes::Vote;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
 
