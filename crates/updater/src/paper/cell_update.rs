@@ -52,6 +52,17 @@ impl CellUpdater {
         Self { flagged: Vec::new(), interior: enclosed_unknown(base) }
     }
 
+    /// Heap bytes of the interior mask: one `bool` per cell of `M_{i-1}` (map-sized).
+    pub fn cache_bytes(&self) -> usize {
+        self.interior.capacity() * size_of::<bool>()
+    }
+
+    /// Heap bytes of the per-step scratch: the cells flagged in the last step (sized by the
+    /// cells touched by one step, reused).
+    pub fn scratch_bytes(&self) -> usize {
+        self.flagged.capacity() * size_of::<(u32, RollingBuffer)>()
+    }
+
     /// Whether the unknown cell at `index` of `M_{i-1}` is an obstacle's interior.
     pub fn is_interior(&self, index: usize) -> bool {
         self.interior.get(index).copied().unwrap_or(false)

@@ -42,6 +42,12 @@ impl PointGrid {
         self.points.is_empty()
     }
 
+    /// Heap bytes held (points, normals, buckets; reused from build to build).
+    pub fn heap_bytes(&self) -> usize {
+        (self.points.capacity() + self.normals.capacity()) * size_of::<Point2>()
+            + (self.starts.capacity() + self.scratch.capacity()) * size_of::<u32>()
+    }
+
     /// Rebuilds the grid over `points` (non-finite points are ignored) with buckets of about
     /// `cell_m` (a query radius up to `cell_m` looks at 3 × 3 buckets at most).
     pub fn build(&mut self, points: &[Point2], cell_m: f64) {
