@@ -190,7 +190,7 @@ pub struct UpdaterParams {
     /// by a detected-change ray gets no "changed" (removed) vote when a beam of the same step
     /// hit a surface closer than this to the cell's centre, metres; 0 disables the rule. It
     /// stops rays at grazing incidence from eroding the edge cells of walls when the pose is a
-    /// fraction of a cell off. Default 0.10 (reference 0).
+    /// fraction of a cell off. Default 0.20 (reference 0).
     pub removal_hit_clearance_m: f64,
     /// Free-pass votes (a project addition, not in the paper): cells free in `M_{i-1}` that a
     /// detected-change beam crossed get an "unchanged" vote, as the unchanged evaluator gives

@@ -1,4 +1,6 @@
-//! `MapUpdater`: the modules of Fig. 5 / Fig. 6 wired in the paper's order.
+//! `MapUpdater`: the modules of Fig. 5 / Fig. 6 wired in the paper's order (gating, beam
+//! classifier, localisation check, then on Update the evaluators and the cells update, on Lost
+//! pose updating), with the project's additions where they act, and the memory accounting.
 
 use crate::UpdaterError;
 use crate::additions::free_pass::evaluate_free_pass;

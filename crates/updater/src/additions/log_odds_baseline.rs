@@ -1,6 +1,9 @@
-//! The naive baseline: plain log-odds occupancy mapping of every gated scan into `M_{i-1}` at
-//! the estimated pose (no localisation check, no buffers, no 1-to-N comparison), with the grid
-//! crate's [`LogOddsMapper`]. It shows what the paper's safeguards buy.
+//! The naive baseline (a comparison row asked for by the spec, not part of the method and not
+//! in the paper): plain log-odds occupancy mapping of every gated scan into `M_{i-1}` at the
+//! estimated pose (no localisation check, no buffers; the classifier still runs, but its
+//! verdicts are not used), with the grid crate's [`LogOddsMapper`]. It runs instead of the
+//! evaluators and the cells update when `method = "log-odds"`, and shows what the paper's
+//! safeguards buy.
 //!
 //! The mapper's log-odds array is map-sized and owned for the whole run (never reallocated per
 //! scan). After each ray only the cells the ray touched are re-thresholded into `M_i`, with the

@@ -5,10 +5,15 @@
 //! angle offsets l·v·Δθ (eq. 3-4), unknown cells counting as occupied. The beam is a "detected
 //! change" iff the smallest distance exceeds D_th(z) = min(m_th·z + q_th, D_max) (eq. 5).
 //!
-//! Two exact shortcuts keep it fast: the rays are tried central first and the search stops at
-//! the first expected point within D_th (the minimum is then ≤ D_th whatever the others are);
-//! and no ray is cast further than z + D_th, because an expected point at range z_e is at least
-//! |z_e − z| from p_i whatever the angle offset.
+//! Exact shortcuts keep it fast, each giving the verdict the full casts would give: the rays are
+//! tried central first and the search stops at the first expected point within D_th (the
+//! minimum is then ≤ D_th whatever the others are); no ray is cast further than z + D_th,
+//! because an expected point at range z_e is at least |z_e − z| from p_i whatever the angle
+//! offset; and rays whose outcome is certain from the clearance field of `M_{i-1}` are not cast
+//! at all (no blocking cell within D_th of p_i: a change; the central ray certainly stopped
+//! within D_th of z: no change; a ray certainly blocked more than D_th short of z: no match).
+//! What one beam learnt (where its central ray stopped, free discs along it) is handed to the
+//! next beam of the scan ([`ScanHints`]).
 
 use crate::UpdaterParams;
 use mapkeeper_grid::{CellCoord, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
