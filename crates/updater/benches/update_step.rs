@@ -47,9 +47,10 @@ fn bench(c: &mut Criterion) {
     }
     let s = up.stats();
     println!(
-        "after {processed} processed scans: state_bytes = {}, scratch_bytes = {}, buffered cells = {}, \
-         verdicts update/suspend/lost = {}/{}/{}, cell changes = {}",
-        up.state_bytes(),
+        "after {processed} processed scans: change_state_bytes = {}, cache_bytes = {}, scratch_bytes = {}, \
+         buffered cells = {}, verdicts update/suspend/lost = {}/{}/{}, cell changes = {}",
+        up.change_state_bytes(),
+        up.cache_bytes(),
         up.scratch_bytes(),
         up.buffered_cells(),
         s.updates,

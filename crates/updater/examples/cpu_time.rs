@@ -62,8 +62,10 @@ fn main() {
         let steps = laps * poses.len();
         let ms = (cpu_ns() - t) as f64 / 1e6 / steps as f64;
         println!(
-            "{name}: mean CPU time per processed step {ms:.3} ms over {steps} steps; state_bytes {}",
-            up.state_bytes()
+            "{name}: mean CPU time per processed step {ms:.3} ms over {steps} steps; change_state_bytes {}, \
+             cache_bytes {}",
+            up.change_state_bytes(),
+            up.cache_bytes()
         );
     }
     if digest {

@@ -1,17 +1,32 @@
 //! # mapkeeper-updater
 //!
 //! The safe and robust map updater of Stefanini et al., "Safe and Robust Map Updating for
-//! Long-Term Operations in Dynamic Environments" (Sensors 2023, §4), one module per concept of
-//! the paper, in its order:
+//! Long-Term Operations in Dynamic Environments" (Sensors 2023, §4). The source tree shows the
+//! paper: [`paper`] holds one module per block of its Fig. 5 / Fig. 6, [`additions`] the
+//! project's own additions (each named after the failure it prevents), [`support`] the code
+//! both share. [`MapUpdater`] wires them in the paper's order.
 //!
-//! 1. [`gating`]: update gating (process a scan after 0.05 m or 20° of motion);
-//! 2. [`beam_classifier`]: 1-to-N comparison of each beam with virtual rays cast in `M_{i-1}`,
-//!    D_th(z) (eq. 2-5, Appendix A.1);
-//! 3. [`localisation_check`]: Update / Suspend / Lost (eq. 6-8);
-//! 4. [`changed_cells`] and 5. [`unchanged_cells`]: the two evaluators (§4.3, §4.4);
-//! 6. [`cell_buffers`] and [`cell_update`]: sparse rolling buffers, the flip rule and border
-//!    reconstruction (§4.5, Fig. 14);
-//! 7. [`pose_updating`] with [`icp`]: pose recovery when Lost (§4.6), with a fitness gate.
+//! | file | paper section, or why it exists |
+//! |---|---|
+//! | `updater.rs` | Fig. 4-6: the pipeline of one step ([`MapUpdater`]); memory accounting |
+//! | `params.rs` | the parameter table, App. A.1 (D_th), tol(z) of §4.3.2; presets ([`UpdaterParams`]) |
+//! | `error.rs` | the crate's error type ([`UpdaterError`]) |
+//! | `paper/gating.rs` | §4.5 ("update rate that depends on both linear and angular speed") and the parameter table (0.05 m, 20°) |
+//! | `paper/beam_classifier.rs` | §4.1, eq. 2-5, Fig. 7-8, App. A.1 |
+//! | `paper/localisation_check.rs` | §4.2, eq. 6-8 |
+//! | `paper/changed_cells.rs` | §4.3: §4.3.1 (eq. 9, Fig. 10) and §4.3.2 (Fig. 11-13) |
+//! | `paper/unchanged_cells.rs` | §4.4 |
+//! | `paper/cell_buffers.rs` | the rolling buffers B_c of §4 (Fig. 6) and §4.5; the memory claim of §6 |
+//! | `paper/cell_update.rs` | §4.5 with border reconstruction (Fig. 14) |
+//! | `paper/pose_updating.rs` | §4.6 (its hypotheses, own-cloud check, correlative search and fitness gate are the project's: the paper accepts any registration) |
+//! | `paper/icp.rs` | §4.6's registration T(k) ("e.g. Iterative Closest Point"), here point-to-line |
+//! | `additions/removal_gates.rs` | project addition: with the pose a fraction of a cell off, removal votes from rays that graze a wall or clip a corner erode walls and free obstacle interiors |
+//! | `additions/grazing.rs` | project addition: the incidence test of the removal gates (a robot driving along a wall erodes it) |
+//! | `additions/hit_index.rs` | project addition: the hit clearance of the removal gates (edge cells of a wall hit by the same step voted "removed") |
+//! | `additions/free_pass.rs` | project addition: cells free in `M_{i-1}` got only "changed" votes, so new obstacles came out 2-4 cells thick |
+//! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
+//! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
+//! | `support/votes.rs` | support: vote packing, radix sort and merge shared by the evaluators and the cells update |
 //!
 //! All parameters are in [`UpdaterParams`] (presets `paper`, `reference`, `always-update`,
 //! `no-update`, `log-odds`). The updater depends only on the grid crate and plain sensor types,
@@ -49,28 +64,44 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod beam_classifier;
-pub mod cell_buffers;
-pub mod cell_update;
-pub mod changed_cells;
+/// The modules of the paper's §4, one per block of Fig. 5 / Fig. 6.
+pub mod paper {
+    pub mod beam_classifier;
+    pub mod cell_buffers;
+    pub mod cell_update;
+    pub mod changed_cells;
+    pub mod gating;
+    pub mod icp;
+    pub mod localisation_check;
+    pub mod pose_updating;
+    pub mod unchanged_cells;
+}
+
+/// The project's own additions, not in the paper: each names the failure it prevents.
+pub mod additions {
+    pub mod free_pass;
+    pub mod grazing;
+    pub mod hit_index;
+    pub mod log_odds_baseline;
+    pub mod removal_gates;
+}
+
+/// Support code shared by the modules of both: the per-beam value type and the walk along a
+/// beam, and the packing and sorting of votes.
+pub mod support {
+    pub mod beam_walk;
+    pub mod votes;
+}
+
 mod error;
-pub mod free_pass;
-pub mod gating;
-pub mod grazing;
-pub mod hit_index;
-pub mod icp;
-pub mod localisation_check;
-pub mod log_odds_baseline;
 pub mod params;
-pub mod pose_updating;
-pub mod unchanged_cells;
 mod updater;
 
-pub use cell_update::CellChange;
 pub use error::UpdaterError;
-pub use gating::GateReason;
-pub use icp::Fitness;
-pub use localisation_check::Verdict;
+pub use paper::cell_update::CellChange;
+pub use paper::gating::GateReason;
+pub use paper::icp::Fitness;
+pub use paper::localisation_check::Verdict;
+pub use paper::pose_updating::{PoseRecovery, RecoveryFailure};
 pub use params::{PRESET_NAMES, PoseUpdatingParams, UpdateMethod, UpdaterParams};
-pub use pose_updating::{PoseRecovery, RecoveryFailure};
 pub use updater::{MapUpdater, StepOutcome, StepReport, UpdaterStats};

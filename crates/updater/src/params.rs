@@ -190,7 +190,7 @@ pub struct UpdaterParams {
     /// by a detected-change ray gets no "changed" (removed) vote when a beam of the same step
     /// hit a surface closer than this to the cell's centre, metres; 0 disables the rule. It
     /// stops rays at grazing incidence from eroding the edge cells of walls when the pose is a
-    /// fraction of a cell off. Default 0.10 (reference 0).
+    /// fraction of a cell off. Default 0.20 (reference 0).
     pub removal_hit_clearance_m: f64,
     /// Free-pass votes (a project addition, not in the paper): cells free in `M_{i-1}` that a
     /// detected-change beam crossed get an "unchanged" vote, as the unchanged evaluator gives
@@ -357,21 +357,19 @@ impl UpdaterParams {
         (self.skip_unchanged_slope * z).max(self.skip_unchanged_min_m)
     }
 
-    /// Checks every field; called once by [`crate::MapUpdater::new`].
+    /// Checks every field; called once by [`crate::MapUpdater::new`]. Reports the first bad
+    /// field found.
     pub fn validate(&self) -> Result<(), UpdaterError> {
-        fn bad(field: &'static str, reason: impl Into<String>) -> UpdaterError {
-            UpdaterError::InvalidParam { field, reason: reason.into() }
-        }
-        let non_neg_finite = |field: &'static str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(bad(field, format!("must be finite and >= 0, got {v}")))
-            }
-        };
-        let positive = |field: &'static str, v: f64| {
-            if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, format!("must be > 0, got {v}"))) }
-        };
+        self.validate_gating_and_removal()?;
+        self.validate_classifier_and_check()?;
+        self.validate_evaluators_and_cells()?;
+        self.pose_updating.validate()?;
+        self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
+        Ok(())
+    }
+
+    /// Update gating and the removal-vote additions.
+    fn validate_gating_and_removal(&self) -> Result<(), UpdaterError> {
         non_neg_finite("gating_min_translation_m", self.gating_min_translation_m)?;
         non_neg_finite("removal_hit_clearance_m", self.removal_hit_clearance_m)?;
         positive("removal_max_offset_cells", self.removal_max_offset_cells)?;
@@ -387,6 +385,11 @@ impl UpdaterParams {
         non_neg_finite("fast_rotation_pause_s", self.fast_rotation_pause_s)?;
         non_neg_finite("fast_rotation_pause_m", self.fast_rotation_pause_m)?;
         positive("max_range_m", self.max_range_m)?;
+        Ok(())
+    }
+
+    /// Beam classifier and localisation check.
+    fn validate_classifier_and_check(&self) -> Result<(), UpdaterError> {
         if self.virtual_rays_each_side > 64 {
             return Err(bad("virtual_rays_each_side", "must be at most 64"));
         }
@@ -411,6 +414,11 @@ impl UpdaterParams {
                 format!("must not exceed d_eps_max ({} > {})", self.d_eps_min, self.d_eps_max),
             ));
         }
+        Ok(())
+    }
+
+    /// Changed / unchanged cells evaluators and cells update.
+    fn validate_evaluators_and_cells(&self) -> Result<(), UpdaterError> {
         non_neg_finite("tol_slope", self.tol_slope)?;
         non_neg_finite("tol_intercept_m", self.tol_intercept_m)?;
         positive("tol_max_m", self.tol_max_m)?;
@@ -427,7 +435,27 @@ impl UpdaterParams {
         if !(1..=self.buffer_size).contains(&self.change_threshold) {
             return Err(bad("change_threshold", format!("must lie in 1..=buffer_size, got {}", self.change_threshold)));
         }
-        let p = &self.pose_updating;
+        Ok(())
+    }
+}
+
+fn bad(field: &'static str, reason: impl Into<String>) -> UpdaterError {
+    UpdaterError::InvalidParam { field, reason: reason.into() }
+}
+
+fn non_neg_finite(field: &'static str, v: f64) -> Result<(), UpdaterError> {
+    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(field, format!("must be finite and >= 0, got {v}"))) }
+}
+
+fn positive(field: &'static str, v: f64) -> Result<(), UpdaterError> {
+    if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, format!("must be > 0, got {v}"))) }
+}
+
+impl PoseUpdatingParams {
+    /// Checks every field (called by [`UpdaterParams::validate`]); field names in errors are
+    /// prefixed `pose_updating.`.
+    pub fn validate(&self) -> Result<(), UpdaterError> {
+        let p = self;
         if p.source_beam_step == 0 {
             return Err(bad("pose_updating.source_beam_step", "must be >= 1"));
         }
@@ -475,7 +503,6 @@ impl UpdaterParams {
         if p.search_candidates == 0 || p.search_candidates > 64 {
             return Err(bad("pose_updating.search_candidates", "must lie in 1..=64"));
         }
-        self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
         Ok(())
     }
 }

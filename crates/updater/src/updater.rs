@@ -1,18 +1,22 @@
-//! `MapUpdater`: the modules of Fig. 5 / Fig. 6 wired in the paper's order.
+//! `MapUpdater`: the modules of Fig. 5 / Fig. 6 wired in the paper's order (gating, beam
+//! classifier, localisation check, then on Update the evaluators and the cells update, on Lost
+//! pose updating), with the project's additions where they act, and the memory accounting.
 
 use crate::UpdaterError;
-use crate::beam_classifier::{BeamClass, BeamClassifier};
-use crate::cell_buffers::CellBuffers;
-use crate::cell_update::{CellChange, CellUpdater};
-use crate::changed_cells::{Vote, ensure_buffers, evaluate_changed_beam_cast, merge_sorted_tail};
-use crate::free_pass::evaluate_free_pass;
-use crate::gating::{GateReason, UpdateGate};
-use crate::hit_index::HitIndex;
-use crate::localisation_check::{Verdict, localisation_check};
-use crate::log_odds_baseline::LogOddsBaseline;
+use crate::additions::free_pass::evaluate_free_pass;
+use crate::additions::hit_index::HitIndex;
+use crate::additions::log_odds_baseline::LogOddsBaseline;
+use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
+use crate::paper::cell_buffers::CellBuffers;
+use crate::paper::cell_update::{CellChange, CellUpdater};
+use crate::paper::changed_cells::evaluate_changed_beam_cast;
+use crate::paper::gating::{GateReason, UpdateGate};
+use crate::paper::localisation_check::{Verdict, localisation_check};
+use crate::paper::pose_updating::{PoseRecovery, PoseUpdater};
+use crate::paper::unchanged_cells::evaluate_unchanged_beam;
 use crate::params::{UpdateMethod, UpdaterParams};
-use crate::pose_updating::{PoseRecovery, PoseUpdater};
-use crate::unchanged_cells::evaluate_unchanged_beam;
+use crate::support::beam_walk::BeamGeometry;
+use crate::support::votes::{Vote, ensure_buffers, merge_sorted_tail};
 use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
 use mapkeeper_sensor::LaserScan;
 
@@ -174,21 +178,51 @@ impl MapUpdater {
         self.buffers.len()
     }
 
-    /// Bytes of the updater's own state: the sparse cell buffers (payload) plus the reusable
-    /// per-step scratch (beams, votes, pose-updating clouds) and the struct itself. Excludes the
-    /// two grids `M_{i-1}` and `M_i`, which scale with the map by definition. For the log-odds
-    /// baseline it includes its map-sized log-odds array.
-    pub fn state_bytes(&self) -> usize {
+    /// Bytes of the change state: what grows with the cells the updater has touched. That is
+    /// the struct itself plus the payload of the sparse cell buffers (4-byte key and 8-byte ring
+    /// per buffered cell) and of the tile masks (4-byte key and 40-byte mask per 16 × 16 tile
+    /// holding a buffer). For the same changes it is the same in a small and a large map. The
+    /// log-odds baseline (`method = "log-odds"`) has no sparse state: its change state is its
+    /// dense log-odds array (4 bytes per cell), counted here. Excludes the map-sized caches
+    /// ([`MapUpdater::cache_bytes`]) and the per-step scratch ([`MapUpdater::scratch_bytes`]).
+    pub fn change_state_bytes(&self) -> usize {
         size_of::<Self>() + self.buffers.state_bytes() + self.log_odds.as_ref().map_or(0, |l| l.state_bytes())
     }
 
-    /// Bytes of reusable per-step scratch (grows with beams per step, never with the map).
+    /// The same as [`MapUpdater::change_state_bytes`] (the name the validation's
+    /// `max_state_bytes` is recorded under).
+    pub fn state_bytes(&self) -> usize {
+        self.change_state_bytes()
+    }
+
+    /// Bytes of the map-sized data: everything allocated per map cell, **including both maps**.
+    /// `M_{i-1}` (the classifier's copy, one byte per cell) with its clearance field (one `f32`
+    /// per cell), `M_i` (one byte per cell), the obstacle-interior mask of border reconstruction
+    /// (one byte per cell) and, once pose updating has run a correlative search, its score grid
+    /// (one byte per cell): 7 bytes per cell, 8 after a search. It grows with the map's area,
+    /// never with the scans processed. The log-odds baseline's array is in
+    /// [`MapUpdater::change_state_bytes`], not here.
+    pub fn cache_bytes(&self) -> usize {
+        let base = self.base.map().cells();
+        // The caster holds one f32 clearance per cell of M_{i-1} (`RayCaster::new`).
+        size_of_val(base)
+            + base.len() * size_of::<f32>()
+            + size_of_val(self.current.cells())
+            + self.cell_updater.cache_bytes()
+            + self.pose_updater.cache_bytes()
+    }
+
+    /// Bytes of reusable per-step scratch (grows with beams per step, never with the map): beams,
+    /// lidar frames, votes and their sort buffer, the classifier's free discs, the hit index, the
+    /// cells flagged by the last step, and pose updating's clouds and candidates.
     pub fn scratch_bytes(&self) -> usize {
-        self.classifier.beams.capacity() * size_of::<crate::beam_classifier::Beam>()
-            + self.classifier.lidars.capacity() * size_of::<crate::beam_classifier::LidarFrame>()
+        self.classifier.beams.capacity() * size_of::<crate::paper::beam_classifier::Beam>()
+            + self.classifier.lidars.capacity() * size_of::<crate::paper::beam_classifier::LidarFrame>()
             + (self.votes.capacity() + self.vote_scratch.capacity()) * size_of::<Vote>()
             + self.classifier.hints.discs.scratch_bytes()
             + self.hits.capacity_bytes()
+            + self.cell_updater.scratch_bytes()
+            + self.pose_updater.scratch_bytes()
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
@@ -289,15 +323,8 @@ impl MapUpdater {
         for b in beams {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
-                evaluate_changed_beam_cast(
-                    &self.base,
-                    origin,
-                    b.hit,
-                    b.range_m,
-                    &self.params,
-                    &self.hits,
-                    &mut self.votes,
-                );
+                let beam = BeamGeometry::new(origin, b.hit, b.range_m);
+                evaluate_changed_beam_cast(&self.base, &beam, &self.params, &self.hits, &mut self.votes);
             }
         }
         ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
@@ -320,16 +347,8 @@ impl MapUpdater {
                 };
                 if b.near_buffer_m.is_finite() {
                     let origin = self.classifier.lidars[b.lidar as usize].origin;
-                    evaluate(
-                        self.base.map(),
-                        origin,
-                        b.hit,
-                        b.range_m,
-                        &self.params,
-                        b.walk_from_m,
-                        &mut probe,
-                        &mut self.votes,
-                    );
+                    let beam = BeamGeometry::new(origin, b.hit, b.range_m);
+                    evaluate(self.base.map(), &beam, &self.params, b.walk_from_m, &mut probe, &mut self.votes);
                 }
             }
             // The cells update sorts the votes again: hand them over sorted, so that costs one
@@ -344,5 +363,82 @@ impl MapUpdater {
             &self.params,
             changes,
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapkeeper_grid::{CellCoord, CellState, GridGeometry, cast_ray};
+
+    /// A `w` × `h`-cell room at 0.05 m with one-cell walls on the map's edge.
+    fn room(w: usize, h: usize) -> OccupancyGrid {
+        let g = GridGeometry::new(w, h, 0.05, Pose2::IDENTITY).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for x in 0..w as i32 {
+            m.set(CellCoord::new(x, 0), CellState::Occupied);
+            m.set(CellCoord::new(x, h as i32 - 1), CellState::Occupied);
+        }
+        for y in 0..h as i32 {
+            m.set(CellCoord::new(0, y), CellState::Occupied);
+            m.set(CellCoord::new(w as i32 - 1, y), CellState::Occupied);
+        }
+        m
+    }
+
+    /// A 360° scan of `world` from `robot`, 1° apart, ranges 5 mm beyond the cast.
+    fn scan(world: &OccupancyGrid, robot: Pose2, stamp_ns: u64) -> LaserScan {
+        let inc = 1f64.to_radians();
+        let ranges_m = (0..360)
+            .map(|i| (cast_ray(world, robot.position(), robot.yaw + i as f64 * inc, 30.0, true).range_m + 0.005) as f32)
+            .collect();
+        LaserScan {
+            stamp_ns,
+            lidar_id: 0,
+            lidar_in_robot: Pose2::IDENTITY,
+            angle_min_rad: 0.0,
+            angle_increment_rad: inc,
+            range_min_m: 0.05,
+            range_max_m: 30.0,
+            ranges_m,
+        }
+    }
+
+    /// Runs 12 processed steps past a box that the map lacks; returns (cache, change state)
+    /// before and after.
+    fn run(w: usize, h: usize) -> ((usize, usize), (usize, usize)) {
+        let map = room(w, h);
+        let mut world = map.clone();
+        for x in 40..46 {
+            for y in 30..36 {
+                world.set(CellCoord::new(x, y), CellState::Occupied);
+            }
+        }
+        let mut up = MapUpdater::new(map, UpdaterParams::paper()).unwrap();
+        let before = (up.cache_bytes(), up.change_state_bytes());
+        for k in 0..12 {
+            let robot = Pose2::new(1.0 + 0.06 * k as f64, 1.6, 0.0);
+            let report = up.process(robot, robot, &[scan(&world, robot, k)]);
+            assert_eq!(report.verdict, Some(Verdict::Update), "step {k}");
+            assert_eq!(up.state_bytes(), up.change_state_bytes());
+        }
+        assert!(up.buffered_cells() > 0);
+        (before, (up.cache_bytes(), up.change_state_bytes()))
+    }
+
+    #[test]
+    fn cache_grows_with_the_map_change_state_with_touched_cells() {
+        let (small_before, small_after) = run(80, 60);
+        let (large_before, large_after) = run(160, 120);
+        // Caches: proportional to the map's area, untouched by the scans.
+        assert_eq!(large_before.0, 4 * small_before.0);
+        assert_eq!(small_after.0, small_before.0);
+        assert_eq!(large_after.0, large_before.0);
+        assert_eq!(small_before.0, 7 * 80 * 60);
+        // Change state: the struct alone at first, then grows with the buffered cells.
+        assert_eq!(small_before.1, size_of::<MapUpdater>());
+        assert_eq!(large_before.1, small_before.1);
+        assert!(small_after.1 > small_before.1);
+        assert!(large_after.1 > large_before.1);
     }
 }

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{fill_rect, room, synth_scan};
+use common::{Lidar, fill_rect, room, synth_scan};
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid, Pose2};
 use mapkeeper_sensor::LaserScan;
 use mapkeeper_updater::{MapUpdater, UpdaterParams, Verdict};
@@ -29,8 +29,8 @@ impl Noise {
 
 fn scan(world: &OccupancyGrid, truth: Pose2, k: usize, noise: &mut Noise, sigma: f64) -> LaserScan {
     let inc = std::f64::consts::PI / 360.0;
-    let mut s =
-        synth_scan(world, truth, Pose2::IDENTITY, -std::f64::consts::PI, inc, 720, 30.0, k as u64 * 100_000_000);
+    let lidar = Lidar::centred(-std::f64::consts::PI, inc, 720);
+    let mut s = synth_scan(world, truth, &lidar, k as u64 * 100_000_000);
     for r in &mut s.ranges_m {
         if r.is_finite() {
             *r += noise.gauss(sigma) as f32;
@@ -119,8 +119,9 @@ fn added_box_face_is_not_smeared_towards_the_robot() {
 #[test]
 fn a_withheld_vote_shadows_the_obstacle_behind_it() {
     use mapkeeper_grid::{GridGeometry, Point2};
-    use mapkeeper_updater::changed_cells::evaluate_changed_beam;
-    use mapkeeper_updater::hit_index::HitIndex;
+    use mapkeeper_updater::additions::hit_index::HitIndex;
+    use mapkeeper_updater::paper::changed_cells::evaluate_changed_beam;
+    use mapkeeper_updater::support::beam_walk::BeamGeometry;
     for (gap, expect_votes_in_b) in [(1, false), (3, true)] {
         let g = GridGeometry::new(40, 80, 0.05, Pose2::IDENTITY).unwrap();
         let mut base = OccupancyGrid::filled(g, CellState::Free);
@@ -143,14 +144,26 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         let hit = Point2::new(1.02, 3.9);
         let z = origin.distance(hit);
         let mut votes = Vec::new();
-        evaluate_changed_beam(&base, origin, hit, z, &UpdaterParams::paper(), &HitIndex::new(), &mut votes);
+        evaluate_changed_beam(
+            &base,
+            &BeamGeometry::new(origin, hit, z),
+            &UpdaterParams::paper(),
+            &HitIndex::new(),
+            &mut votes,
+        );
         let voted: Vec<CellCoord> = votes.iter().map(|v| g.coord((v >> 1) as usize)).collect();
         assert!(!voted.iter().any(|c| (20..=35).contains(&c.iy)), "gap {gap}: box A voted: {voted:?}");
         let in_b = voted.iter().any(|c| (b0..=b0 + 15).contains(&c.iy));
         assert_eq!(in_b, expect_votes_in_b, "gap {gap}: {voted:?}");
         // Without the additions the ray votes box A's cells.
         votes.clear();
-        evaluate_changed_beam(&base, origin, hit, z, &without_additions(), &HitIndex::new(), &mut votes);
+        evaluate_changed_beam(
+            &base,
+            &BeamGeometry::new(origin, hit, z),
+            &without_additions(),
+            &HitIndex::new(),
+            &mut votes,
+        );
         assert!(votes.iter().any(|v| (20..=35).contains(&g.coord((v >> 1) as usize).iy)));
     }
 }

@@ -6,11 +6,13 @@ mod common;
 
 use common::{fill_rect, room, scan360};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, cast_ray};
-use mapkeeper_updater::beam_classifier::detects_change;
-use mapkeeper_updater::cell_buffers::CellBuffers;
-use mapkeeper_updater::cell_update::CellUpdater;
-use mapkeeper_updater::changed_cells::{evaluate_changed_beam, vote};
-use mapkeeper_updater::hit_index::HitIndex;
+use mapkeeper_updater::additions::hit_index::HitIndex;
+use mapkeeper_updater::paper::beam_classifier::{ScanRays, detects_change};
+use mapkeeper_updater::paper::cell_buffers::CellBuffers;
+use mapkeeper_updater::paper::cell_update::CellUpdater;
+use mapkeeper_updater::paper::changed_cells::evaluate_changed_beam;
+use mapkeeper_updater::support::beam_walk::BeamGeometry;
+use mapkeeper_updater::support::votes::vote;
 use mapkeeper_updater::{MapUpdater, StepOutcome, UpdaterParams, Verdict};
 
 fn decode(votes: &[u32], width: usize) -> Vec<(CellCoord, bool)> {
@@ -37,8 +39,10 @@ fn fig8_one_to_n_prevents_false_change_at_removed_obstacle_edge() {
     let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
     let d_th = UpdaterParams::paper().change_distance_m(z);
     let caster = mapkeeper_grid::RayCaster::new(&base, true);
-    assert!(detects_change(&caster, origin, a, inc, hit, z, 0, 0.5, 30.0, d_th), "1-to-1 flags a change");
-    assert!(!detects_change(&caster, origin, a, inc, hit, z, 1, 0.5, 30.0, d_th), "1-to-N does not");
+    let one_to_one = ScanRays { origin, increment_rad: inc, each_side: 0, spacing_beams: 0.5, max_range_m: 30.0 };
+    let one_to_n = ScanRays { each_side: 1, ..one_to_one };
+    assert!(detects_change(&caster, &one_to_one, a, hit, z, d_th), "1-to-1 flags a change");
+    assert!(!detects_change(&caster, &one_to_n, a, hit, z, d_th), "1-to-N does not");
 }
 
 /// Fig. 10 / eq. 9: only cells whose centre is further than max(0.02 z, 0.15 m) from p_i are
@@ -58,7 +62,7 @@ fn fig10_final_chunk_is_skipped() {
     let z = hit.x - origin.x;
     let p = UpdaterParams::paper();
     let mut votes = Vec::new();
-    evaluate_changed_beam(&base, origin, hit, z, &p, &HitIndex::new(), &mut votes);
+    evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &p, &HitIndex::new(), &mut votes);
     let cells = decode(&votes, 60);
     for x in 19..=21 {
         assert!(cells.contains(&(CellCoord::new(x, 5), true)), "{cells:?}");
@@ -71,7 +75,7 @@ fn fig10_final_chunk_is_skipped() {
     p0.skip_changed_min_m = 0.0;
     p0.skip_changed_slope = 0.0;
     votes.clear();
-    evaluate_changed_beam(&base, origin, hit, z, &p0, &HitIndex::new(), &mut votes);
+    evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &p0, &HitIndex::new(), &mut votes);
     assert!(decode(&votes, 60).contains(&(CellCoord::new(40, 5), true)));
 }
 
@@ -89,7 +93,13 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     let p = UpdaterParams::paper();
     let hit_cell_voted = |hit: Point2| {
         let mut votes = Vec::new();
-        evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p, &HitIndex::new(), &mut votes);
+        evaluate_changed_beam(
+            &base,
+            &BeamGeometry::new(origin, hit, hit.x - origin.x),
+            &p,
+            &HitIndex::new(),
+            &mut votes,
+        );
         let c = g.world_to_cell(hit).unwrap();
         votes.contains(&vote(g.index(c).unwrap(), true))
     };
@@ -109,7 +119,13 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     p_direct.tol_intercept_m = 1e-6;
     p_direct.tol_slope = 0.0;
     let mut votes = Vec::new();
-    evaluate_changed_beam(&base, origin, hit, hit.x - origin.x, &p_direct, &HitIndex::new(), &mut votes);
+    evaluate_changed_beam(
+        &base,
+        &BeamGeometry::new(origin, hit, hit.x - origin.x),
+        &p_direct,
+        &HitIndex::new(),
+        &mut votes,
+    );
     assert!(votes.contains(&vote(g.index(g.world_to_cell(hit).unwrap()).unwrap(), true)));
 }
 

@@ -3,10 +3,10 @@
 
 mod common;
 
-use common::{fill_rect, room, room_in, s300_pair, scan360, synth_scan};
+use common::{Lidar, fill_rect, room, room_in, s300_pair, scan360, synth_scan};
 use mapkeeper_grid::{CellState, OccupancyGrid, Pose2};
 use mapkeeper_sensor::LaserScan;
-use mapkeeper_updater::pose_updating::PoseUpdater;
+use mapkeeper_updater::paper::pose_updating::PoseUpdater;
 use mapkeeper_updater::{
     GateReason, MapUpdater, PoseRecovery, PoseUpdatingParams, StepOutcome, UpdaterParams, Verdict,
 };
@@ -124,7 +124,7 @@ fn multi_lidar_equals_merged_scan_on_a_symmetric_case() {
     for k in 0..10 {
         let robot = pose_at(k);
         // Merged: beams from -90° to 270°, 720 of them.
-        let one = synth_scan(&world, robot, Pose2::IDENTITY, -half, inc, 720, 30.0, k as u64);
+        let one = synth_scan(&world, robot, &Lidar::centred(-half, inc, 720), k as u64);
         let front = LaserScan { ranges_m: one.ranges_m[..360].to_vec(), ..one.clone() };
         let back = LaserScan {
             lidar_id: 1,

@@ -9,7 +9,7 @@ use super::s300_pair;
 use mapkeeper_grid::RayCaster;
 use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2};
 use mapkeeper_sensor::LaserScan;
-use mapkeeper_updater::beam_classifier::BeamClassifier;
+use mapkeeper_updater::paper::beam_classifier::BeamClassifier;
 use mapkeeper_updater::{MapUpdater, UpdaterParams};
 
 /// 64-bit FNV-1a, fed with bytes.

@@ -43,19 +43,33 @@ pub fn fill_rect(m: &mut OccupancyGrid, x0: f64, y0: f64, x1: f64, y1: f64, stat
     }
 }
 
-/// A scan of `world` by a lidar mounted at `lidar_in_robot` on a robot at `robot`: each range is
-/// the ray-cast range plus `bias_m` (so hit points land inside the hit cell), `+inf` for no hit.
-#[allow(clippy::too_many_arguments)]
-pub fn synth_scan(
-    world: &OccupancyGrid,
-    robot: Pose2,
-    lidar_in_robot: Pose2,
-    angle_min_rad: f64,
-    increment_rad: f64,
-    beams: usize,
-    range_max_m: f32,
-    stamp_ns: u64,
-) -> LaserScan {
+/// A synthetic lidar: its mounting pose on the robot and its beams.
+#[derive(Clone, Copy, Debug)]
+pub struct Lidar {
+    /// Mounting pose on the robot.
+    pub lidar_in_robot: Pose2,
+    /// Angle of beam 0 in the lidar frame, radians.
+    pub angle_min_rad: f64,
+    /// Angle between consecutive beams, radians.
+    pub increment_rad: f64,
+    /// Number of beams.
+    pub beams: usize,
+    /// Maximum range, metres.
+    pub range_max_m: f32,
+}
+
+impl Lidar {
+    /// A lidar at the robot centre with `beams` beams `increment_rad` apart from `angle_min_rad`,
+    /// range 30 m.
+    pub fn centred(angle_min_rad: f64, increment_rad: f64, beams: usize) -> Self {
+        Self { lidar_in_robot: Pose2::IDENTITY, angle_min_rad, increment_rad, beams, range_max_m: 30.0 }
+    }
+}
+
+/// A scan of `world` by `lidar` on a robot at `robot`: each range is the ray-cast range plus
+/// `bias_m` (so hit points land inside the hit cell), `+inf` for no hit.
+pub fn synth_scan(world: &OccupancyGrid, robot: Pose2, lidar: &Lidar, stamp_ns: u64) -> LaserScan {
+    let Lidar { lidar_in_robot, angle_min_rad, increment_rad, beams, range_max_m } = *lidar;
     let lidar = robot.compose(&lidar_in_robot);
     let bias_m = 0.005;
     let ranges_m = (0..beams)
@@ -83,7 +97,7 @@ pub fn synth_scan(
 /// One 360° scan at the robot centre, 0.5° apart.
 pub fn scan360(world: &OccupancyGrid, robot: Pose2, stamp_ns: u64) -> LaserScan {
     let inc = std::f64::consts::PI / 360.0;
-    synth_scan(world, robot, Pose2::IDENTITY, -std::f64::consts::PI, inc, 720, 30.0, stamp_ns)
+    synth_scan(world, robot, &Lidar::centred(-std::f64::consts::PI, inc, 720), stamp_ns)
 }
 
 /// The default robot's two SICK S300 (541 beams over 270°, 0.5°) at opposite corners.
@@ -95,7 +109,8 @@ pub fn s300_pair(world: &OccupancyGrid, robot: Pose2, stamp_ns: u64) -> Vec<Lase
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let mut s = synth_scan(world, robot, *m, -half, inc, 541, 30.0, stamp_ns);
+            let lidar = Lidar { lidar_in_robot: *m, ..Lidar::centred(-half, inc, 541) };
+            let mut s = synth_scan(world, robot, &lidar, stamp_ns);
             s.lidar_id = k as u32;
             s
         })

@@ -5,10 +5,15 @@
 //! angle offsets l·v·Δθ (eq. 3-4), unknown cells counting as occupied. The beam is a "detected
 //! change" iff the smallest distance exceeds D_th(z) = min(m_th·z + q_th, D_max) (eq. 5).
 //!
-//! Two exact shortcuts keep it fast: the rays are tried central first and the search stops at
-//! the first expected point within D_th (the minimum is then ≤ D_th whatever the others are);
-//! and no ray is cast further than z + D_th, because an expected point at range z_e is at least
-//! |z_e − z| from p_i whatever the angle offset.
+//! Exact shortcuts keep it fast, each giving the verdict the full casts would give: the rays are
+//! tried central first and the search stops at the first expected point within D_th (the
+//! minimum is then ≤ D_th whatever the others are); no ray is cast further than z + D_th,
+//! because an expected point at range z_e is at least |z_e − z| from p_i whatever the angle
+//! offset; and rays whose outcome is certain from the clearance field of `M_{i-1}` are not cast
+//! at all (no blocking cell within D_th of p_i: a change; the central ray certainly stopped
+//! within D_th of z: no change; a ray certainly blocked more than D_th short of z: no match).
+//! What one beam learnt (where its central ray stopped, free discs along it) is handed to the
+//! next beam of the scan ([`ScanHints`]).
 
 use crate::UpdaterParams;
 use mapkeeper_grid::{CellCoord, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
@@ -107,36 +112,52 @@ pub fn virtual_rays(params: &UpdaterParams, increment_rad: f64) -> (i32, f64) {
 /// points (about 1e-14 m at warehouse scale).
 const EXPECTED_POINT_SLACK_M: f64 = 1e-6;
 
+/// What the 1-to-N comparison (eq. 4-5) needs of one scan: the same for all of its beams.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScanRays {
+    /// Where every ray of the scan starts: its lidar's position in the map.
+    pub origin: Point2,
+    /// Δθ: the angle between consecutive beams, radians.
+    pub increment_rad: f64,
+    /// n_e: virtual rays on each side of a beam.
+    pub each_side: i32,
+    /// v: their spacing, in units of Δθ.
+    pub spacing_beams: f64,
+    /// No ray is cast further than this (the lidar's maximum, or `max_range_m` if smaller),
+    /// metres.
+    pub max_range_m: f64,
+}
+
+impl ScanRays {
+    /// The comparison of `params` for a scan from `origin` with beam increment `increment_rad`
+    /// and maximum range `range_max_m`.
+    pub fn new(origin: Point2, increment_rad: f64, range_max_m: f64, params: &UpdaterParams) -> Self {
+        let (each_side, spacing_beams) = virtual_rays(params, increment_rad);
+        Self { origin, increment_rad, each_side, spacing_beams, max_range_m: params.max_range_m.min(range_max_m) }
+    }
+}
+
+/// One beam to classify: its direction (prepared by the caster, whose sine and cosine gave the
+/// hit point), its hit point p_i, its range z_i and the change distance D_th(z_i).
+#[derive(Clone, Copy, Debug)]
+pub struct BeamToClassify {
+    /// The beam's direction in the map frame.
+    pub dir: RayDir,
+    /// p_i, map frame.
+    pub hit: Point2,
+    /// z_i, metres.
+    pub range_m: f64,
+    /// D_th(z_i), metres.
+    pub d_th_m: f64,
+}
+
 /// Eq. 3-5 for one beam: whether the smallest distance from `hit` (at range `z` along
-/// `angle_rad` from `origin`) to the expected hit points of the 2n_e + 1 rays cast in `base` at
-/// `angle_rad + l·v·increment_rad` exceeds `d_th`. Unknown cells block the rays.
-#[allow(clippy::too_many_arguments)]
-pub fn detects_change(
-    base: &RayCaster,
-    origin: Point2,
-    angle_rad: f64,
-    increment_rad: f64,
-    hit: Point2,
-    z: f64,
-    n_e: i32,
-    v: f64,
-    max_range_m: f64,
-    d_th: f64,
-) -> bool {
-    let mut hints = ScanHints::new(origin);
-    detects_change_dir(
-        base,
-        origin,
-        &base.direction(angle_rad),
-        increment_rad,
-        hit,
-        z,
-        n_e,
-        v,
-        max_range_m,
-        d_th,
-        &mut hints,
-    )
+/// `angle_rad` from the scan's origin) to the expected hit points of the 2n_e + 1 rays cast in
+/// `base` at `angle_rad + l·v·Δθ` exceeds `d_th`. Unknown cells block the rays.
+pub fn detects_change(base: &RayCaster, scan: &ScanRays, angle_rad: f64, hit: Point2, z: f64, d_th: f64) -> bool {
+    let mut hints = ScanHints::new(scan.origin);
+    let beam = BeamToClassify { dir: base.direction(angle_rad), hit, range_m: z, d_th_m: d_th };
+    detects_change_dir(base, scan, &beam, &mut hints)
 }
 
 /// What one beam's classification leaves for the next beam of the same scan (reset per scan):
@@ -166,22 +187,12 @@ impl ScanHints {
 
 /// [`detects_change`] with the beam's direction prepared by `base` (its sine and cosine are
 /// reused for the central ray; bit for bit the same answer). `hints` (reset for each scan with
-/// the scan's `origin`): what the previous beams left, updated for the next; any hints give the
+/// the scan's origin): what the previous beams left, updated for the next; any hints give the
 /// same answer, good ones save casts.
-#[allow(clippy::too_many_arguments)]
-pub fn detects_change_dir(
-    base: &RayCaster,
-    origin: Point2,
-    beam: &RayDir,
-    increment_rad: f64,
-    hit: Point2,
-    z: f64,
-    n_e: i32,
-    v: f64,
-    max_range_m: f64,
-    d_th: f64,
-    hints: &mut ScanHints,
-) -> bool {
+pub fn detects_change_dir(base: &RayCaster, scan: &ScanRays, beam: &BeamToClassify, hints: &mut ScanHints) -> bool {
+    let (origin, increment_rad, n_e, v) = (scan.origin, scan.increment_rad, scan.each_side, scan.spacing_beams);
+    let (hit, z, d_th, max_range_m) = (beam.hit, beam.range_m, beam.d_th_m, scan.max_range_m);
+    let beam = &beam.dir;
     let incoming = hints.stop_m.take();
     let angle_rad = beam.angle();
     let cast_len = z + d_th + 1e-6;
@@ -279,8 +290,7 @@ impl BeamClassifier {
                 angle0_rad: lidar_in_map.yaw + scan.angle_min_rad,
                 increment_rad: scan.angle_increment_rad,
             });
-            let max_range_m = params.max_range_m.min(scan.range_max_m as f64);
-            let (n_e, v) = virtual_rays(params, scan.angle_increment_rad);
+            let rays = ScanRays::new(origin, scan.angle_increment_rad, scan.range_max_m as f64, params);
             self.hints.reset(origin);
             for (i, &r) in scan.ranges_m.iter().enumerate() {
                 let angle_rad = lidar_in_map.yaw + scan.beam_angle(i as f64);
@@ -303,20 +313,8 @@ impl BeamClassifier {
                 let dir = base.direction(angle_rad);
                 let (s, c) = (dir.sin(), dir.cos());
                 let hit = Point2::new(origin.x + z * c, origin.y + z * s);
-                let d_th = params.change_distance_m(z);
-                let changed = detects_change_dir(
-                    base,
-                    origin,
-                    &dir,
-                    scan.angle_increment_rad,
-                    hit,
-                    z,
-                    n_e,
-                    v,
-                    max_range_m,
-                    d_th,
-                    &mut self.hints,
-                );
+                let beam = BeamToClassify { dir, hit, range_m: z, d_th_m: params.change_distance_m(z) };
+                let changed = detects_change_dir(base, &rays, &beam, &mut self.hints);
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
                 self.beams.push(Beam {
                     lidar,
@@ -472,7 +470,7 @@ fn mark_square(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cell_buffers::CellBuffers;
+    use crate::paper::cell_buffers::CellBuffers;
     use mapkeeper_grid::{GridGeometry, traverse};
     use std::ops::ControlFlow;
 

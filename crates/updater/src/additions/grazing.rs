@@ -7,8 +7,11 @@
 //! cell from the boundary cells of `M_{i-1}` around it (non-free cells with a free
 //! 4-neighbour, in a 5 × 5 window): when they line up (the larger principal axis at least
 //! four times the smaller) and the ray meets that line at less than the minimum incidence, the
-//! cell gets no vote from this ray. Corners, isolated cells and cells inside obstacles are not
-//! gated. A removed obstacle is still crossed at steep angles by other rays of the run.
+//! cell gets no vote from this ray ([`is_grazing`]). Corners and isolated cells have no line;
+//! for them, [`meets_a_free_face_grazing`] withholds the vote when the ray meets one of the
+//! cell's free faces that flat (a ray skimming a corner cell's side). Cells inside obstacles
+//! (no free 4-neighbour) are never gated. A removed obstacle is still crossed at steep angles
+//! by other rays of the run. Used by [`crate::additions::removal_gates`].
 
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 

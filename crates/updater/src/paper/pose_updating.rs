@@ -8,7 +8,7 @@
 //! is what is compared). The best must pass a fitness gate (inlier ratio, RMSE) and must not be
 //! ambiguous; otherwise the answer is "not recovered" — never a wrong pose silently.
 
-use crate::icp::{Fitness, PointGrid, fitness, icp_from};
+use crate::paper::icp::{Fitness, PointGrid, fitness, icp_from};
 use crate::params::PoseUpdatingParams;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
@@ -234,6 +234,28 @@ impl PoseUpdater {
             self.check(map, pose, scans, max_range_m, p);
         }
         self.decide(p)
+    }
+
+    /// Heap bytes of the map-sized score grid of the correlative search: one byte per cell of
+    /// `M_i`, allocated at the first search and reused (0 before any search).
+    pub fn cache_bytes(&self) -> usize {
+        self.score.capacity() * size_of::<u8>()
+    }
+
+    /// Heap bytes of the reusable clouds, bucket grids and candidate lists (sized by the beams
+    /// of a step and the search window, never by the map).
+    pub fn scratch_bytes(&self) -> usize {
+        (self.source.capacity()
+            + self.coarse_source.capacity()
+            + self.expected.capacity()
+            + self.check_cloud.capacity())
+            * size_of::<Point2>()
+            + self.grid.heap_bytes()
+            + self.check_grid.heap_bytes()
+            + self.candidates.capacity() * size_of::<(Pose2, Fitness, f64, bool)>()
+            + self.checked.capacity() * size_of::<Checked>()
+            + self.cells.capacity() * size_of::<(i32, i32)>()
+            + self.peaks.capacity() * size_of::<(u32, Pose2)>()
     }
 
     /// Registers the scan to the cloud expected from `pose`, re-casts the cloud at the result

@@ -1,13 +1,16 @@
-//! The naive baseline: plain log-odds occupancy mapping of every gated scan into `M_{i-1}` at
-//! the estimated pose (no localisation check, no buffers, no 1-to-N comparison), with the grid
-//! crate's [`LogOddsMapper`]. It shows what the paper's safeguards buy.
+//! The naive baseline (a comparison row asked for by the spec, not part of the method and not
+//! in the paper): plain log-odds occupancy mapping of every gated scan into `M_{i-1}` at the
+//! estimated pose (no localisation check, no buffers; the classifier still runs, but its
+//! verdicts are not used), with the grid crate's [`LogOddsMapper`]. It runs instead of the
+//! evaluators and the cells update when `method = "log-odds"`, and shows what the paper's
+//! safeguards buy.
 //!
 //! The mapper's log-odds array is map-sized and owned for the whole run (never reallocated per
 //! scan). After each ray only the cells the ray touched are re-thresholded into `M_i`, with the
 //! mapper's own thresholds, so `M_i` always equals `mapper.to_grid()` without a map-sized copy
 //! per scan.
 
-use crate::cell_update::CellChange;
+use crate::paper::cell_update::CellChange;
 use mapkeeper_grid::mapper::{LogOddsMapper, MapperError, MapperParams};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, traverse};
 use std::ops::ControlFlow;

@@ -1,8 +1,9 @@
 //! The measured hit points of one step, bucketed for "is there a hit within r of this point?"
 //! queries.
 //!
-//! Used by the changed cells evaluator's hit clearance (a project addition, see
-//! `UpdaterParams::removal_hit_clearance_m`): a cell that a detected-change ray crosses is not
+//! Serves only the hit clearance of the removal vote ([`crate::additions::removal_gates`], a
+//! project addition, see `UpdaterParams::removal_hit_clearance_m`): a cell that a
+//! detected-change ray crosses is not
 //! voted "removed" when some beam of the same step hit a surface within the clearance of the
 //! cell's centre. The evidence of an occupied surface there is stronger than that of a ray
 //! grazing past it; without the rule, rays at grazing incidence along a wall erode the wall's

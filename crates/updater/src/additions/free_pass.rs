@@ -11,22 +11,20 @@
 //! chunk of `skip_unchanged_m(z)` skipped, and only cells that already hold a buffer.
 
 use crate::UpdaterParams;
-use crate::cell_buffers::TileProbe;
-use crate::changed_cells::{Vote, vote};
-use crate::unchanged_cells::buffered_cells_before_chunk;
-use mapkeeper_grid::{CellState, OccupancyGrid, Point2};
+use crate::paper::cell_buffers::TileProbe;
+use crate::support::beam_walk::{BeamGeometry, buffered_cells_before_chunk};
+use crate::support::votes::{Vote, vote};
+use mapkeeper_grid::{CellState, OccupancyGrid};
 
-/// Appends "unchanged" votes for the cells free in `base` that the detected-change beam from
-/// `origin` to `hit` (range `z`) crossed before its final chunk, where a buffer exists.
-/// `first_buffer_m`: no cell closer than this to `origin` along the beam holds a buffer (see
-/// [`crate::beam_classifier::Beam::walk_from_m`]); the walk starts about there and crosses tiles
+/// Appends "unchanged" votes for the cells free in `base` that the detected-change `beam`
+/// crossed before its final chunk, where a buffer exists (the same signature as
+/// [`crate::paper::unchanged_cells::evaluate_unchanged_beam`]). `first_buffer_m`: no cell
+/// closer than this to the beam's origin along the beam holds a buffer (see
+/// [`crate::paper::beam_classifier::Beam::walk_from_m`]); the walk starts about there and crosses tiles
 /// without buffers without visiting their cells (the same votes as a cell-by-cell walk).
-#[allow(clippy::too_many_arguments)]
 pub fn evaluate_free_pass(
     base: &OccupancyGrid,
-    origin: Point2,
-    hit: Point2,
-    z: f64,
+    beam: &BeamGeometry,
     params: &UpdaterParams,
     first_buffer_m: f64,
     probe: &mut TileProbe<'_>,
@@ -34,10 +32,10 @@ pub fn evaluate_free_pass(
 ) {
     let g = base.geometry();
     let cells = base.cells();
-    let skip = params.skip_unchanged_m(z);
+    let skip = params.skip_unchanged_m(beam.range_m);
     let skip_sq = skip * skip;
-    buffered_cells_before_chunk(g, origin, hit, z, skip, first_buffer_m, probe, |c, i| {
-        if cells[i] == CellState::Free && g.cell_center(c).distance_sq(hit) > skip_sq {
+    buffered_cells_before_chunk(g, beam, skip, first_buffer_m, probe, |c, i| {
+        if cells[i] == CellState::Free && g.cell_center(c).distance_sq(beam.hit) > skip_sq {
             votes.push(vote(i, false));
         }
     });
@@ -46,9 +44,8 @@ pub fn evaluate_free_pass(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cell_buffers::CellBuffers;
-    use crate::changed_cells::threshold_point;
-    use mapkeeper_grid::{CellCoord, GridGeometry, Pose2, traverse};
+    use crate::paper::cell_buffers::CellBuffers;
+    use mapkeeper_grid::{CellCoord, GridGeometry, Point2, Pose2, traverse};
     use std::ops::ControlFlow;
 
     /// The skipping walk gives exactly the votes of a plain cell-by-cell walk.
@@ -71,10 +68,10 @@ mod tests {
             let z = 0.5 + (k % 9) as f64 * 0.6;
             let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
             let mut got = Vec::new();
-            evaluate_free_pass(&m, origin, hit, z, &params, 0.0, &mut buffers.probe(), &mut got);
+            evaluate_free_pass(&m, &BeamGeometry::new(origin, hit, z), &params, 0.0, &mut buffers.probe(), &mut got);
             let mut want = Vec::new();
             let skip = params.skip_unchanged_m(z);
-            if let Some(p_th) = threshold_point(origin, hit, z, skip) {
+            if let Some(p_th) = BeamGeometry::new(origin, hit, z).threshold_point(skip) {
                 let mut probe = buffers.probe();
                 let _ = traverse(&g, origin, p_th, |c| {
                     let i = g.index(c).unwrap();

@@ -1,4 +1,5 @@
-//! Sparse rolling buffers B_{c_j} (§4.5): one compact N_b-bit ring per cell that holds at least
+//! Sparse rolling buffers B_{c_j} (introduced in §4 with Fig. 6, counted in §4.5): one compact
+//! N_b-bit ring per cell that holds at least
 //! one "changed" flag, created on the cell's first "changed" flag and dropped as soon as it
 //! holds none. Memory is therefore proportional to the number of changed cells and N_b, not to
 //! the map (the paper's claim, §6).

@@ -1,6 +1,15 @@
-//! 2D point-to-point ICP (SE(2)) with the closed-form rigid alignment and a uniform bucket grid
-//! for nearest-neighbour search. Everything is allocated once per registration (the grid, the
-//! buckets), never per iteration.
+//! The registration of pose updating (§4.6: "any method ... e.g. Iterative Closest Point"):
+//! 2D **point-to-line** ICP in SE(2). Each source point is paired with its nearest target point
+//! within a correspondence distance that shrinks per iteration, and the residual is its
+//! distance along that target point's normal (the major axis of its neighbours within 0.15 m;
+//! points whose neighbourhood is not line-like are skipped). Each iteration is one Gauss–Newton
+//! step on those residuals (3 × 3 normal equations, Cholesky, damped by 1e-6·(tr H + 1) so a
+//! corridor's free direction cannot blow up), not a closed-form point-to-point alignment:
+//! point-to-point pairs slide along walls. [`fitness`] measures point-to-point distances to the
+//! nearest target point (inlier ratio, RMSE) and returns the point-to-line information matrix
+//! for the covariance. Nearest neighbours come from a uniform bucket grid ([`PointGrid`],
+//! compressed rows, exact ring search); its buffers are reused from build to build, and
+//! nothing is allocated per iteration.
 
 use crate::params::PoseUpdatingParams;
 use mapkeeper_grid::{Point2, Pose2, wrap_angle};
@@ -40,6 +49,12 @@ impl PointGrid {
     /// Whether there is no target point.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
+    }
+
+    /// Heap bytes held (points, normals, buckets; reused from build to build).
+    pub fn heap_bytes(&self) -> usize {
+        (self.points.capacity() + self.normals.capacity()) * size_of::<Point2>()
+            + (self.starts.capacity() + self.scratch.capacity()) * size_of::<u32>()
     }
 
     /// Rebuilds the grid over `points` (non-finite points are ignored) with buckets of about

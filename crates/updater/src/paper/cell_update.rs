@@ -14,8 +14,8 @@
 //! when the robot sees into it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
-use crate::cell_buffers::{CellBuffers, RollingBuffer};
-use crate::changed_cells::Vote;
+use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
+use crate::support::votes::Vote;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
 
@@ -50,6 +50,17 @@ impl CellUpdater {
     /// touch the map's edge), the only cells border reconstruction may set occupied.
     pub fn new(base: &OccupancyGrid) -> Self {
         Self { flagged: Vec::new(), interior: enclosed_unknown(base) }
+    }
+
+    /// Heap bytes of the interior mask: one `bool` per cell of `M_{i-1}` (map-sized).
+    pub fn cache_bytes(&self) -> usize {
+        self.interior.capacity() * size_of::<bool>()
+    }
+
+    /// Heap bytes of the per-step scratch: the cells flagged in the last step (sized by the
+    /// cells touched by one step, reused).
+    pub fn scratch_bytes(&self) -> usize {
+        self.flagged.capacity() * size_of::<(u32, RollingBuffer)>()
     }
 
     /// Whether the unknown cell at `index` of `M_{i-1}` is an obstacle's interior.
