@@ -16,29 +16,29 @@
 #![warn(missing_docs)]
 
 mod error;
-pub mod figures;
-pub mod generator;
-pub mod mapping;
-pub mod merge;
-pub mod outline;
-pub mod recovery;
-pub mod report;
-pub mod run_events;
-pub mod runner;
+pub mod experiments;
+pub mod recording;
+pub mod results;
 pub mod sim_source;
-pub mod validation;
+pub mod worlds;
 
 pub use error::ScenarioError;
-pub use generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
-pub use mapkeeper_grid::StagedDir;
-pub use mapping::{InitialMap, MappingParams, build_initial_map};
-pub use recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
-pub use run_events::{Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample, TrackSample};
-pub use runner::{
+pub use experiments::ExperimentError;
+pub use experiments::recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
+pub use experiments::run_events::{
+    Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample, TrackSample,
+};
+pub use experiments::runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
 };
-pub use sim_source::SimSource;
-pub use validation::{
+pub use experiments::sweep::{SweepPlan, SweepSpec};
+pub use experiments::validation::{
     Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed, run_seed_in,
     summarise, summarise_records,
 };
+pub use mapkeeper_grid::StagedDir;
+pub use results::ResultsError;
+pub use sim_source::SimSource;
+pub use worlds::WorldsError;
+pub use worlds::generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
+pub use worlds::mapping::{InitialMap, MappingParams, build_initial_map};

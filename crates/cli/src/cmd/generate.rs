@@ -2,7 +2,7 @@
 //! manifest) that another project's tests can consume without this code.
 
 use anyhow::Context;
-use mapkeeper_scenario::report::write_scenario_set;
+use mapkeeper_scenario::results::report::write_scenario_set;
 use mapkeeper_scenario::{GeneratorParams, StagedDir, generate_worlds};
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;

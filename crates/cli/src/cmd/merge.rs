@@ -1,7 +1,7 @@
 //! `mapkeeper merge`: combine validation folders (shards of one sweep, or runs of other seeds
 //! with the same parameters) into one folder, as if one run had made it.
 
-use mapkeeper_scenario::merge::merge_dirs;
+use mapkeeper_scenario::results::merge::merge_dirs;
 use std::path::PathBuf;
 
 /// Arguments of `mapkeeper merge`.
@@ -33,7 +33,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.worlds,
         summary.preset
     );
-    super::validate::print_summary(&summary);
+    print!("{}", summary.table());
     println!("wrote {}", args.out.display());
     Ok(())
 }

@@ -1,9 +1,10 @@
 //! `mapkeeper recover`: the robustness experiments of the paper (§5.3.1, §5.4) and the
 //! pose-recovery stress suite; the wall clock is read here (not in the libraries).
 
-use anyhow::{Context, bail};
-use mapkeeper_scenario::recovery::report::write_recovery;
-use mapkeeper_scenario::recovery::{KidnapSummary, Progress};
+use super::load_params;
+use anyhow::Context;
+use mapkeeper_scenario::experiments::recovery::{KidnapSummary, Progress};
+use mapkeeper_scenario::results::recovery_report::write_recovery;
 use mapkeeper_scenario::{RecoveryParams, StagedDir, run_recovery};
 use mapkeeper_sim::World;
 use std::path::PathBuf;
@@ -75,21 +76,12 @@ fn print_kidnap(name: &str, k: &KidnapSummary) {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut params = match &args.params {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            toml::from_str::<RecoveryParams>(&text)
-                .with_context(|| format!("{}: not valid parameters", path.display()))?
-        }
-        None => RecoveryParams::default(),
-    };
+    let mut params = load_params(RecoveryParams::default(), args.params.as_deref(), RecoveryParams::validate)?;
     params.kidnap.trials = args.trials;
     if args.no_best_case {
         params.kidnap.best_case = false;
     }
-    if let Err(e) = params.validate() {
-        bail!("{e}");
-    }
+    params.validate().context("--trials / --no-best-case")?;
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
     let dir = StagedDir::create(&out, args.force)?;
     let cases = if params.kidnap.best_case { 2 } else { 1 };

@@ -18,8 +18,8 @@
 //! "(μ, σ)", clipped at 0); with several seeds a line is the mean over seeds of the per-world value and its
 //! band the range (min-max) over seeds.
 
-use crate::ScenarioError;
-use crate::validation::{ValidationRecord, WorldRow};
+use crate::experiments::validation::{ValidationRecord, WorldRow};
+use crate::results::ResultsError;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_plot::{LineChart, Series};
 
@@ -230,7 +230,7 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
 
 /// Writes every figure as `plots/<stem>.svg` and `plots/<stem>.png` ([`PNG_SIZE_PX`]) into
 /// `dir` and returns them.
-pub fn write_figures(dir: &StagedDir, record: &ValidationRecord) -> Result<Vec<Figure>, ScenarioError> {
+pub fn write_figures(dir: &StagedDir, record: &ValidationRecord) -> Result<Vec<Figure>, ResultsError> {
     let figs = figures(record);
     for f in &figs {
         f.chart.write_svg(&dir.file(&f.svg_path())?)?;

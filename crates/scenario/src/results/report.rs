@@ -2,16 +2,16 @@
 //!
 //! Validation folder: `runs.json` (the machine-readable record everything else is computed
 //! from), `summary.json`, `worlds.csv`, `report.md`, `edits.json`, `plots/` (the paper's
-//! Fig. 24-27, SVG and PNG, [`crate::figures`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
+//! Fig. 24-27, SVG and PNG, [`crate::results::figures`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
 //! (M_1, G_1 and the saved worlds) and `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
 //!
 //! Scenario set (`generate`): `manifest.json`, `route.toml`, `worlds/W_iii.toml`,
 //! `ground_truth/G_iii.{yaml,pgm}`. Same seed ⇒ byte-identical files.
 
-use crate::ScenarioError;
-use crate::figures::{Figure, write_figures};
-use crate::generator::WorldChain;
-use crate::validation::{SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
+use crate::experiments::validation::{SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
+use crate::results::ResultsError;
+use crate::results::figures::{Figure, write_figures};
+use crate::worlds::generator::WorldChain;
 use mapkeeper_grid::GridGeometry;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_grid::map_io::save_map;
@@ -119,17 +119,17 @@ pub fn worlds_csv(runs: &[SeedRecord]) -> String {
     s
 }
 
-fn json<T: Serialize>(what: &str, v: &T) -> Result<String, ScenarioError> {
+fn json<T: Serialize>(what: &str, v: &T) -> Result<String, ResultsError> {
     serde_json::to_string_pretty(v)
         .map(|mut s| {
             s.push('\n');
             s
         })
-        .map_err(|e| ScenarioError::Serialise { what: what.into(), message: e.to_string() })
+        .map_err(|e| ResultsError::Serialise { what: what.into(), message: e.to_string() })
 }
 
 /// `summary.json` text.
-pub fn summary_json(summary: &Summary) -> Result<String, ScenarioError> {
+pub fn summary_json(summary: &Summary) -> Result<String, ResultsError> {
     json("summary.json", summary)
 }
 
@@ -272,14 +272,14 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
 }
 
 /// `runs.json` text.
-pub fn runs_json(record: &ValidationRecord) -> Result<String, ScenarioError> {
+pub fn runs_json(record: &ValidationRecord) -> Result<String, ResultsError> {
     json("runs.json", record)
 }
 
 /// Writes everything of a validation folder that is computed from its record: `runs.json`,
 /// `summary.json`, `worlds.csv`, `edits.json`, the figures in `plots/` and `report.md`.
 /// Returns the summary.
-pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summary, ScenarioError> {
+pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summary, ResultsError> {
     let summary = record.summary();
     dir.write("runs.json", runs_json(record)?.as_bytes())?;
     dir.write("summary.json", summary_json(&summary)?.as_bytes())?;
@@ -293,11 +293,7 @@ pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summa
 
 /// Writes the whole validation folder into `dir`: [`write_results`] for `record` (made from
 /// `runs`), and each seed's maps and trajectories. Returns the summary.
-pub fn write_validation(
-    dir: &StagedDir,
-    runs: &[SeedRun],
-    record: &ValidationRecord,
-) -> Result<Summary, ScenarioError> {
+pub fn write_validation(dir: &StagedDir, runs: &[SeedRun], record: &ValidationRecord) -> Result<Summary, ResultsError> {
     let summary = write_results(dir, record)?;
     for r in runs {
         let base = format!("seed-{}", r.seed);
@@ -348,7 +344,7 @@ pub struct ManifestWorld {
     /// The ground-truth map YAML (its PGM beside it).
     pub ground_truth: String,
     /// The edits that made it from the previous world.
-    pub edits: Vec<crate::generator::Edit>,
+    pub edits: Vec<crate::worlds::generator::Edit>,
 }
 
 /// Writes a scenario set into `dir`.
@@ -358,7 +354,7 @@ pub fn write_scenario_set(
     route: &Route,
     seed: u64,
     geometry: &GridGeometry,
-) -> Result<Manifest, ScenarioError> {
+) -> Result<Manifest, ResultsError> {
     dir.write("route.toml", route.to_toml_string()?.as_bytes())?;
     let mut files = Vec::with_capacity(chain.worlds.len());
     for (k, w) in chain.worlds.iter().enumerate() {
@@ -380,4 +376,37 @@ pub fn write_scenario_set(
     };
     dir.write("manifest.json", json("manifest.json", &manifest)?.as_bytes())?;
     Ok(manifest)
+}
+
+impl Summary {
+    /// The summary table printed by `validate` and `merge`.
+    pub fn table(&self) -> String {
+        let mut t = String::new();
+        let (q, l, u) = (&self.map_quality, &self.localisation, &self.updater);
+        let m1 = &self.initial_map;
+        let _ = writeln!(t, "M_1/G_1: CC {:.2}  MS {:.2}  OPDF {:.2}", m1.cc, m1.ms, m1.opdf);
+        let _ = writeln!(t, "{:<10} {:>10} {:>10} {:>12}", "metric", "M_1/G_i", "M_i/G_i", "M_i better");
+        for (name, m) in [("CC %", &q.cc), ("MS %", &q.ms), ("OPDF %", &q.opdf)] {
+            let better = 100.0 * m.updated_better_fraction;
+            let _ = writeln!(t, "{name:<10} {:>10.2} {:>10.2} {better:>11.0}%", m.static_mean, m.updated_mean);
+        }
+        let _ = writeln!(t, "{:<10} {:>10} {:>10} {:>12}", "localiser", "mean err m", "max err m", "mean trace");
+        for (name, v) in [("on M_1", &l.static_map), ("on M_i-1", &l.updated_map)] {
+            let _ = writeln!(t, "{name:<10} {:>10.4} {:>10.4} {:>12.6}", v.mean_error_m, v.max_error_m, v.mean_trace);
+        }
+        let _ = writeln!(
+            t,
+            "updater: {} scans, Update {} Suspend {} Lost {}, median {:.0} us/scan, state ≤ {} B; collisions {}; routes done {}/{}",
+            u.processed_scans,
+            u.update,
+            u.suspend,
+            u.lost,
+            u.median_scan_us,
+            u.max_state_bytes,
+            self.collisions,
+            self.routes_completed,
+            self.rows
+        );
+        t
+    }
 }

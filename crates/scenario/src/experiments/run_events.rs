@@ -4,7 +4,7 @@
 //! (`RunnerParams::kidnap`, `RunnerParams::record_timeline`; used by the robustness
 //! experiments, `docs/recovery.md`). Each is a control or an observer of the harness loop.
 
-use crate::ScenarioError;
+use crate::experiments::ExperimentError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
 use mapkeeper_harness::{Control, HarnessError, Observer, RobotControl, Session, Step, StepReport};
 use mapkeeper_localiser::Covariance3;
@@ -33,11 +33,11 @@ pub struct Kidnap {
 }
 
 impl Kidnap {
-    pub(crate) fn validate(&self) -> Result<(), ScenarioError> {
+    pub(crate) fn validate(&self) -> Result<(), ExperimentError> {
         let finite = [self.at_s, self.dx_m, self.dy_m, self.dyaw_rad, self.sigma_xy_m, self.sigma_yaw_rad];
         if finite.iter().any(|v| !v.is_finite()) || self.at_s < 0.0 || self.sigma_xy_m < 0.0 || self.sigma_yaw_rad < 0.0
         {
-            return Err(ScenarioError::InvalidParam {
+            return Err(ExperimentError::InvalidParam {
                 name: "kidnap",
                 problem: format!("needs finite values, at_s and sigmas ≥ 0, got {self:?}"),
             });

@@ -25,7 +25,6 @@
 mod experiments;
 mod kidnap;
 mod params;
-pub mod report;
 
 pub use experiments::{
     DemoSummary, LostRun, LostSummary, MetricFractions, Table1Run, Table1Summary, VerdictCounts, VerdictSegment,
@@ -39,11 +38,11 @@ pub use params::{
     DemoParams, InitialMapKind, KidnapParams, LostParams, RecoveryParams, SuccessCriterion, Table1Params,
 };
 
-use crate::ScenarioError;
-use crate::generator::{WorldChain, generate_worlds};
-use crate::mapping::build_initial_map;
-use crate::run_events::{TimelineSample, TrackSample};
-use crate::validation::Scores;
+use crate::experiments::ExperimentError;
+use crate::experiments::run_events::{TimelineSample, TrackSample};
+use crate::experiments::validation::Scores;
+use crate::worlds::generator::{WorldChain, generate_worlds};
+use crate::worlds::mapping::build_initial_map;
 use mapkeeper_grid::metrics::{MetricParams, map_metrics};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sim::{Route, StartPose, World, ground_truth_map};
@@ -63,10 +62,10 @@ pub struct Setup {
 }
 
 impl Setup {
-    fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ScenarioError> {
+    fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ExperimentError> {
         match (self.chain.worlds.get(i.wrapping_sub(1)), self.ground_truth.get(i.wrapping_sub(1))) {
             (Some(w), Some(g)) => Ok((w, g)),
-            _ => Err(ScenarioError::InvalidParam {
+            _ => Err(ExperimentError::InvalidParam {
                 name: "world",
                 problem: format!("W_{i} was not generated ({} worlds)", self.chain.worlds.len()),
             }),
@@ -83,7 +82,7 @@ impl Setup {
 }
 
 /// Generates W_1 … W_K, builds M_1 in W_1 and rasterises G_1 … G_K.
-pub fn prepare(w1: &World, params: &RecoveryParams, seed: u64) -> Result<Setup, ScenarioError> {
+pub fn prepare(w1: &World, params: &RecoveryParams, seed: u64) -> Result<Setup, ExperimentError> {
     params.validate()?;
     let geometry = w1.default_map_geometry(params.resolution_m)?;
     let chain = generate_worlds(w1, &params.tour, params.worlds_needed(), seed, &params.generator)?;
@@ -184,7 +183,7 @@ pub(crate) fn mean_scores<'a>(v: impl Iterator<Item = &'a Scores> + Clone) -> Sc
     Scores { cc: mean(v.clone().map(|s| s.cc)), ms: mean(v.clone().map(|s| s.ms)), opdf: mean(v.map(|s| s.opdf)) }
 }
 
-pub(crate) fn scores(map: &OccupancyGrid, g: &OccupancyGrid, m: &MetricParams) -> Result<Scores, ScenarioError> {
+pub(crate) fn scores(map: &OccupancyGrid, g: &OccupancyGrid, m: &MetricParams) -> Result<Scores, ExperimentError> {
     Ok(Scores::from(map_metrics(map, g, m)?))
 }
 
@@ -244,7 +243,7 @@ pub fn run_recovery(
     params: &RecoveryParams,
     seed: u64,
     progress: &(dyn Fn(Progress) + Sync),
-) -> Result<RecoveryResults, ScenarioError> {
+) -> Result<RecoveryResults, ExperimentError> {
     params.validate()?;
     let setup = prepare(w1, params, seed)?;
     progress(Progress::Prepared);

@@ -1,9 +1,9 @@
 //! Parameters of the robustness experiments (`docs/recovery.md`).
 
-use crate::ScenarioError;
-use crate::generator::GeneratorParams;
-use crate::mapping::MappingParams;
-use crate::runner::RunnerParams;
+use crate::experiments::ExperimentError;
+use crate::experiments::runner::RunnerParams;
+use crate::worlds::generator::GeneratorParams;
+use crate::worlds::mapping::MappingParams;
 use mapkeeper_grid::metrics::MetricParams;
 use mapkeeper_sim::Route;
 use serde::{Deserialize, Serialize};
@@ -280,21 +280,21 @@ impl Default for RecoveryParams {
     }
 }
 
-fn invalid(name: &'static str, problem: String) -> ScenarioError {
-    ScenarioError::InvalidParam { name, problem }
+fn invalid(name: &'static str, problem: String) -> ExperimentError {
+    ExperimentError::InvalidParam { name, problem }
 }
 
-fn check_pos(name: &'static str, v: f64) -> Result<(), ScenarioError> {
+fn check_pos(name: &'static str, v: f64) -> Result<(), ExperimentError> {
     if v.is_finite() && v > 0.0 { Ok(()) } else { Err(invalid(name, format!("must be finite and > 0, got {v}"))) }
 }
 
-fn check_non_neg(name: &'static str, v: f64) -> Result<(), ScenarioError> {
+fn check_non_neg(name: &'static str, v: f64) -> Result<(), ExperimentError> {
     if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(invalid(name, format!("must be finite and ≥ 0, got {v}"))) }
 }
 
 impl RecoveryParams {
     /// Defaults with `trials` kidnap trials per map case.
-    pub fn with_trials(trials: usize) -> Result<Self, ScenarioError> {
+    pub fn with_trials(trials: usize) -> Result<Self, ExperimentError> {
         let mut p = Self::default();
         p.kidnap.trials = trials;
         p.validate()?;
@@ -307,7 +307,7 @@ impl RecoveryParams {
     }
 
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), ScenarioError> {
+    pub fn validate(&self) -> Result<(), ExperimentError> {
         check_pos("resolution_m", self.resolution_m)?;
         if self.exploration_route.waypoints.is_empty() || self.tour.waypoints.len() < 2 {
             return Err(invalid("tour", "routes need waypoints (the tour at least two)".into()));

@@ -1,9 +1,9 @@
 //! The files of a `recover` folder: `summary.json`, `kidnap_trials.csv`, `table1.csv`,
 //! `lost_robot.csv`, `demo_timeline.csv` and `report.md` (`docs/recovery.md`).
 
-use super::{KidnapSummary, KidnapTrial, LostRun, RecoveryResults, RecoverySummary, Table1Run};
-use crate::ScenarioError;
-use crate::run_events::TimelineSample;
+use crate::experiments::recovery::{KidnapSummary, KidnapTrial, LostRun, RecoveryResults, RecoverySummary, Table1Run};
+use crate::experiments::run_events::TimelineSample;
+use crate::results::ResultsError;
 use mapkeeper_grid::StagedDir;
 use std::fmt::Write as _;
 
@@ -171,13 +171,13 @@ pub fn timeline_csv(tl: &[TimelineSample]) -> String {
 }
 
 /// `summary.json` text.
-pub fn summary_json(summary: &RecoverySummary) -> Result<String, ScenarioError> {
+pub fn summary_json(summary: &RecoverySummary) -> Result<String, ResultsError> {
     serde_json::to_string_pretty(summary)
         .map(|mut s| {
             s.push('\n');
             s
         })
-        .map_err(|e| ScenarioError::Serialise { what: "summary.json".into(), message: e.to_string() })
+        .map_err(|e| ResultsError::Serialise { what: "summary.json".into(), message: e.to_string() })
 }
 
 fn opt_s(v: Option<f64>) -> String {
@@ -388,7 +388,7 @@ pub fn report_md(r: &RecoveryResults) -> String {
 }
 
 /// Writes the whole `recover` folder into `dir`.
-pub fn write_recovery(dir: &StagedDir, r: &RecoveryResults) -> Result<(), ScenarioError> {
+pub fn write_recovery(dir: &StagedDir, r: &RecoveryResults) -> Result<(), ResultsError> {
     dir.write("summary.json", summary_json(&r.summary)?.as_bytes())?;
     dir.write("kidnap_trials.csv", kidnap_csv(&r.trials).as_bytes())?;
     dir.write("table1.csv", table1_csv(&r.table1_runs).as_bytes())?;

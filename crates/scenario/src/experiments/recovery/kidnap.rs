@@ -2,9 +2,9 @@
 //! with the same run without the kidnap.
 
 use super::{KidnapParams, RecoveryParams, Setup, frac, mean, median, recovery_time, tour_from, with_start};
-use crate::ScenarioError;
-use crate::run_events::{Kidnap, TrackSample};
-use crate::runner::{NoClock, RunInputs, run_world};
+use crate::experiments::ExperimentError;
+use crate::experiments::run_events::{Kidnap, TrackSample};
+use crate::experiments::runner::{NoClock, RunInputs, run_world};
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use rand::RngExt;
@@ -231,7 +231,7 @@ pub fn run_kidnap_trial(
     seed: u64,
     trial: usize,
     case: MapCase,
-) -> Result<KidnapTrial, ScenarioError> {
+) -> Result<KidnapTrial, ExperimentError> {
     let k = &params.kidnap;
     let c = &params.success;
     let draw = draw_trial(params, seed, trial);
@@ -297,7 +297,7 @@ pub fn run_kidnap_suite(
     params: &RecoveryParams,
     seed: u64,
     progress: &(dyn Fn() + Sync),
-) -> Result<Vec<KidnapTrial>, ScenarioError> {
+) -> Result<Vec<KidnapTrial>, ExperimentError> {
     let mut cases = vec![MapCase::Stale];
     if params.kidnap.best_case {
         cases.push(MapCase::Best);

@@ -5,13 +5,15 @@
 //! and the robot resumes.
 //!
 //! The loop itself is `mapkeeper_harness::run`: this module builds the simulated source, the
-//! session and the experiment's controls and observers ([`crate::run_events`]), and assembles
+//! session and the experiment's controls and observers ([`crate::experiments::run_events`]), and assembles
 //! the [`WorldRun`]. No wall clock is read here: the time the updater spends per processed scan
 //! is measured only if the caller passes a [`Clock`] (the CLI and the benchmarks do);
 //! otherwise it is reported as 0 and the work counters (processed scans, beams) stand in for it.
 
-use crate::ScenarioError;
-use crate::run_events::{Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample};
+use crate::experiments::ExperimentError;
+use crate::experiments::run_events::{
+    Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample,
+};
 use crate::sim_source::SimSource;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_harness::{Baseline, Control, LocScore, Observer, PoseSource, Session, UpdaterWork};
@@ -91,12 +93,14 @@ impl Default for RunnerParams {
 
 impl RunnerParams {
     /// Checks every field (and the components' own parameters).
-    pub fn validate(&self) -> Result<(), ScenarioError> {
+    pub fn validate(&self) -> Result<(), ExperimentError> {
         self.sim.validate()?;
         self.filter.validate()?;
         self.updater.validate()?;
-        let bad =
-            |name, v: f64| ScenarioError::InvalidParam { name, problem: format!("must be finite and ≥ 0, got {v}") };
+        let bad = |name, v: f64| ExperimentError::InvalidParam {
+            name,
+            problem: format!("must be finite and ≥ 0, got {v}"),
+        };
         for (name, v) in [
             ("start_error_m", self.start_error_m),
             ("start_error_yaw_rad", self.start_error_yaw_rad),
@@ -216,7 +220,7 @@ pub fn run_world(
     seed: u64,
     label: &str,
     clock: &dyn Clock,
-) -> Result<WorldRun, ScenarioError> {
+) -> Result<WorldRun, ExperimentError> {
     params.validate()?;
     let RunInputs { world, route, prev_map, baseline_map } = *inputs;
     let mut sim = Simulator::new(world, params.sim.clone(), stream_seed(seed, &format!("sim/{label}")))?;

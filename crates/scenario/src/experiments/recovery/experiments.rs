@@ -1,10 +1,10 @@
 //! The localisation-check demo, the Table 1 analog and the lost robot.
 
 use super::{Setup, frac, mean, mean_scores, median, recovery_time, scores, tour_from, with_start};
-use crate::ScenarioError;
-use crate::run_events::{Kidnap, TimelineSample, TrackSample};
-use crate::runner::{NoClock, RunInputs, WorldRun, run_world};
-use crate::validation::Scores;
+use crate::experiments::ExperimentError;
+use crate::experiments::run_events::{Kidnap, TimelineSample, TrackSample};
+use crate::experiments::runner::{NoClock, RunInputs, WorldRun, run_world};
+use crate::experiments::validation::Scores;
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::{UpdaterParams, Verdict};
@@ -101,7 +101,7 @@ pub fn run_demo(
     setup: &Setup,
     params: &RecoveryParams,
     seed: u64,
-) -> Result<(DemoSummary, Vec<TimelineSample>), ScenarioError> {
+) -> Result<(DemoSummary, Vec<TimelineSample>), ExperimentError> {
     let d = &params.demo;
     let (world, _) = setup.world(d.world)?;
     let (start, route) = tour_from(&params.tour, d.tour_position_m, params.tour.length_m());
@@ -231,7 +231,7 @@ pub fn run_table1(
     setup: &Setup,
     params: &RecoveryParams,
     seed: u64,
-) -> Result<(Table1Summary, Vec<Table1Run>), ScenarioError> {
+) -> Result<(Table1Summary, Vec<Table1Run>), ExperimentError> {
     let t = &params.table1;
     let (world, g) = setup.world(t.world)?;
     let (start, route) = tour_from(&params.tour, t.tour_position_m, t.route_length_m);
@@ -361,7 +361,7 @@ pub fn run_lost_robot(
     setup: &Setup,
     params: &RecoveryParams,
     seed: u64,
-) -> Result<(LostSummary, Vec<LostRun>), ScenarioError> {
+) -> Result<(LostSummary, Vec<LostRun>), ExperimentError> {
     let l = &params.lost;
     let c = &params.success;
     let (world, g) = setup.world(l.world)?;

@@ -2,9 +2,12 @@
 //! scans along an exploration route at the simulator's true poses (people moving), standing in
 //! for the paper's SLAM Toolbox run by teleoperation.
 
-use crate::ScenarioError;
-use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
+use crate::sim_source::SimSource;
+use crate::worlds::WorldsError;
+use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::{GridGeometry, OccupancyGrid};
+use mapkeeper_harness::jobs::map::TruthMapper;
+use mapkeeper_harness::{NoClock, PoseSource, Session};
 use mapkeeper_sim::seeds::stream_seed;
 use mapkeeper_sim::{Route, SimParams, Simulator, World};
 use serde::{Deserialize, Serialize};
@@ -30,13 +33,13 @@ impl Default for MappingParams {
 
 impl MappingParams {
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), ScenarioError> {
+    pub fn validate(&self) -> Result<(), WorldsError> {
         self.mapper.validate()?;
         if self.scan_stride == 0 {
-            return Err(ScenarioError::InvalidParam { name: "scan_stride", problem: "must be ≥ 1".into() });
+            return Err(WorldsError::InvalidParam { name: "scan_stride", problem: "must be ≥ 1".into() });
         }
         if !(self.max_sim_time_s.is_finite() && self.max_sim_time_s > 0.0) {
-            return Err(ScenarioError::InvalidParam {
+            return Err(WorldsError::InvalidParam {
                 name: "max_sim_time_s",
                 problem: format!("must be a finite time > 0 s, got {}", self.max_sim_time_s),
             });
@@ -67,37 +70,18 @@ pub fn build_initial_map(
     sim_params: &SimParams,
     params: &MappingParams,
     seed: u64,
-) -> Result<InitialMap, ScenarioError> {
+) -> Result<InitialMap, WorldsError> {
     params.validate()?;
-    let mut mapper = LogOddsMapper::new(*geometry, params.mapper)?;
+    let mut mapper = TruthMapper::new(*geometry, params.mapper, u64::from(params.scan_stride), 0.0)?;
     let mut sim = Simulator::new(world, sim_params.clone(), stream_seed(seed, "mapping"))?;
     sim.set_route(route.points());
-    let max_ticks = (params.max_sim_time_s * 1e9 / sim_params.tick_ns as f64).ceil() as u64;
-    let mut scan_ticks = 0u64;
-    let mut scans = 0u64;
-    let mut route_done = false;
-    while sim.tick() < max_ticks {
-        let out = sim.step();
-        if !out.scans.is_empty() {
-            scan_ticks += 1;
-            if scan_ticks.is_multiple_of(u64::from(params.scan_stride)) {
-                let robot = out.truth.pose_in_map;
-                for scan in &out.scans {
-                    let lidar = scan.lidar_in_map(&robot);
-                    let origin = lidar.position();
-                    for i in 0..scan.len() {
-                        if let Some(hit) = scan.hit_point(&lidar, i) {
-                            mapper.integrate_ray(origin, hit, true);
-                        }
-                    }
-                    scans += 1;
-                }
-            }
-        }
-        if out.route_done {
-            route_done = true;
-            break;
-        }
-    }
-    Ok(InitialMap { map: mapper.to_grid(), scans, sim_time_s: sim.stamp_ns() as f64 / 1e9, route_done })
+    let mut source = SimSource::new(sim, params.max_sim_time_s);
+    let mut session = Session::new(PoseSource::None, None, None, &NoClock);
+    mapkeeper_harness::run(&mut source, &mut session, &mut [], &mut [&mut mapper])?;
+    Ok(InitialMap {
+        map: mapper.mapper.to_grid(),
+        scans: mapper.scans,
+        sim_time_s: source.sim_time_s(),
+        route_done: source.route_done(),
+    })
 }

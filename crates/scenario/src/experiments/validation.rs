@@ -6,10 +6,10 @@
 //! CC, MS and OPDF. The chain of worlds is sequential; seeds are independent, so the caller may
 //! run them in parallel and merge them in seed order ([`summarise`]).
 
-use crate::ScenarioError;
-use crate::generator::{Edit, GeneratorParams, generate_worlds};
-use crate::mapping::{MappingParams, build_initial_map};
-use crate::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
+use crate::experiments::ExperimentError;
+use crate::experiments::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
+use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
+use crate::worlds::mapping::{MappingParams, build_initial_map};
 use mapkeeper_grid::metrics::{MapMetrics, MetricParams, map_metrics};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2};
 use mapkeeper_sim::{Route, World, ground_truth_map};
@@ -63,7 +63,7 @@ impl Default for ValidationParams {
 impl ValidationParams {
     /// Defaults with `worlds` worlds and the updater preset `preset`.
     /// The saved worlds are W_2, W_50, W_100 and W_N, those ≤ N.
-    pub fn new(worlds: usize, preset: &str) -> Result<Self, ScenarioError> {
+    pub fn new(worlds: usize, preset: &str) -> Result<Self, ExperimentError> {
         let mut saved_worlds: Vec<usize> = [2, 50, 100, worlds].into_iter().filter(|&w| w <= worlds).collect();
         saved_worlds.sort_unstable();
         saved_worlds.dedup();
@@ -93,21 +93,21 @@ impl ValidationParams {
     }
 
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), ScenarioError> {
+    pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.worlds < 2 {
-            return Err(ScenarioError::InvalidParam {
+            return Err(ExperimentError::InvalidParam {
                 name: "worlds",
                 problem: format!("need at least 2 worlds, got {}", self.worlds),
             });
         }
         if !(self.resolution_m.is_finite() && self.resolution_m > 0.0) {
-            return Err(ScenarioError::InvalidParam {
+            return Err(ExperimentError::InvalidParam {
                 name: "resolution_m",
                 problem: format!("must be a finite length > 0 m, got {}", self.resolution_m),
             });
         }
         if self.route.waypoints.is_empty() || self.exploration_route.waypoints.is_empty() {
-            return Err(ScenarioError::InvalidParam { name: "route", problem: "routes need waypoints".into() });
+            return Err(ExperimentError::InvalidParam { name: "route", problem: "routes need waypoints".into() });
         }
         self.runner.validate()?;
         self.generator.validate()?;
@@ -311,6 +311,22 @@ impl Shard {
     }
 }
 
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// Parses `k/N` with 1 ≤ k ≤ N.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("expected k/N with 1 ≤ k ≤ N (e.g. 2/4), got '{s}'");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: u64 = k.trim().parse().map_err(|_| bad())?;
+        let count: u64 = n.trim().parse().map_err(|_| bad())?;
+        if index == 0 || count == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
 /// Value of `runs.json`'s `format` field.
 pub const RUNS_FORMAT: &str = "mapkeeper-validation-runs";
 /// Version of the `runs.json` layout.
@@ -387,7 +403,7 @@ pub fn run_seed(
     seed: u64,
     clock: &dyn Clock,
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<SeedRun, ScenarioError> {
+) -> Result<SeedRun, ExperimentError> {
     params.validate()?;
     let w1 = World::default_warehouse();
     run_seed_in(&w1, params, seed, clock, progress)
@@ -400,7 +416,7 @@ pub fn run_seed_in(
     seed: u64,
     clock: &dyn Clock,
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<SeedRun, ScenarioError> {
+) -> Result<SeedRun, ExperimentError> {
     params.validate()?;
     let geometry: GridGeometry = w1.default_map_geometry(params.resolution_m)?;
     let chain = generate_worlds(w1, &params.route, params.worlds, seed, &params.generator)?;

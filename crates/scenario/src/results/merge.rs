@@ -10,9 +10,9 @@
 //! format, world count, preset, any other parameter or timing mode differ, or when a seed
 //! appears twice.
 
-use crate::ScenarioError;
-use crate::report::write_results;
-use crate::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, Summary, ValidationRecord};
+use crate::experiments::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, Summary, ValidationRecord};
+use crate::results::ResultsError;
+use crate::results::report::write_results;
 use mapkeeper_grid::StagedDir;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -109,30 +109,30 @@ impl fmt::Display for MergeProblem {
     }
 }
 
-fn problem(dir: &Path, problem: MergeProblem) -> ScenarioError {
-    ScenarioError::Merge { dir: dir.to_path_buf(), problem }
+fn problem(dir: &Path, problem: MergeProblem) -> ResultsError {
+    ResultsError::Merge { dir: dir.to_path_buf(), problem }
 }
 
 /// Reads `dir/file` as text; a missing file is [`MergeProblem::MissingFile`].
-fn read_text(dir: &Path, file: &str) -> Result<String, ScenarioError> {
+fn read_text(dir: &Path, file: &str) -> Result<String, ResultsError> {
     let p = dir.join(file);
     std::fs::read_to_string(&p).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
             problem(dir, MergeProblem::MissingFile(file.into()))
         } else {
-            ScenarioError::Io { path: p, source: e }
+            ResultsError::Io { path: p, source: e }
         }
     })
 }
 
-fn bad_json(dir: &Path, file: &str, e: &serde_json::Error) -> ScenarioError {
+fn bad_json(dir: &Path, file: &str, e: &serde_json::Error) -> ResultsError {
     problem(dir, MergeProblem::BadJson { file: file.into(), message: e.to_string() })
 }
 
 /// Reads and checks a validation folder: `runs.json` (format, version, rows and edits complete
 /// for every seed, parameters valid, no seed twice), `summary.json` (equal to the summary
 /// recomputed from `runs.json`, but for the tool name) and a `seed-S/` folder per seed.
-pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ScenarioError> {
+pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ResultsError> {
     if !dir.is_dir() {
         return Err(problem(dir, if dir.exists() { MergeProblem::NotAFolder } else { MergeProblem::NoSuchFolder }));
     }
@@ -175,7 +175,7 @@ pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ScenarioError> {
 
 /// Every seed has rows for W_2 … W_N in order and N edit lists; parameters are valid; no seed
 /// twice.
-fn check_record(dir: &Path, r: &ValidationRecord) -> Result<(), ScenarioError> {
+fn check_record(dir: &Path, r: &ValidationRecord) -> Result<(), ResultsError> {
     let inconsistent = |m: String| problem(dir, MergeProblem::Inconsistent(format!("runs.json: {m}")));
     r.params.validate().map_err(|e| inconsistent(e.to_string()))?;
     if r.seeds.is_empty() {
@@ -235,12 +235,12 @@ fn first_difference(a: &serde_json::Value, b: &serde_json::Value, path: &str) ->
 /// Merges checked records (each with its folder, for the errors): same tool, parameters and
 /// timing mode, no seed twice. The result holds all seeds in seed order, the summed wall time
 /// and no shard.
-pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<ValidationRecord, ScenarioError> {
+pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<ValidationRecord, ResultsError> {
     let Some((_, first)) = inputs.first() else {
         return Err(problem(Path::new(""), MergeProblem::NoInput));
     };
     let first_params = serde_json::to_value(&first.params)
-        .map_err(|e| ScenarioError::Serialise { what: "params".into(), message: e.to_string() })?;
+        .map_err(|e| ResultsError::Serialise { what: "params".into(), message: e.to_string() })?;
     let mut owner: BTreeMap<u64, &Path> = BTreeMap::new();
     let mut seeds = Vec::new();
     let mut wall_time_s = 0.0;
@@ -262,7 +262,7 @@ pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<Validatio
         }
         if r.params != first.params {
             let p = serde_json::to_value(&r.params)
-                .map_err(|e| ScenarioError::Serialise { what: "params".into(), message: e.to_string() })?;
+                .map_err(|e| ResultsError::Serialise { what: "params".into(), message: e.to_string() })?;
             let field = first_difference(&first_params, &p, "").unwrap_or_default();
             return Err(problem(dir, MergeProblem::ParamsMismatch { field }));
         }
@@ -282,22 +282,22 @@ pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<Validatio
 }
 
 /// Copies the regular files under `from` to `rel` inside `out`, recursively.
-fn copy_tree(from: &Path, out: &StagedDir, rel: &str) -> Result<(), ScenarioError> {
+fn copy_tree(from: &Path, out: &StagedDir, rel: &str) -> Result<(), ResultsError> {
     let mut entries: Vec<_> = std::fs::read_dir(from)
-        .map_err(ScenarioError::io(from))?
+        .map_err(ResultsError::io(from))?
         .collect::<Result<_, _>>()
-        .map_err(ScenarioError::io(from))?;
+        .map_err(ResultsError::io(from))?;
     entries.sort_by_key(std::fs::DirEntry::file_name);
     for e in entries {
         let name = e.file_name().to_string_lossy().into_owned();
         let path = e.path();
         let sub = format!("{rel}/{name}");
-        let kind = e.file_type().map_err(ScenarioError::io(&path))?;
+        let kind = e.file_type().map_err(ResultsError::io(&path))?;
         if kind.is_dir() {
             copy_tree(&path, out, &sub)?;
         } else if kind.is_file() {
             let target = out.file(&sub)?;
-            std::fs::copy(&path, &target).map_err(ScenarioError::io(&path))?;
+            std::fs::copy(&path, &target).map_err(ResultsError::io(&path))?;
         }
     }
     Ok(())
@@ -308,9 +308,8 @@ fn copy_tree(from: &Path, out: &StagedDir, rel: &str) -> Result<(), ScenarioErro
 /// checks): `runs.json`, `summary.json`, `worlds.csv`, `edits.json`, `report.md` and the
 /// figures recomputed from the merged record, and every seed's `seed-S/` folder copied.
 /// Returns the merged record and its summary.
-pub fn merge_dirs(dirs: &[PathBuf], out: &Path, force: bool) -> Result<(ValidationRecord, Summary), ScenarioError> {
-    let inputs =
-        dirs.iter().map(|d| Ok((d.clone(), load_result_dir(d)?))).collect::<Result<Vec<_>, ScenarioError>>()?;
+pub fn merge_dirs(dirs: &[PathBuf], out: &Path, force: bool) -> Result<(ValidationRecord, Summary), ResultsError> {
+    let inputs = dirs.iter().map(|d| Ok((d.clone(), load_result_dir(d)?))).collect::<Result<Vec<_>, ResultsError>>()?;
     let merged = merge_records(&inputs)?;
     let staged = StagedDir::create(out, force)?;
     let summary = write_results(&staged, &merged)?;

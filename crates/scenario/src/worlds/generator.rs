@@ -10,8 +10,8 @@
 //! from every other movable item. People and the other robot are kept from W_1. All randomness
 //! comes from the one stream `stream_rng(seed, "generator")`.
 
-use crate::ScenarioError;
-use crate::outline::Outline;
+use crate::worlds::WorldsError;
+use crate::worlds::outline::Outline;
 use mapkeeper_grid::Point2;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_sim::{MovableItem, MovableKind, Route, Shape, World};
@@ -109,8 +109,8 @@ impl Default for GeneratorParams {
 
 impl GeneratorParams {
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), ScenarioError> {
-        let bad = |name, problem: String| Err(ScenarioError::InvalidParam { name, problem });
+    pub fn validate(&self) -> Result<(), WorldsError> {
+        let bad = |name, problem: String| Err(WorldsError::InvalidParam { name, problem });
         if self.min_edits_per_world < 1 || self.max_edits_per_world < self.min_edits_per_world {
             return bad(
                 "min_edits_per_world",
@@ -420,10 +420,10 @@ pub fn generate_worlds(
     count: usize,
     seed: u64,
     params: &GeneratorParams,
-) -> Result<WorldChain, ScenarioError> {
+) -> Result<WorldChain, WorldsError> {
     params.validate()?;
     if count == 0 {
-        return Err(ScenarioError::InvalidParam { name: "worlds", problem: "need at least one world".into() });
+        return Err(WorldsError::InvalidParam { name: "worlds", problem: "need at least one world".into() });
     }
     let ctx = Context::new(base, route);
     let mut rng = stream_rng(seed, "generator");
@@ -453,7 +453,7 @@ pub fn generate_worlds(
             }
         }
         if made.is_empty() {
-            return Err(ScenarioError::Generator(format!("no edit could be made for world {w}")));
+            return Err(WorldsError::Generator(format!("no edit could be made for world {w}")));
         }
         world.validate(&world.name.clone())?;
         worlds.push(world);

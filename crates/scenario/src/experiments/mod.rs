@@ -1,0 +1,43 @@
+//! The experiments: the closed loop of one world through the harness ([`runner`], with the
+//! simulator as a source, [`sim_source`], and the experiments' controls and observers,
+//! [`run_events`]), the hundred-world validation ([`validation`]) and the robustness
+//! experiments and kidnap suite ([`recovery`]).
+
+pub mod recovery;
+pub mod run_events;
+pub mod runner;
+pub mod sweep;
+pub mod validation;
+
+use crate::worlds::WorldsError;
+
+/// What can go wrong while running an experiment.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// A parameter is out of range (checked once, at construction).
+    #[error("parameter {name} is invalid: {problem}")]
+    InvalidParam {
+        /// The field.
+        name: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The worlds or M_1 could not be made.
+    #[error(transparent)]
+    Worlds(#[from] WorldsError),
+    /// The simulator refused a world or its parameters.
+    #[error(transparent)]
+    Sim(#[from] mapkeeper_sim::SimError),
+    /// The localiser refused its parameters or an initial pose.
+    #[error("localiser: {0}")]
+    Localiser(#[from] mapkeeper_localiser::LocaliserError),
+    /// The updater refused its parameters or map.
+    #[error("updater: {0}")]
+    Updater(#[from] mapkeeper_updater::UpdaterError),
+    /// The closed loop failed (a source, a control or the baseline's thread).
+    #[error("closed loop: {0}")]
+    Loop(#[from] mapkeeper_harness::HarnessError),
+    /// A map-quality metric failed (e.g. geometry mismatch).
+    #[error("metrics: {0}")]
+    Metrics(#[from] mapkeeper_grid::metrics::MetricsError),
+}

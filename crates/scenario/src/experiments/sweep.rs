@@ -1,0 +1,115 @@
+//! A sweep of the validation over (preset × seed) jobs, preset by preset, optionally one
+//! shard of it: the plan (checked before anything runs), the runs (in parallel on the
+//! caller's rayon pool, collected in job order), and the runs of one preset.
+
+use crate::experiments::ExperimentError;
+use crate::experiments::runner::Clock;
+use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
+use rayon::prelude::*;
+
+/// What to sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SweepSpec {
+    /// Updater presets, in order (one or more, no repeats).
+    pub presets: Vec<String>,
+    /// Worlds N per seed.
+    pub worlds: usize,
+    /// First seed.
+    pub first_seed: u64,
+    /// Number of seeds (≥ 1).
+    pub seeds: u64,
+    /// Drive only the first this-many metres of the route.
+    pub route_length_m: Option<f64>,
+    /// Run only this shard of the job list.
+    pub shard: Option<Shard>,
+}
+
+/// A checked sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SweepPlan {
+    /// The presets' names.
+    pub presets: Vec<String>,
+    /// Each preset's validation parameters.
+    pub params: Vec<ValidationParams>,
+    /// This shard's jobs: (preset index, seed), preset by preset.
+    pub jobs: Vec<(usize, u64)>,
+}
+
+fn invalid(name: &'static str, problem: String) -> ExperimentError {
+    ExperimentError::InvalidParam { name, problem }
+}
+
+impl SweepSpec {
+    /// Checks the spec and lists the jobs.
+    pub fn plan(&self) -> Result<SweepPlan, ExperimentError> {
+        if self.seeds == 0 {
+            return Err(invalid("seeds", "must be at least 1".into()));
+        }
+        let presets = &self.presets;
+        if presets.is_empty() || presets.iter().any(|p| p.trim().is_empty()) {
+            return Err(invalid("presets", "needs preset names separated by commas".into()));
+        }
+        if let Some((i, p)) = presets.iter().enumerate().find(|(i, p)| presets[..*i].contains(p)) {
+            return Err(invalid("presets", format!("names '{p}' twice (entry {})", i + 1)));
+        }
+        let mut params = Vec::with_capacity(presets.len());
+        for preset in presets {
+            let mut p = ValidationParams::new(self.worlds, preset)?;
+            if let Some(len) = self.route_length_m {
+                if !(len.is_finite() && len > 0.0) {
+                    return Err(invalid("route_length", format!("must be a positive number of metres, got {len}")));
+                }
+                p.route = ValidationParams::short_route(len);
+            }
+            params.push(p);
+        }
+        let seeds: Vec<u64> = (0..self.seeds).map(|k| self.first_seed.saturating_add(k)).collect();
+        if seeds.windows(2).any(|w| w[0] == w[1]) {
+            return Err(invalid(
+                "seeds",
+                format!("seed {} with {} seeds runs past the largest seed", self.first_seed, self.seeds),
+            ));
+        }
+        let all: Vec<(usize, u64)> = (0..presets.len()).flat_map(|p| seeds.iter().map(move |&s| (p, s))).collect();
+        let jobs = match self.shard {
+            None => all,
+            Some(sh) => sh.slice(&all).map(<[_]>::to_vec).ok_or_else(|| {
+                invalid(
+                    "shard",
+                    format!(
+                        "{}/{}: {} job(s) ({} preset(s) × {} seed(s)) cannot make {} non-empty shards",
+                        sh.index,
+                        sh.count,
+                        all.len(),
+                        presets.len(),
+                        self.seeds,
+                        sh.count
+                    ),
+                )
+            })?,
+        };
+        Ok(SweepPlan { presets: presets.clone(), params, jobs })
+    }
+}
+
+impl SweepPlan {
+    /// The presets (indices) that have jobs in this shard, in order.
+    pub fn groups(&self) -> Vec<usize> {
+        (0..self.presets.len()).filter(|&p| self.jobs.iter().any(|j| j.0 == p)).collect()
+    }
+
+    /// Worlds in all jobs (for progress).
+    pub fn total_worlds(&self) -> u64 {
+        self.jobs.iter().map(|&(p, _)| self.params[p].worlds as u64).sum()
+    }
+
+    /// Runs every job on the current rayon pool; `progress` is called after each world.
+    pub fn run(&self, clock: &dyn Clock, progress: &(dyn Fn(usize) + Sync)) -> Result<Vec<SeedRun>, ExperimentError> {
+        self.jobs.par_iter().map(|&(p, s)| run_seed(&self.params[p], s, clock, progress)).collect()
+    }
+
+    /// The runs of preset `p`, in job order.
+    pub fn runs_of(&self, p: usize, runs: &[SeedRun]) -> Vec<SeedRun> {
+        self.jobs.iter().zip(runs).filter(|(j, _)| j.0 == p).map(|(_, r)| r.clone()).collect()
+    }
+}

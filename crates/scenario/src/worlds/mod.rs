@@ -1,0 +1,32 @@
+//! World generation: the seeded evolution W_1 … W_N of a warehouse by edits to movable items
+//! in its storage areas ([`generator`], with the item outlines of [`outline`]), and the initial
+//! map M_1 built from an exploration run ([`mapping`]).
+
+pub mod generator;
+pub mod mapping;
+pub mod outline;
+
+/// What can go wrong while generating worlds or building M_1.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldsError {
+    /// A parameter is out of range (checked once, at construction).
+    #[error("parameter {name} is invalid: {problem}")]
+    InvalidParam {
+        /// The field.
+        name: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The simulator refused a world or its parameters.
+    #[error(transparent)]
+    Sim(#[from] mapkeeper_sim::SimError),
+    /// The mapper refused its parameters.
+    #[error("mapper: {0}")]
+    Mapper(#[from] mapkeeper_grid::mapper::MapperError),
+    /// The exploration run failed.
+    #[error("exploration run: {0}")]
+    Loop(#[from] mapkeeper_harness::HarnessError),
+    /// The generator could not make a valid world.
+    #[error("scenario generator: {0}")]
+    Generator(String),
+}
