@@ -1,5 +1,6 @@
 //! 2D lidars: parameters (with SICK S300 and Hokuyo UST-20LX presets), the noise model, and the
-//! ray-cast scan against the rapier world.
+//! scan, cast against the simulator's own exact geometry (`raycast.rs`, checked beam for beam
+//! against rapier's `cast_ray` in the tests).
 
 use crate::error::{SimError, params_err};
 use crate::raycast::{StaticCaster, cast_shape};

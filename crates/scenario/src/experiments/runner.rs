@@ -141,8 +141,13 @@ pub struct UpdaterCounts {
     pub beams: u64,
     /// Cell state changes applied to M_i.
     pub cell_changes: u64,
-    /// Largest `state_bytes()` seen.
+    /// Largest change state seen (`MapUpdater::change_state_bytes`: the sparse cell buffers;
+    /// grows with the touched cells).
     pub max_state_bytes: u64,
+    /// The updater's map-sized caches at the end of the run (`MapUpdater::cache_bytes`: both
+    /// grids, clearance field, interior mask, score grid; grows with the map, not the scans).
+    #[serde(default)]
+    pub cache_bytes: u64,
 }
 
 /// Everything one run produced.
@@ -299,6 +304,7 @@ impl UpdaterCounts {
             beams: work.beams,
             cell_changes: s.cell_changes,
             max_state_bytes: work.max_state_bytes,
+            cache_bytes: updater.cache_bytes() as u64,
         }
     }
 }

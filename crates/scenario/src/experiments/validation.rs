@@ -543,8 +543,13 @@ pub struct UpdaterSummary {
     /// Median updater time per processed scan over all worlds and seeds, microseconds (0 when
     /// not measured).
     pub median_scan_us: f64,
-    /// Largest updater state seen, bytes.
+    /// Largest updater change state seen (the sparse cell buffers, growing with the touched
+    /// cells), bytes.
     pub max_state_bytes: u64,
+    /// Largest map-sized cache of the updater (both grids, clearance field, interior mask,
+    /// score grid; growing with the map's area), bytes.
+    #[serde(default)]
+    pub max_cache_bytes: u64,
     /// Processed scans.
     pub processed_scans: u64,
     /// Valid beams processed.
@@ -665,6 +670,7 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         updater: UpdaterSummary {
             median_scan_us: histogram_median(&times),
             max_state_bytes: rows().map(|w| w.updater.max_state_bytes).max().unwrap_or(0),
+            max_cache_bytes: rows().map(|w| w.updater.cache_bytes).max().unwrap_or(0),
             processed_scans: sum_u(|u| u.processed),
             beams: sum_u(|u| u.beams),
             update: sum_u(|u| u.update),

@@ -12,7 +12,7 @@
 //! | `fig26a_trace` | Fig. 26 (a) | trace of the pose covariance P, mean ± std over the route |
 //! | `fig26b_lambda_max` | Fig. 26 (b) | λmax(P), mean ± std over the route |
 //! | `fig27a_updater_time` | Fig. 27 (a) (CPU) | median updater time per processed scan |
-//! | `fig27b_updater_memory` | Fig. 27 (b) (memory) | largest updater state |
+//! | `fig27b_updater_memory` | Fig. 27 (b) (memory) | largest updater change state (sparse cell buffers; the map-sized caches, constant per map, are in the caption) |
 //!
 //! With one seed the bands are the spread over the route within the world (the paper's
 //! "(μ, σ)", clipped at 0); with several seeds a line is the mean over seeds of the per-world value and its
@@ -216,13 +216,18 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
             .into(),
         chart: from_zero(LineChart::new(title, x1.as_str(), "time per scan (µs)").with_series(time).with_integer_x()),
     });
-    let chart = LineChart::new("Fig. 27 (b) Updater state memory (largest)", x1.as_str(), "state (kB)")
+    let chart = LineChart::new("Fig. 27 (b) Updater change state (largest)", x1.as_str(), "change state (kB)")
         .with_series(value_series("updater", record, &|w| w.updater.max_state_bytes as f64 / 1000.0));
     let chart = from_zero(chart);
     out.push(Figure {
         stem: "fig27b_updater_memory",
         paper: "Fig. 27 (b)",
-        caption: "Largest updater state (sparse cell buffers, kB), per world (the paper: node memory, MB)".into(),
+        caption: format!(
+            "Largest updater change state (sparse cell buffers, kB), per world; not shown: the map-sized caches \
+             (both grids, clearance field, interior mask, score grid), {:.0} kB, constant for a map (the paper: node \
+             memory, MB)",
+            record.seeds.iter().flat_map(|s| &s.rows).map(|w| w.updater.cache_bytes).max().unwrap_or(0) as f64 / 1000.0
+        ),
         chart: chart.with_integer_x(),
     });
     out
