@@ -5,6 +5,7 @@
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// An output could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -38,18 +39,67 @@ pub fn check_output_file(path: &Path, force: bool) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder (`.NAME.tmp`), synced,
-/// then renamed over `path`. On error the temporary file is removed.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let name = path.file_name().map_or_else(|| "file".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    let result = std::fs::File::create(&tmp)
-        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
-        .and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+/// A file being written atomically: the bytes go to a temporary file beside the target
+/// (`.NAME.tmp-PID-K`, unique per process and file), which [`AtomicFile::commit`] syncs and
+/// renames over the target. Dropped without a commit, the temporary is removed, so a reader
+/// never sees a half-written file under the target's name.
+#[derive(Debug)]
+pub struct AtomicFile {
+    path: PathBuf,
+    tmp: PathBuf,
+    file: std::fs::File,
+    committed: bool,
+}
+
+impl AtomicFile {
+    /// Starts writing `path`.
+    pub fn create(path: &Path) -> std::io::Result<Self> {
+        static COUNTER: AtomicU64 = AtomicU64::new(0);
+        let name = path.file_name().map_or_else(|| "file".into(), |n| n.to_string_lossy().into_owned());
+        let k = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp = path.with_file_name(format!(".{name}.tmp-{}-{k}", std::process::id()));
+        let file = std::fs::File::create(&tmp)?;
+        Ok(Self { path: path.to_path_buf(), tmp, file, committed: false })
     }
-    result
+
+    /// The file being written (the temporary).
+    pub fn file(&mut self) -> &mut std::fs::File {
+        &mut self.file
+    }
+
+    /// Syncs the temporary and renames it over the target.
+    pub fn commit(mut self) -> std::io::Result<()> {
+        self.file.sync_all()?;
+        std::fs::rename(&self.tmp, &self.path)?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl std::io::Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` through an [`AtomicFile`]: a temporary beside it, synced, then
+/// renamed over `path`. On error the temporary is removed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    f.file().write_all(bytes)?;
+    f.commit()
 }
 
 /// A result folder being written.
@@ -131,7 +181,13 @@ mod tests {
         write_atomic(&p, b"one").unwrap();
         write_atomic(&p, b"two").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"two");
-        assert!(!dir.join(".out.txt.tmp").exists());
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(left, vec![std::ffi::OsString::from("out.txt")], "no temporary left");
+        // Dropped before the commit: nothing under the target's name, no temporary.
+        let mut f = AtomicFile::create(&dir.join("half.txt")).unwrap();
+        f.file().write_all(b"half").unwrap();
+        drop(f);
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         assert!(write_atomic(&dir.join("missing/out.txt"), b"x").is_err());
     }
 }

@@ -256,8 +256,9 @@ enum Value {
     List(Vec<String>),
 }
 
-/// Parses the text of a map_server YAML file. `path` is used in error messages only.
-pub fn parse_map_yaml(text: &str, path: &Path) -> Result<MapYaml, MapIoError> {
+/// The `key: value` entries of a map_server YAML file (scalars, flow lists `[a, b]` and block
+/// lists), each with its line; no key twice.
+fn yaml_entries(text: &str, path: &Path) -> Result<Vec<(String, Value, usize)>, MapIoError> {
     let err = |line: usize, message: String| MapIoError::Yaml { path: path.to_path_buf(), line, message };
     let mut entries: Vec<(String, Value, usize)> = Vec::new();
     let lines: Vec<&str> = text.lines().collect();
@@ -320,7 +321,12 @@ pub fn parse_map_yaml(text: &str, path: &Path) -> Result<MapYaml, MapIoError> {
         };
         entries.push((key, value, line_no));
     }
+    Ok(entries)
+}
 
+/// Parses the text of a map_server YAML file. `path` is used in error messages only.
+pub fn parse_map_yaml(text: &str, path: &Path) -> Result<MapYaml, MapIoError> {
+    let entries = yaml_entries(text, path)?;
     let get = |key: &str| entries.iter().find(|(k, _, _)| k == key).map(|(_, v, _)| v);
     let bad = |key: &'static str, message: String| MapIoError::BadValue { path: path.to_path_buf(), key, message };
     let missing = |key: &'static str| MapIoError::MissingKey { path: path.to_path_buf(), key };

@@ -36,27 +36,10 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
     i
 }
 
-/// The heaviest cluster of the weighted particles. Weights need not be normalised; if they sum
-/// to zero (or are not finite) every particle counts equally. `poses` must not be empty.
-pub fn best_cluster(poses: &[Pose2], weights: &[f64], bins: &Bins, s: &mut ClusterScratch) -> ClusterStats {
-    let total: f64 = weights.iter().sum();
-    let uniform = !(total.is_finite() && total > 0.0);
-    let w = |i: usize| if uniform { 1.0 } else { weights.get(i).copied().unwrap_or(0.0) };
-
-    s.keyed.clear();
-    s.keyed.extend(poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)));
-    s.keyed.sort_unstable();
-    s.bins.clear();
-    for (j, &(key, _)) in s.keyed.iter().enumerate() {
-        match s.bins.last_mut() {
-            Some(last) if last.0 == key => last.2 = j as u32 + 1,
-            _ => s.bins.push((key, j as u32, j as u32 + 1)),
-        }
-    }
+/// Joins every occupied bin with its occupied neighbours (26-connected, yaw wrapping) in the
+/// union-find `s.parent`, the smaller index as root.
+fn link_neighbour_bins(s: &mut ClusterScratch, yaw_bins: i32) {
     let nb = s.bins.len();
-    s.parent.clear();
-    s.parent.extend(0..nb as u32);
-    let yaw_bins = bins.yaw_bins();
     for b in 0..nb {
         let (x, y, a) = s.bins[b].0;
         for dx in -1..=1 {
@@ -78,6 +61,29 @@ pub fn best_cluster(poses: &[Pose2], weights: &[f64], bins: &Bins, s: &mut Clust
             }
         }
     }
+}
+
+/// The heaviest cluster of the weighted particles. Weights need not be normalised; if they sum
+/// to zero (or are not finite) every particle counts equally. `poses` must not be empty.
+pub fn best_cluster(poses: &[Pose2], weights: &[f64], bins: &Bins, s: &mut ClusterScratch) -> ClusterStats {
+    let total: f64 = weights.iter().sum();
+    let uniform = !(total.is_finite() && total > 0.0);
+    let w = |i: usize| if uniform { 1.0 } else { weights.get(i).copied().unwrap_or(0.0) };
+
+    s.keyed.clear();
+    s.keyed.extend(poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)));
+    s.keyed.sort_unstable();
+    s.bins.clear();
+    for (j, &(key, _)) in s.keyed.iter().enumerate() {
+        match s.bins.last_mut() {
+            Some(last) if last.0 == key => last.2 = j as u32 + 1,
+            _ => s.bins.push((key, j as u32, j as u32 + 1)),
+        }
+    }
+    let nb = s.bins.len();
+    s.parent.clear();
+    s.parent.extend(0..nb as u32);
+    link_neighbour_bins(s, bins.yaw_bins());
     s.weight.clear();
     s.weight.resize(nb, 0.0);
     let mut clusters = 0;

@@ -139,6 +139,19 @@ impl LineChart {
         Ok(Rect { x0, x1, y0, y1 })
     }
 
+    /// The legend's corner: the one whose box covers the fewest points and bands.
+    fn legend_position(&self, r: Rect) -> SeriesLabelPosition {
+        let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0) as f64;
+        let legend_w = ((longest * 8.0 + 50.0) / 700.0).min(0.6);
+        let legend_h = ((self.series.len() as f64 * 20.0 + 12.0) / 400.0).min(0.9);
+        let items = self.series.iter().flat_map(|s| {
+            let pts = s.points.iter().filter(|p| finite(**p)).map(|&(x, y)| Rect { x0: x, x1: x, y0: y, y1: y });
+            let band = s.band.iter().flatten().filter(|b| finite_band(**b));
+            pts.chain(band.map(|&(x, lo, hi)| Rect { x0: x, x1: x, y0: lo.min(hi), y1: lo.max(hi) }))
+        });
+        render::legend_corner(r, legend_w, legend_h, items)
+    }
+
     fn draw(&self, root: &DrawingArea<AnyBackend<'_>, Shift>, scale: Scale, r: Rect) -> Result<(), DrawFail> {
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(root)
@@ -170,18 +183,8 @@ impl LineChart {
         for (i, s) in self.series.iter().enumerate() {
             let colour = crate::colour(i);
             // Band first, so that every line stays on top of every band.
-            if let Some(band) = &s.band {
-                for run in band.split(|b| !finite_band(*b)).filter(|run| run.len() >= 2) {
-                    let outline: Vec<(f64, f64)> = run
-                        .iter()
-                        .map(|&(x, _, hi)| (x, hi))
-                        .chain(run.iter().rev().map(|&(x, lo, _)| (x, lo)))
-                        .collect();
-                    let clipped = r.clip_polygon(&outline);
-                    if clipped.len() >= 3 {
-                        chart.draw_series(std::iter::once(Polygon::new(clipped, colour.mix(0.18).filled())))?;
-                    }
-                }
+            for clipped in band_polygons(s, r) {
+                chart.draw_series(std::iter::once(Polygon::new(clipped, colour.mix(0.18).filled())))?;
             }
         }
         for (i, s) in self.series.iter().enumerate() {
@@ -211,18 +214,10 @@ impl LineChart {
             render::draw_note(&chart.plotting_area().strip_coord_spec(), scale, "no data")?;
         }
         if !self.series.is_empty() {
-            let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0) as f64;
-            let legend_w = ((longest * 8.0 + 50.0) / 700.0).min(0.6);
-            let legend_h = ((self.series.len() as f64 * 20.0 + 12.0) / 400.0).min(0.9);
-            let items = self.series.iter().flat_map(|s| {
-                let pts = s.points.iter().filter(|p| finite(**p)).map(|&(x, y)| Rect { x0: x, x1: x, y0: y, y1: y });
-                let band = s.band.iter().flatten().filter(|b| finite_band(**b));
-                pts.chain(band.map(|&(x, lo, hi)| Rect { x0: x, x1: x, y0: lo.min(hi), y1: lo.max(hi) }))
-            });
             chart
                 .configure_series_labels()
                 .legend_area_size(scale.px(30.0))
-                .position(render::legend_corner(r, legend_w, legend_h, items))
+                .position(self.legend_position(r))
                 .label_font(scale.font(14.0))
                 .background_style(WHITE.mix(0.85))
                 .border_style(RGBColor(180, 180, 180))
@@ -231,6 +226,21 @@ impl LineChart {
         }
         Ok(())
     }
+}
+
+/// A series' band as polygons (each finite run of two or more points, upper edge then lower
+/// edge back), clipped to the plot.
+fn band_polygons(s: &Series, r: Rect) -> Vec<Vec<(f64, f64)>> {
+    let Some(band) = &s.band else { return Vec::new() };
+    band.split(|b| !finite_band(*b))
+        .filter(|run| run.len() >= 2)
+        .map(|run| {
+            let outline: Vec<(f64, f64)> =
+                run.iter().map(|&(x, _, hi)| (x, hi)).chain(run.iter().rev().map(|&(x, lo, _)| (x, lo))).collect();
+            r.clip_polygon(&outline)
+        })
+        .filter(|c| c.len() >= 3)
+        .collect()
 }
 
 /// How many integers lie in `[lo, hi]` (saturating; 0 for an empty or non-finite range).

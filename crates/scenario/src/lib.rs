@@ -20,6 +20,7 @@ pub mod experiments;
 pub mod recording;
 pub mod results;
 pub mod sim_source;
+pub mod stats;
 pub mod worlds;
 
 pub use error::ScenarioError;

@@ -5,7 +5,7 @@
 //! ("no return", NaN) are written as `null` and read back as `+inf`, since JSON has no infinity.
 
 use crate::scan::LaserScan;
-use mapkeeper_grid::Pose2;
+use mapkeeper_grid::{AtomicFile, Pose2};
 use serde::{Deserialize, Serialize};
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Read, Write};
@@ -287,17 +287,15 @@ impl SensorLog {
 /// interrupted run never leaves a log that looks complete.
 pub struct LogWriter {
     path: PathBuf,
-    tmp: PathBuf,
-    out: BufWriter<File>,
+    out: BufWriter<AtomicFile>,
 }
 
 impl LogWriter {
     /// Starts a log at `path` with `header`.
     pub fn create(path: &Path, header: &LogHeader) -> Result<Self, LogError> {
-        let tmp = tmp_path(path);
         let io = |source| LogError::Io { path: path.to_path_buf(), source };
-        let file = File::create(&tmp).map_err(io)?;
-        let mut w = Self { path: path.to_path_buf(), tmp, out: BufWriter::new(file) };
+        let file = AtomicFile::create(path).map_err(io)?;
+        let mut w = Self { path: path.to_path_buf(), out: BufWriter::new(file) };
         w.line(header)?;
         Ok(w)
     }
@@ -314,18 +312,12 @@ impl LogWriter {
     }
 
     /// Flushes and renames the file into place.
-    pub fn finish(mut self) -> Result<(), LogError> {
-        let io = |source| LogError::Io { path: self.path.clone(), source };
-        self.out.flush().map_err(io)?;
-        self.out.get_ref().sync_all().map_err(io)?;
-        std::fs::rename(&self.tmp, &self.path).map_err(io)
+    pub fn finish(self) -> Result<(), LogError> {
+        let path = self.path;
+        let io = |source| LogError::Io { path: path.clone(), source };
+        let file = self.out.into_inner().map_err(|e| io(e.into_error()))?;
+        file.commit().map_err(io)
     }
-}
-
-/// `dir/.name.tmp` beside `path`.
-fn tmp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map_or_else(|| "log".into(), |n| n.to_string_lossy().into_owned());
-    path.with_file_name(format!(".{name}.tmp"))
 }
 
 #[cfg(test)]

@@ -214,31 +214,9 @@ impl Follower {
         (u.0 * v.0 + u.1 * v.1) / (nu * nv) < corner_cos
     }
 
-    /// The desired motion from `pose`, given the robot's parameters and the agents nearby.
-    ///
-    /// The way is blocked when an agent is in the corridor ahead along the route, or along the
-    /// robot's current velocity (they differ while it cuts a corner), within the braking
-    /// distance plus `agent_lookahead_m`; an agent only in the `agent_clearance_m` band of that
-    /// corridor slows the robot to `creep_speed_mps`. An agent closer than the robot's bounding
-    /// circle plus its own radius and `agent_clearance_m` stops the robot from turning (its
-    /// corners sweep that circle).
-    pub(crate) fn desire(&mut self, pose: &Pose2, vel: (f64, f64), p: &RobotParams, agents: &[Obstruction]) -> Desire {
-        let speed = vel.0.hypot(vel.1);
-        let f = &p.follower;
-        let pos = pose.position();
-        // Advance past reached waypoints.
-        while !self.done() {
-            let last = self.target + 1 == self.route.len();
-            let tol = if last { f.goal_tolerance_m } else { f.waypoint_tolerance_m };
-            if pos.distance(self.route[self.target]) <= tol {
-                self.target += 1;
-            } else {
-                break;
-            }
-        }
-        if self.done() || self.stopped {
-            return Desire::default();
-        }
+    /// The look-ahead point on the route and the path distance to the next stop (a sharp
+    /// corner or the goal), from `pos`.
+    fn lookahead(&self, pos: Point2, f: &FollowerParams) -> (Point2, f64) {
         let corner_cos = f.corner_angle_deg.to_radians().cos();
         // Look-ahead point and path distance to the next stop (sharp corner or goal).
         let start =
@@ -266,6 +244,35 @@ impl Follower {
         }
         let stop_dist = pos.distance(start) + along;
         let look = look.unwrap_or(self.route[self.target]);
+        (look, stop_dist)
+    }
+
+    /// The desired motion from `pose`, given the robot's parameters and the agents nearby.
+    ///
+    /// The way is blocked when an agent is in the corridor ahead along the route, or along the
+    /// robot's current velocity (they differ while it cuts a corner), within the braking
+    /// distance plus `agent_lookahead_m`; an agent only in the `agent_clearance_m` band of that
+    /// corridor slows the robot to `creep_speed_mps`. An agent closer than the robot's bounding
+    /// circle plus its own radius and `agent_clearance_m` stops the robot from turning (its
+    /// corners sweep that circle).
+    pub(crate) fn desire(&mut self, pose: &Pose2, vel: (f64, f64), p: &RobotParams, agents: &[Obstruction]) -> Desire {
+        let speed = vel.0.hypot(vel.1);
+        let f = &p.follower;
+        let pos = pose.position();
+        // Advance past reached waypoints.
+        while !self.done() {
+            let last = self.target + 1 == self.route.len();
+            let tol = if last { f.goal_tolerance_m } else { f.waypoint_tolerance_m };
+            if pos.distance(self.route[self.target]) <= tol {
+                self.target += 1;
+            } else {
+                break;
+            }
+        }
+        if self.done() || self.stopped {
+            return Desire::default();
+        }
+        let (look, stop_dist) = self.lookahead(pos, f);
         let (dx, dy) = (look.x - pos.x, look.y - pos.y);
         let dist = dx.hypot(dy);
         if dist < 1e-9 {

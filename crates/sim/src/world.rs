@@ -313,6 +313,12 @@ impl World {
                 return Err(bad("robot_start".into(), "lies outside the interior".into()));
             }
         }
+        self.validate_entries(origin)
+    }
+
+    /// The entries' checks: unique non-empty ids, shapes, racks' posts, agents.
+    fn validate_entries(&self, origin: &str) -> Result<(), SimError> {
+        let bad = |entry: String, problem: String| SimError::Invalid { origin: origin.to_string(), entry, problem };
         let mut ids = BTreeSet::new();
         let mut check_id = |entry: &str, id: &str| -> Result<(), SimError> {
             if id.trim().is_empty() {
@@ -362,29 +368,38 @@ impl World {
         for (i, a) in self.agents.iter().enumerate() {
             let entry = format!("agents[{i}] \"{}\"", a.id);
             check_id(&entry, &a.id)?;
+            Self::agent_problem(a).map_or(Ok(()), |p| Err(bad(entry, p)))?;
+        }
+        Ok(())
+    }
+
+    /// What is wrong with an agent's footprint, speed or motion, if anything.
+    fn agent_problem(a: &Agent) -> Option<String> {
+        let problem = || -> Result<(), String> {
             if let Some(p) = a.footprint.problem() {
-                return Err(bad(entry, format!("footprint: {p}")));
+                return Err(format!("footprint: {p}"));
             }
             if !(a.speed_mps.is_finite() && a.speed_mps > 0.0 && a.speed_mps <= 5.0) {
-                return Err(bad(entry, format!("speed_mps must be in (0, 5] m/s, got {}", a.speed_mps)));
+                return Err(format!("speed_mps must be in (0, 5] m/s, got {}", a.speed_mps));
             }
             let w = a.motion.waypoints();
             if w.len() < 2 {
-                return Err(bad(entry, format!("motion needs at least 2 waypoints, got {}", w.len())));
+                return Err(format!("motion needs at least 2 waypoints, got {}", w.len()));
             }
             if let Some(p) = w.iter().find(|p| !p.is_finite()) {
-                return Err(bad(entry, format!("waypoint must be finite, got [{}, {}]", p.x, p.y)));
+                return Err(format!("waypoint must be finite, got [{}, {}]", p.x, p.y));
             }
             if w.windows(2).any(|s| s[0].distance(s[1]) < 1e-6) {
-                return Err(bad(entry, "two consecutive waypoints coincide".into()));
+                return Err("two consecutive waypoints coincide".into());
             }
             if let Motion::RandomWalk { max_pause_s, .. } = a.motion
                 && !(max_pause_s.is_finite() && max_pause_s >= 0.0)
             {
-                return Err(bad(entry, format!("max_pause_s must be finite and ≥ 0, got {max_pause_s}")));
+                return Err(format!("max_pause_s must be finite and ≥ 0, got {max_pause_s}"));
             }
-        }
-        Ok(())
+            Ok(())
+        };
+        problem().err()
     }
 
     /// Every static and movable obstacle (not agents) as shapes in the map frame, in file order:

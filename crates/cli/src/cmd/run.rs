@@ -3,6 +3,7 @@
 
 use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
+use mapkeeper_scenario::stats::median;
 use mapkeeper_scenario::{RunInputs, RunnerParams, StagedDir, run_world};
 use mapkeeper_sensor::tum::format_tum;
 use mapkeeper_sim::{Route, World};
@@ -77,9 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         dir.write("chain.tum", format_tum(&t.chain).as_bytes())?;
         dir.write("baseline.tum", format_tum(&t.baseline).as_bytes())?;
     }
-    let mut times = r.scan_times_us.clone();
-    times.sort_unstable();
-    let median = times.get(times.len() / 2).copied().unwrap_or(0);
+    let median = median(r.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
     let json = serde_json::json!({
         "seed": args.seed,
         "preset": args.preset,

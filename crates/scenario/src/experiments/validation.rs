@@ -8,6 +8,8 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
+pub use crate::stats::histogram_median;
+use crate::stats::{frac, mean, median};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
 use crate::worlds::mapping::{MappingParams, build_initial_map};
 use mapkeeper_grid::metrics::{MapMetrics, MetricParams, map_metrics};
@@ -264,27 +266,6 @@ fn merge_histograms<'a>(hs: impl Iterator<Item = &'a [(u32, u64)]>) -> Vec<(u32,
     out
 }
 
-/// The median of the values a histogram counts (the mean of the two middle ones for an even
-/// count), 0 for an empty histogram: the same as the median of the values themselves.
-pub fn histogram_median(h: &[(u32, u64)]) -> f64 {
-    let n: u64 = h.iter().map(|&(_, c)| c).sum();
-    if n == 0 {
-        return 0.0;
-    }
-    // The value at 0-based rank k.
-    let at = |k: u64| {
-        let mut seen = 0u64;
-        for &(v, c) in h {
-            seen += c;
-            if k < seen {
-                return f64::from(v);
-            }
-        }
-        0.0
-    };
-    if n % 2 == 1 { at(n / 2) } else { (at(n / 2 - 1) + at(n / 2)) / 2.0 }
-}
-
 /// Which slice of the seeds a run covers: shard `index` (1-based) of `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -387,15 +368,6 @@ fn tool_name() -> String {
     format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION"))
 }
 
-fn median_u32(v: &mut [u32]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_unstable();
-    let n = v.len();
-    if n % 2 == 1 { f64::from(v[n / 2]) } else { (f64::from(v[n / 2 - 1]) + f64::from(v[n / 2])) / 2.0 }
-}
-
 /// Runs the validation for one seed. `progress(i)` is called after each world i (and with 1
 /// after M_1).
 pub fn run_seed(
@@ -438,8 +410,8 @@ pub fn run_seed_in(
         let gi = ground_truth_map(world, &geometry);
         let static_map = Scores::from(map_metrics(&m1.map, &gi, &params.metrics)?);
         let updated_map = Scores::from(map_metrics(&run.map, &gi, &params.metrics)?);
-        let mut times = run.scan_times_us.clone();
-        let median_scan_us = median_u32(&mut times);
+        let times = run.scan_times_us.clone();
+        let median_scan_us = median(times.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
         all_times.extend_from_slice(&run.scan_times_us);
         rows.push(WorldRow {
             seed,
@@ -599,16 +571,6 @@ pub struct Summary {
     pub params: ValidationParams,
 }
 
-fn mean(v: impl Iterator<Item = f64>) -> f64 {
-    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    if n == 0 { 0.0 } else { s / n as f64 }
-}
-
-fn frac(v: impl Iterator<Item = bool>) -> f64 {
-    let (t, n) = v.fold((0usize, 0usize), |(t, n), b| (t + usize::from(b), n + 1));
-    if n == 0 { 0.0 } else { t as f64 / n as f64 }
-}
-
 fn metric_summary(runs: &[SeedRecord], f: impl Fn(&Scores) -> f64) -> MetricSummary {
     let rows = || runs.iter().flat_map(|r| r.rows.iter());
     let last = || runs.iter().filter_map(|r| r.rows.last());
@@ -696,11 +658,15 @@ mod tests {
         // A deterministic scramble of small integers with repeats.
         let times: Vec<u32> = (0..101u32).map(|k| (k * 37 + 11) % 23 + 100).collect();
         for n in [0, 1, 2, 3, 10, 51, 100, 101] {
-            let mut v = times[..n].to_vec();
+            let v = times[..n].to_vec();
             let h = scan_time_histogram(&v);
             assert!(h.windows(2).all(|w| w[0].0 < w[1].0), "values increase");
             assert_eq!(h.iter().map(|&(_, c)| c).sum::<u64>(), n as u64);
-            assert_eq!(histogram_median(&h), median_u32(&mut v), "n = {n}");
+            assert_eq!(
+                histogram_median(&h),
+                median(v.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0),
+                "n = {n}"
+            );
         }
         let (a, b) = times.split_at(40);
         let merged = merge_histograms([scan_time_histogram(a), scan_time_histogram(b)].iter().map(Vec::as_slice));

@@ -67,7 +67,7 @@ fn per_world(record: &ValidationRecord, f: &dyn Fn(&WorldRow) -> f64) -> Vec<(f6
 }
 
 fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
+    crate::stats::mean(v.iter().copied())
 }
 
 fn min_max(v: &[f64]) -> (f64, f64) {
@@ -152,8 +152,15 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
         let caption = format!("{title} ({y}) of the static map M_1 and the updated map M_i against G_i, per world");
         out.push(Figure { stem, paper, caption, chart: chart.with_integer_x() });
     }
+    out.extend(localisation_figures(record, &x1, &xs));
+    out.extend(updater_figures(record, &x1));
+    out
+}
 
-    let chart = LineChart::new("Fig. 25 (a) Position error", xs.as_str(), "position error (m)")
+/// Fig. 25-26: the localisers' errors and uncertainty.
+fn localisation_figures(record: &ValidationRecord, x1: &str, xs: &str) -> Vec<Figure> {
+    let mut out = Vec::new();
+    let chart = LineChart::new("Fig. 25 (a) Position error", xs, "position error (m)")
         .with_series(spread_series(ON_STATIC, record, &|w| w.loc_static.mean_error_m, &|w| {
             error_std(w.loc_static.mean_error_m, w.loc_static.rmse_m)
         }))
@@ -166,7 +173,7 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
         caption: "Mean position error of the localiser on M_1 and on M_{i-1}, per world".into(),
         chart: chart.with_integer_x(),
     });
-    let chart = LineChart::new("Fig. 25 (b) Largest position error", x1.as_str(), "max position error (m)")
+    let chart = LineChart::new("Fig. 25 (b) Largest position error", x1, "max position error (m)")
         .with_series(value_series(ON_STATIC, record, &|w| w.loc_static.max_error_m))
         .with_series(value_series(ON_UPDATED, record, &|w| w.loc_updated.max_error_m));
     out.push(Figure {
@@ -175,7 +182,7 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
         caption: "Largest position error of the localiser on M_1 and on M_{i-1}, per world".into(),
         chart: chart.with_integer_x(),
     });
-    let chart = LineChart::new("Fig. 26 (a) Trace of the pose covariance P", xs.as_str(), "trace(P) (m² + rad²)")
+    let chart = LineChart::new("Fig. 26 (a) Trace of the pose covariance P", xs, "trace(P) (m² + rad²)")
         .with_series(spread_series(ON_STATIC, record, &|w| w.loc_static.mean_trace, &|w| w.loc_static.std_trace))
         .with_series(spread_series(ON_UPDATED, record, &|w| w.loc_updated.mean_trace, &|w| w.loc_updated.std_trace));
     out.push(Figure {
@@ -184,7 +191,7 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
         caption: "Mean trace of the pose covariance P on M_1 and on M_{i-1}, per world".into(),
         chart: chart.with_integer_x(),
     });
-    let chart = LineChart::new("Fig. 26 (b) Largest eigenvalue of P", xs.as_str(), "λmax(P)")
+    let chart = LineChart::new("Fig. 26 (b) Largest eigenvalue of P", xs, "λmax(P)")
         .with_series(spread_series(ON_STATIC, record, &|w| w.loc_static.mean_lambda_max, &|w| {
             w.loc_static.std_lambda_max
         }))
@@ -197,7 +204,12 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
         caption: "Mean largest eigenvalue λmax of P on M_1 and on M_{i-1}, per world".into(),
         chart: chart.with_integer_x(),
     });
+    out
+}
 
+/// Fig. 27: the updater's time and memory.
+fn updater_figures(record: &ValidationRecord, x1: &str) -> Vec<Figure> {
+    let mut out = Vec::new();
     let (title, time) = if record.timing {
         ("Fig. 27 (a) Updater time per processed scan (median)", value_series("updater", record, &|w| w.median_scan_us))
     } else {
@@ -214,9 +226,9 @@ pub fn figures(record: &ValidationRecord) -> Vec<Figure> {
         paper: "Fig. 27 (a)",
         caption: "Median updater time per processed scan (µs, wall clock, one core), per world (the paper: CPU %)"
             .into(),
-        chart: from_zero(LineChart::new(title, x1.as_str(), "time per scan (µs)").with_series(time).with_integer_x()),
+        chart: from_zero(LineChart::new(title, x1, "time per scan (µs)").with_series(time).with_integer_x()),
     });
-    let chart = LineChart::new("Fig. 27 (b) Updater change state (largest)", x1.as_str(), "change state (kB)")
+    let chart = LineChart::new("Fig. 27 (b) Updater change state (largest)", x1, "change state (kB)")
         .with_series(value_series("updater", record, &|w| w.updater.max_state_bytes as f64 / 1000.0));
     let chart = from_zero(chart);
     out.push(Figure {

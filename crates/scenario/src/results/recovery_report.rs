@@ -280,6 +280,12 @@ pub fn report_md(r: &RecoveryResults) -> String {
     if d.segments.len() > 12 {
         let _ = writeln!(s, "| … {} more segments (`demo_timeline.csv`) | | | |", d.segments.len() - 12);
     }
+    table1_section(&mut s, sm);
+    lost_and_kidnap_sections(&mut s, sm);
+    s
+}
+
+fn table1_section(s: &mut String, sm: &RecoverySummary) {
     let t = &sm.table1;
     let _ = writeln!(s, "\n## Table 1 analog (§5.3.1, Fig. 17-20)\n");
     let _ = writeln!(
@@ -324,6 +330,10 @@ pub fn report_md(r: &RecoveryResults) -> String {
         "\n**Direction of Table 1 reproduced (check better on CC, MS and OPDF): {}.**\n",
         if t.direction_reproduced { "yes" } else { "no" }
     );
+}
+
+fn lost_and_kidnap_sections(s: &mut String, sm: &RecoverySummary) {
+    let p = &sm.params;
     let l = &sm.lost_robot;
     let _ = writeln!(s, "## Lost robot (§5.4, Fig. 28)\n");
     let _ = writeln!(
@@ -375,16 +385,15 @@ pub fn report_md(r: &RecoveryResults) -> String {
         k.recovery_window_s,
         p.success.hold_s
     );
-    kidnap_section(&mut s, &sm.kidnap, "Stale map (M_1 in W_k, Fig. 30)");
+    kidnap_section(s, &sm.kidnap, "Stale map (M_1 in W_k, Fig. 30)");
     if let Some(b) = &sm.kidnap_best_case {
-        kidnap_section(&mut s, b, "Best case (map = G_k of the current world, Fig. 29)");
+        kidnap_section(s, b, "Best case (map = G_k of the current world, Fig. 29)");
     }
     let _ = writeln!(
         s,
         "The paper shows one kidnap per case (Fig. 29, Fig. 30), recovered, with the map not corrupted; it gives \
          no rates."
     );
-    s
 }
 
 /// Writes the whole `recover` folder into `dir`.

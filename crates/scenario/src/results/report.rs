@@ -177,7 +177,6 @@ pub fn report_md(summary: &Summary) -> String {
 pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     let mut s = String::new();
     let q = &summary.map_quality;
-    let l = &summary.localisation;
     let _ = writeln!(s, "# Hundred-world validation: results beside the paper\n");
     let _ = writeln!(
         s,
@@ -215,6 +214,13 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     }
     let _ = writeln!(s);
     figure_lines(&mut s, figures, &["fig24a_cc", "fig24b_ms", "fig24c_opdf"]);
+    localisation_section(&mut s, summary, figures);
+    updater_section(&mut s, summary, figures);
+    s
+}
+
+fn localisation_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
+    let l = &summary.localisation;
     let _ = writeln!(s, "## Localisation (Fig. 25-26)\n");
     let _ = writeln!(
         s,
@@ -236,16 +242,19 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
         100.0 * l.updated_lower_trace_fraction
     );
     figure_lines(
-        &mut s,
+        s,
         figures,
         &["fig25a_position_error", "fig25b_max_position_error", "fig26a_trace", "fig26b_lambda_max"],
     );
+}
+
+fn updater_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
     let u = &summary.updater;
     let _ = writeln!(s, "## Updater (Fig. 27)\n");
     let _ = writeln!(
         s,
         "Processed scans {}, verdicts Update {} / Suspend {} / Lost {} (recovered {}), cell changes {}, largest \
-         state {} bytes, median time per processed scan {:.0} µs (0 = not measured). Robot collisions: {}. Routes \
+         change state {} bytes (map-sized caches: {} bytes), median time per processed scan {:.0} µs (0 = not measured). Robot collisions: {}. Routes \
          completed: {} of {}.\n",
         u.processed_scans,
         u.update,
@@ -254,12 +263,13 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
         u.recovered,
         u.cell_changes,
         u.max_state_bytes,
+        u.max_cache_bytes,
         u.median_scan_us,
         summary.collisions,
         summary.routes_completed,
         summary.rows
     );
-    figure_lines(&mut s, figures, &["fig27a_updater_time", "fig27b_updater_memory"]);
+    figure_lines(s, figures, &["fig27a_updater_time", "fig27b_updater_memory"]);
     let _ = writeln!(s, "## The paper's figures\n");
     s.push_str(PAPER_CLAIMS);
     let _ = writeln!(
@@ -268,7 +278,6 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
          project's log-odds mapper at true poses and G_i is rasterised exactly from the world's geometry (cells \
          inside obstacles unknown, as in the paper's Fig. 23). See `docs/evaluation.md`."
     );
-    s
 }
 
 /// `runs.json` text.

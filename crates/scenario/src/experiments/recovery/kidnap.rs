@@ -5,6 +5,7 @@ use super::{KidnapParams, RecoveryParams, Setup, frac, mean, median, recovery_ti
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{Kidnap, TrackSample};
 use crate::experiments::runner::{NoClock, RunInputs, run_world};
+use crate::stats::percentile;
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use rand::RngExt;
@@ -164,15 +165,6 @@ pub struct KidnapSummary {
     pub wrong_pose_recoveries: usize,
     /// Per displacement bin.
     pub by_bin: Vec<BinSummary>,
-}
-
-fn percentile(mut v: Vec<f64>, q: f64) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-    Some(v[k])
 }
 
 /// Summary of the trials of one case.

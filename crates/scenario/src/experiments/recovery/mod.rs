@@ -160,24 +160,7 @@ pub fn recovery_time(track: &[TrackSample], c: &SuccessCriterion) -> Option<f64>
     (last.t_s - t_r + period + 1e-9 >= c.hold_s).then_some(t_r)
 }
 
-pub(crate) fn mean(v: impl Iterator<Item = f64>) -> f64 {
-    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    if n == 0 { 0.0 } else { s / n as f64 }
-}
-
-pub(crate) fn frac(v: impl Iterator<Item = bool>) -> f64 {
-    let (t, n) = v.fold((0usize, 0usize), |(t, n), b| (t + usize::from(b), n + 1));
-    if n == 0 { 0.0 } else { t as f64 / n as f64 }
-}
-
-pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 { v[n / 2] } else { (v[n / 2 - 1] + v[n / 2]) / 2.0 })
-}
+pub(crate) use crate::stats::{frac, mean, median};
 
 pub(crate) fn mean_scores<'a>(v: impl Iterator<Item = &'a Scores> + Clone) -> Scores {
     Scores { cc: mean(v.clone().map(|s| s.cc)), ms: mean(v.clone().map(|s| s.ms)), opdf: mean(v.map(|s| s.opdf)) }
