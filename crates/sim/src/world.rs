@@ -384,6 +384,18 @@ impl World {
                 return Err(bad(entry, format!("max_pause_s must be finite and ≥ 0, got {max_pause_s}")));
             }
         }
+        // A robot starting inside an obstacle would be stuck in (or thrown out of) a collider.
+        let start = s.pose().position();
+        if let Some((r, _)) = self.obstacles().into_iter().find(|(_, shape)| shape.contains(start)) {
+            let (class, id) = match &r {
+                ObstacleRef::Wall(id) => ("wall", id),
+                ObstacleRef::Column(id) => ("column", id),
+                ObstacleRef::Rack(id) => ("a post or frame of rack", id),
+                ObstacleRef::Movable(id) => ("movable item", id),
+                ObstacleRef::Agent(id) => ("agent", id),
+            };
+            return Err(bad("robot_start".into(), format!("({}, {}) lies inside {class} \"{id}\"", s.x, s.y)));
+        }
         Ok(())
     }
 
