@@ -13,7 +13,7 @@
 //! complete.
 //!
 //! Every error names the file and the problem; nothing here panics on bad input, and image
-//! sizes are checked against [`MAX_CELLS`](crate::MAX_CELLS) before anything is allocated.
+//! sizes are checked against [`MAX_CELLS`] before anything is allocated.
 //!
 //! ```
 //! use mapkeeper_grid::{map_io, CellState, GridGeometry, OccupancyGrid, Pose2};
@@ -142,7 +142,29 @@ pub fn load_map(yaml_path: &Path) -> Result<OccupancyGrid, MapIoError> {
     })?;
     let meta = parse_map_yaml(&text, yaml_path)?;
     let image_path = resolve_image_path(yaml_path, &meta.image);
-    let image = read_image(&image_path)?;
+    let bytes = read_limited(&image_path, MAX_IMAGE_BYTES)?;
+    map_from_image_bytes(&meta, &bytes, &image_path, yaml_path)
+}
+
+/// Builds a map from a parsed YAML description and the bytes of its image (PGM or PNG, told by
+/// the magic number), as [`load_map`] does after reading the files; nothing is read from disk.
+/// `image_path` and `yaml_path` are used in error messages only.
+///
+/// ```
+/// use mapkeeper_grid::{CellState, map_io};
+/// use std::path::Path;
+/// let yaml = "image: m.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+/// let meta = map_io::parse_map_yaml(yaml, Path::new("m.yaml")).unwrap();
+/// let map = map_io::map_from_image_bytes(&meta, b"P2\n2 1\n255\n0 254\n", Path::new("m.pgm"), Path::new("m.yaml")).unwrap();
+/// assert_eq!(map.cells(), &[CellState::Occupied, CellState::Free]);
+/// ```
+pub fn map_from_image_bytes(
+    meta: &MapYaml,
+    image_bytes: &[u8],
+    image_path: &Path,
+    yaml_path: &Path,
+) -> Result<OccupancyGrid, MapIoError> {
+    let image = decode_image(image_bytes, image_path)?;
     let geometry = GridGeometry::new(image.width, image.height, meta.resolution_m, meta.origin)
         .map_err(|source| MapIoError::Geometry { path: yaml_path.to_path_buf(), source })?;
     let mut cells = vec![CellState::Unknown; geometry.len()];
@@ -151,7 +173,7 @@ pub fn load_map(yaml_path: &Path) -> Result<OccupancyGrid, MapIoError> {
         let iy = image.height - 1 - row;
         for ix in 0..image.width {
             let px = image.pixels[row * image.width + ix];
-            cells[iy * image.width + ix] = classify(px, &meta);
+            cells[iy * image.width + ix] = classify(px, meta);
         }
     }
     OccupancyGrid::from_cells(geometry, cells)
@@ -454,12 +476,11 @@ fn check_size(path: &Path, width: usize, height: usize) -> Result<(), MapIoError
     Ok(())
 }
 
-fn read_image(path: &Path) -> Result<Image, MapIoError> {
-    let bytes = read_limited(path, MAX_IMAGE_BYTES)?;
+fn decode_image(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(&bytes, path)
+        decode_png(bytes, path)
     } else if bytes.starts_with(b"P5") || bytes.starts_with(b"P2") {
-        decode_pgm(&bytes, path)
+        decode_pgm(bytes, path)
     } else {
         Err(MapIoError::Image {
             path: path.to_path_buf(),
@@ -509,6 +530,14 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
     }
     let n = width * height;
     let scale = |v: u64| -> u8 { ((v * 255 + maxval / 2) / maxval) as u8 };
+    if ascii && n > bytes.len().saturating_sub(pos).div_ceil(2) {
+        // Each P2 value takes a digit and a separator: a header promising more pixels than the
+        // file can hold is refused before the raster is allocated.
+        return Err(err(format!(
+            "truncated P2 data: {} bytes after the header cannot hold {width} × {height} pixel values",
+            bytes.len().saturating_sub(pos)
+        )));
+    }
     let mut pixels = Vec::with_capacity(n);
     if ascii {
         let mut p = pos;

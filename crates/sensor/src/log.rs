@@ -158,7 +158,16 @@ pub enum LogError {
 }
 
 fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> LogError {
-    LogError::Parse { path: path.to_path_buf(), line, message: message.into() }
+    LogError::Parse { path: path.to_path_buf(), line, message: one_line(message.into()) }
+}
+
+/// `message` with control characters escaped (`\n` as the two characters `\` `n`): serde_json
+/// quotes the offending key or string unescaped, and an error must stay on one line.
+fn one_line(message: String) -> String {
+    if !message.contains(char::is_control) {
+        return message;
+    }
+    message.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
 }
 
 /// A whole log in memory.
@@ -176,7 +185,19 @@ impl SensorLog {
     /// type.
     pub fn read(path: &Path) -> Result<SensorLog, LogError> {
         let file = File::open(path).map_err(|source| LogError::Io { path: path.to_path_buf(), source })?;
-        let mut reader = BufReader::new(file);
+        SensorLog::from_reader(BufReader::new(file), path)
+    }
+
+    /// Reads and validates a log from any buffered reader, as [`SensorLog::read`] does from a
+    /// file; `path` names the source in error messages only.
+    ///
+    /// ```
+    /// use mapkeeper_sensor::SensorLog;
+    /// let text = "{\"format\":\"mapkeeper-sensor-log\",\"version\":1}\nnot json\n";
+    /// let e = SensorLog::from_reader(text.as_bytes(), "in-memory.jsonl".as_ref()).unwrap_err();
+    /// assert!(e.to_string().starts_with("in-memory.jsonl:2:"), "{e}");
+    /// ```
+    pub fn from_reader<R: BufRead>(mut reader: R, path: &Path) -> Result<SensorLog, LogError> {
         let mut buf = Vec::new();
         let mut line_no = 0usize;
         let mut header = None;

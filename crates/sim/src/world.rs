@@ -370,6 +370,19 @@ impl World {
             check_id(&entry, &a.id)?;
             Self::agent_problem(a).map_or(Ok(()), |p| Err(bad(entry, p)))?;
         }
+        let s = &self.robot_start;
+        // A robot starting inside an obstacle would be stuck in (or thrown out of) a collider.
+        let start = s.pose().position();
+        if let Some((r, _)) = self.obstacles().into_iter().find(|(_, shape)| shape.contains(start)) {
+            let (class, id) = match &r {
+                ObstacleRef::Wall(id) => ("wall", id),
+                ObstacleRef::Column(id) => ("column", id),
+                ObstacleRef::Rack(id) => ("a post or frame of rack", id),
+                ObstacleRef::Movable(id) => ("movable item", id),
+                ObstacleRef::Agent(id) => ("agent", id),
+            };
+            return Err(bad("robot_start".into(), format!("({}, {}) lies inside {class} \"{id}\"", s.x, s.y)));
+        }
         Ok(())
     }
 

@@ -58,15 +58,20 @@ fn missing_file_names_the_file() {
     assert!(e.contains("/nonexistent/world.toml"), "{e}");
 }
 
-fn real_map() -> mapkeeper_grid::OccupancyGrid {
+/// The real AWS map from `../shared` beside the checkout (team reference data, never committed),
+/// or `None` after printing a note when `../shared` is absent.
+fn real_map() -> Option<mapkeeper_grid::OccupancyGrid> {
     let yaml = repo().join("../shared/maps/aws-small-warehouse/map.yaml");
-    let yaml = if yaml.exists() { yaml } else { PathBuf::from("/work/shared/maps/aws-small-warehouse/map.yaml") };
-    mapkeeper_grid::map_io::load_map(&yaml).expect("the real map loads")
+    if !yaml.is_file() {
+        eprintln!("skipping: ../shared not found (no {}); this test needs the real map", yaml.display());
+        return None;
+    }
+    Some(mapkeeper_grid::map_io::load_map(&yaml).expect("the real map loads"))
 }
 
 #[test]
 fn imported_real_map_uses_merged_rectangles() {
-    let map = real_map();
+    let Some(map) = real_map() else { return };
     let occupied = map.count(CellState::Occupied);
     let world = World::from_occupancy_grid(&map);
     let colliders = world.walls.len();
@@ -89,7 +94,7 @@ fn imported_real_map_uses_merged_rectangles() {
 fn default_ground_truth_resembles_the_real_map() {
     // Most occupied cells of the real map lie near an occupied cell of our G (the real map has
     // extra clutter and some offset; racks and stacks must line up).
-    let map = real_map();
+    let Some(map) = real_map() else { return };
     let world = World::default_warehouse();
     let g = ground_truth_map(&world, map.geometry());
     let df = DistanceField::to_occupied(&g, 2.0);

@@ -1,0 +1,185 @@
+#!/usr/bin/env python3
+"""Writes the seed corpus in fuzz/corpus/<target>/ from inputs the project itself writes
+(worlds/, crates/sim/tests/bad_worlds/, tests/data/bad_maps/, small hand-written files) and
+deterministic mutations of them. Never reads ../shared. Rerun: python3 fuzz/make_seed_corpus.py
+(files found by fuzzing are kept next to these under their libFuzzer hash names)."""
+import os, random, struct, zlib, pathlib
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+OUT = ROOT / "fuzz" / "corpus"
+rng = random.Random(16)
+
+def write(target, name, data):
+    d = OUT / target
+    d.mkdir(parents=True, exist_ok=True)
+    if isinstance(data, str):
+        data = data.encode()
+    (d / name).write_bytes(data)
+
+def mutations(data, n):
+    """n deterministic mutants: truncation, byte flips, deletion, duplication of a line."""
+    out = []
+    for k in range(n):
+        b = bytearray(data)
+        op = k % 4
+        if op == 0 and len(b) > 1:
+            b = b[: rng.randrange(1, len(b))]
+        elif op == 1 and b:
+            for _ in range(rng.randrange(1, 4)):
+                b[rng.randrange(len(b))] = rng.randrange(256)
+        elif op == 2 and len(b) > 2:
+            i = rng.randrange(len(b) - 1)
+            del b[i : i + rng.randrange(1, min(8, len(b) - i))]
+        else:
+            lines = bytes(b).split(b"\n")
+            i = rng.randrange(len(lines))
+            lines.insert(i, lines[i])
+            b = bytearray(b"\n".join(lines))
+        out.append(bytes(b))
+    return out
+
+def seed(target, name, data, n_mut):
+    write(target, f"{name}", data)
+    for i, m in enumerate(mutations(data if isinstance(data, bytes) else data.encode(), n_mut)):
+        write(target, f"{name}.mut{i}", m)
+
+# --- map YAML -------------------------------------------------------------------------------
+yaml = "image: m.pgm\nresolution: 0.5\norigin: [-1.0, -2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+seed("map_yaml", "valid.yaml", yaml, 6)
+seed("map_yaml", "block_list.yaml", "# CREATOR: map_saver\nimage: \"map #1.pgm\"  # the image\nresolution: 0.050000\norigin:\n  - -7.0\n  - -10.5\n  - 0\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n", 6)
+seed("map_yaml", "raw.yaml", yaml + "mode: raw\n", 2)
+seed("map_yaml", "scale.yaml", "image: 'p.png'\nresolution: 1e-2\norigin: [0,0,3.14]\nnegate: 1\nmode: scale\n---\n", 2)
+for p in sorted((ROOT / "tests/data/bad_maps").glob("*.yaml")):
+    write("map_yaml", "bad_" + p.name, p.read_bytes())
+
+# --- PGM ------------------------------------------------------------------------------------
+p5 = b"P5\n# comment\n4 3\n255\n" + bytes([0, 254, 205, 100, 255, 0, 0, 0, 10, 20, 30, 40])
+p5_16 = b"P5 2 2 1023\n" + struct.pack(">4H", 0, 1023, 512, 7)
+p2 = b"P2\n# a comment\n6 1\n255\n0 254 205 89 90 206\n"
+p2_max = b"P2\n3 2\n15\n0 15 7\n1 2 3"
+for name, data, n in [("p5.pgm", p5, 6), ("p5_16bit.pgm", p5_16, 4), ("p2.pgm", p2, 6), ("p2_maxval15.pgm", p2_max, 4)]:
+    seed("pgm", name, data, n)
+for p in sorted((ROOT / "tests/data/bad_maps").glob("*.pgm")):
+    data = p.read_bytes()
+    write("pgm", "bad_" + p.name, data[:4096])
+write("pgm", "huge_p2_header.pgm", b"P2\n16384 16384\n255\n0 1 2\n")
+
+# --- PNG ------------------------------------------------------------------------------------
+def chunk(kind, body):
+    return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
+
+def png(w, h, depth, color, rows, extra=b"", interlace=0):
+    ihdr = struct.pack(">IIBBBBB", w, h, depth, color, 0, 0, interlace)
+    raw = b"".join(b"\x00" + r for r in rows)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + extra + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+pngs = {
+    "gray8.png": png(3, 2, 8, 0, [bytes([0, 128, 255]), bytes([205, 254, 1])]),
+    "gray16.png": png(2, 1, 16, 0, [struct.pack(">2H", 0, 65535)]),
+    "gray1.png": png(8, 1, 1, 0, [bytes([0b10101010])]),
+    "rgb.png": png(2, 1, 8, 2, [bytes([0, 0, 0, 255, 255, 255])]),
+    "rgba.png": png(2, 1, 8, 6, [bytes([0, 0, 0, 255, 255, 255, 255, 0])]),
+    "gray_alpha.png": png(2, 1, 8, 4, [bytes([0, 255, 200, 0])]),
+    "palette.png": png(2, 1, 8, 3, [bytes([0, 1])], extra=chunk(b"PLTE", bytes([0, 0, 0, 255, 255, 255]))),
+    "interlaced.png": png(3, 3, 8, 0, [bytes([0, 1, 2])] * 3, interlace=1),
+    "zero_width.png": png(0, 1, 8, 0, [b""]),
+    "huge_header.png": png(100000, 100000, 8, 0, [bytes([0])]),
+}
+for name, data in pngs.items():
+    seed("png", name, data, 3)
+write("png", "bad_truncated.png", (ROOT / "tests/data/bad_maps/truncated.png").read_bytes()[:4096])
+
+# --- world TOML -----------------------------------------------------------------------------
+world = (ROOT / "worlds/warehouse.toml").read_text()
+seed("world_toml", "warehouse.toml", world, 8)
+small = """format = "mapkeeper-world"
+version = 1
+name = "room"
+robot_start = { x = 0.0, y = 0.0, yaw_deg = 0.0 }
+interior = { type = "rect", center = [0.0, 0.0], size = [4.0, 4.0] }
+[[walls]]
+id = "w"
+shape = { type = "rect", center = [0.0, 2.1], size = [4.4, 0.2] }
+[[movable]]
+id = "box-1"
+kind = "box"
+shape = { type = "polygon", points = [[1.0, 1.0], [1.5, 1.0], [1.5, 1.5]] }
+[[agents]]
+id = "person-1"
+kind = "person"
+footprint = { type = "circle", radius = 0.25 }
+speed_mps = 1.0
+motion = { type = "loop", waypoints = [[-1.0, -1.0], [1.0, -1.0]] }
+"""
+seed("world_toml", "small_room.toml", small, 8)
+for p in sorted((ROOT / "crates/sim/tests/bad_worlds").glob("*.toml")):
+    write("world_toml", "bad_" + p.name, p.read_bytes())
+
+# --- route TOML -----------------------------------------------------------------------------
+route = 'format = "mapkeeper-route"\nversion = 1\nwaypoints = [[-3.65, -2.3], [-3.65, 8.0], [3.0, 8.0], [3.0, -8.0]]\n'
+seed("route_toml", "route.toml", route, 8)
+for name, text in {
+    "empty_waypoints.toml": 'format = "mapkeeper-route"\nversion = 1\nwaypoints = []\n',
+    "nan_waypoint.toml": 'format = "mapkeeper-route"\nversion = 1\nwaypoints = [[nan, 0.0]]\n',
+    "wrong_version.toml": 'format = "mapkeeper-route"\nversion = 2\nwaypoints = [[0.0, 0.0]]\n',
+    "wrong_format.toml": 'format = "route"\nversion = 1\nwaypoints = [[0.0, 0.0]]\n',
+    "three_d.toml": 'format = "mapkeeper-route"\nversion = 1\nwaypoints = [[0.0, 0.0, 1.0]]\n',
+    "inf.toml": 'format = "mapkeeper-route"\nversion = 1\nwaypoints = [[inf, -inf]]\n',
+}.items():
+    write("route_toml", name, text)
+
+# --- parameter TOML (MapperParams, MetricParams, SimParams, FilterParams) --------------------
+params = {
+    "mapper.toml": "l_free = -0.7\nl_occ = 0.85\n",
+    "mapper_bad.toml": "l_free = 0.7\n",
+    "metric.toml": "unknown_value = 0.3\n",
+    "sim_tick.toml": "tick_ns = 20000000\n",
+    "sim_bad_tick.toml": "tick_ns = 0\n",
+    "sim_lidars.toml": "[[lidars]]\nmax_range_m = 30.0\n[[lidars]]\nmax_range_m = -1.0\n",
+    "sim_robot.toml": "[robot]\nmax_speed_mps = 1.0\n[odometry]\n[agents]\n",
+    "filter.toml": 'kinematics = "differential"\nmax_beams = 60\nmin_particles = 100\nmax_particles = 200\n',
+    "filter_bad.toml": "min_particles = 500\nmax_particles = 10\n",
+    "filter_motion.toml": "[motion]\nalpha1 = 0.2\nalpha2 = -1.0\n",
+    "filter_nan.toml": "sigma_hit_m = nan\n",
+    "filter_huge.toml": "max_particles = 18446744073709551615\n",
+    "unknown_key.toml": "bogus = 1\n",
+    "wrong_type.toml": 'kld_err = "small"\n',
+    "empty.toml": "",
+}
+for name, text in params.items():
+    seed("params_toml", name, text, 2)
+
+# --- sensor log (JSON Lines) ----------------------------------------------------------------
+header = '{"format":"mapkeeper-sensor-log","version":1,"meta":{"seed":3,"world":"room"}}'
+odom = '{"type":"odom","stamp_ns":20000000,"pose_in_odom":{"x":0.0,"y":0.00024,"yaw":0.0}}'
+truth = '{"type":"truth","stamp_ns":20000000,"pose_in_map":{"x":-3.65,"y":-2.29976,"yaw":1.5707963}}'
+scan = ('{"type":"scan","stamp_ns":20000000,"lidar_id":0,"lidar_in_robot":{"x":0.2865,"y":-0.2089,"yaw":-0.785},'
+        '"angle_min_rad":-2.356,"angle_increment_rad":0.0087,"range_min_m":0.1,"range_max_m":30.0,"ranges_m":[3.41,3.42,null,0.0,-1.0]}')
+log = "\n".join([header, odom, truth, scan]) + "\n"
+seed("sensor_log", "log.jsonl", log, 10)
+for name, text in {
+    "header_only.jsonl": header + "\n",
+    "empty.jsonl": "",
+    "wrong_version.jsonl": header.replace('"version":1', '"version":2') + "\n",
+    "backwards.jsonl": "\n".join([header, odom, odom.replace("20000000", "10")]) + "\n",
+    "nan_pose.jsonl": "\n".join([header, odom.replace("0.00024", "1e999")]) + "\n",
+    "zero_increment.jsonl": "\n".join([header, scan.replace("0.0087", "0.0")]) + "\n",
+    "huge_angle.jsonl": "\n".join([header, scan.replace("0.0087", "1e300")]) + "\n",
+    "negative_stamp.jsonl": "\n".join([header, odom.replace("20000000", "-1")]) + "\n",
+    "not_utf8.jsonl": (header + "\n").encode() + b"\xff\xfe\n",
+    "unknown_type.jsonl": header + '\n{"type":"imu","stamp_ns":0}\n',
+}.items():
+    write("sensor_log", name, text)
+
+# --- TUM ------------------------------------------------------------------------------------
+tum = "# t x y z qx qy qz qw\n0.02 -3.65 -2.3 0 0 0 0.7071068 0.7071068\n0.04 -3.65 -2.29 0 0 0 0.7071068 0.7071068\n"
+seed("tum", "truth.tum", tum, 10)
+for name, text in {
+    "backwards.tum": "1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n",
+    "not_planar.tum": "0 0 0 0 0.7 0 0 0.7\n",
+    "short.tum": "0 0 0\n",
+    "huge_time.tum": "1e300 0 0 0 0 0 0 1\n",
+    "nan.tum": "0 nan 0 0 0 0 0 1\n",
+    "zero_quat.tum": "0 0 0 0 0 0 0 0\n",
+}.items():
+    write("tum", name, text)
