@@ -35,7 +35,7 @@ pub struct Args {
     #[arg(long, default_value = "paper")]
     pub preset: String,
     /// A sweep over several presets (comma-separated, e.g. paper,always-update): jobs are
-    /// (preset × seed); each preset's results go to OUT/<preset>/.
+    /// (preset × seed); each preset's results go to `OUT/<preset>/`.
     #[arg(long, value_name = "P1,P2,…", conflicts_with = "preset", value_delimiter = ',')]
     pub presets: Option<Vec<String>>,
     /// Output folder.
@@ -71,7 +71,7 @@ fn default_out(seed: u64, worlds: usize, shard: Option<Shard>) -> PathBuf {
     }
 }
 
-/// The output folders, checked before anything runs: OUT itself, or OUT/<preset> per preset
+/// The output folders, checked before anything runs: OUT itself, or `OUT/<preset>` per preset
 /// of a sweep.
 fn output_dirs(out: &Path, plan: &SweepPlan, sweep: bool, force: bool) -> anyhow::Result<Vec<StagedDir>> {
     if !sweep {

@@ -1,5 +1,5 @@
 //! The experiments: the closed loop of one world through the harness ([`runner`], with the
-//! simulator as a source, [`sim_source`], and the experiments' controls and observers,
+//! simulator as a source, [`crate::sim_source`], and the experiments' controls and observers,
 //! [`run_events`]), the hundred-world validation ([`validation`]) and the robustness
 //! experiments and kidnap suite ([`recovery`]).
 
