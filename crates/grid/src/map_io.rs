@@ -13,7 +13,7 @@
 //! complete.
 //!
 //! Every error names the file and the problem; nothing here panics on bad input, and image
-//! sizes are checked against [`MAX_CELLS`](crate::MAX_CELLS) before anything is allocated.
+//! sizes are checked against [`MAX_CELLS`] before anything is allocated.
 //!
 //! ```
 //! use mapkeeper_grid::{map_io, CellState, GridGeometry, OccupancyGrid, Pose2};
