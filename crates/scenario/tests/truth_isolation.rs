@@ -1,6 +1,8 @@
 //! Truth never reaches an estimator: the same simulated run with its truth replaced by garbage
 //! (random poses, NaN distances) gives bit-identical estimates, verdicts, recoveries and maps.
 
+#![allow(clippy::unwrap_used)]
+
 use mapkeeper_grid::Pose2;
 use mapkeeper_harness::{
     Control, NoClock, Observer, PoseSource, RobotControl, SensorSource, Session, SourceError, Step, StepReport, Truth,
