@@ -39,6 +39,13 @@ impl Point2 {
     }
 }
 
+impl From<[f64; 2]> for Point2 {
+    /// `[x, y]`.
+    fn from([x, y]: [f64; 2]) -> Self {
+        Self { x, y }
+    }
+}
+
 /// A rigid transform in the plane: translation `(x, y)` in metres, rotation `yaw` in radians.
 ///
 /// ```

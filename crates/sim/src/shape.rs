@@ -1,6 +1,7 @@
 //! Plane shapes of the world file: oriented rectangles, circles and simple polygons, with the
 //! exact geometry the ground truth and the physics need.
 
+use mapkeeper_grid::geometry::polygon_contains;
 use mapkeeper_grid::{Point2, Pose2};
 use serde::{Deserialize, Serialize};
 
@@ -218,20 +219,8 @@ impl Shape {
                 local.x.abs() < size[0] / 2.0 && local.y.abs() < size[1] / 2.0
             }
             Shape::Circle { center, radius } => p.distance_sq(Point2::new(center[0], center[1])) < radius * radius,
-            Shape::Polygon { points } => {
-                // Even-odd rule.
-                let n = points.len();
-                let mut inside = false;
-                let mut j = n.wrapping_sub(1);
-                for i in 0..n {
-                    let (a, b) = (points[i], points[j]);
-                    if (a[1] > p.y) != (b[1] > p.y) && p.x < (b[0] - a[0]) * (p.y - a[1]) / (b[1] - a[1]) + a[0] {
-                        inside = !inside;
-                    }
-                    j = i;
-                }
-                inside
-            }
+            // Even-odd rule.
+            Shape::Polygon { points } => polygon_contains(points, p),
         }
     }
 

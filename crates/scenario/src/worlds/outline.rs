@@ -104,22 +104,9 @@ impl Outline {
     }
 }
 
-/// Even-odd point-in-polygon test.
+/// Even-odd point-in-polygon test; fewer than three vertices hold nothing.
 fn polygon_contains(v: &[Point2], p: Point2) -> bool {
-    let n = v.len();
-    if n < 3 {
-        return false;
-    }
-    let mut inside = false;
-    let mut j = n - 1;
-    for i in 0..n {
-        let (a, b) = (v[i], v[j]);
-        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
+    v.len() >= 3 && mapkeeper_grid::geometry::polygon_contains(v, p)
 }
 
 fn orient(a: Point2, b: Point2, c: Point2) -> f64 {

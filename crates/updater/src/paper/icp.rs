@@ -12,6 +12,7 @@
 //! nothing is allocated per iteration.
 
 use crate::params::PoseUpdatingParams;
+use mapkeeper_grid::buckets::PointBuckets;
 use mapkeeper_grid::{Point2, Pose2, wrap_angle};
 use nalgebra::{Matrix3, Vector3};
 
@@ -21,18 +22,13 @@ const MAX_BUCKETS: usize = 1 << 20;
 /// Radius of the neighbourhood whose spread gives a target point's normal, metres.
 const NORMAL_RADIUS_M: f64 = 0.15;
 
-/// Target points sorted into square buckets (compressed rows: `starts[b]..starts[b+1]`).
+/// Target points sorted into square buckets ([`PointBuckets`], compressed rows), with each
+/// point's normal.
 #[derive(Clone, Debug, Default)]
 pub struct PointGrid {
-    x0: f64,
-    y0: f64,
-    cell_m: f64,
-    width: usize,
-    height: usize,
-    starts: Vec<u32>,
-    points: Vec<Point2>,
+    buckets: PointBuckets,
+    /// Normal of `buckets.points()[k]`.
     normals: Vec<Point2>,
-    scratch: Vec<u32>,
 }
 
 impl PointGrid {
@@ -43,94 +39,52 @@ impl PointGrid {
 
     /// Number of target points.
     pub fn len(&self) -> usize {
-        self.points.len()
+        self.buckets.len()
     }
 
     /// Whether there is no target point.
     pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
+        self.buckets.is_empty()
     }
 
     /// Heap bytes held (points, normals, buckets; reused from build to build).
     pub fn heap_bytes(&self) -> usize {
-        (self.points.capacity() + self.normals.capacity()) * size_of::<Point2>()
-            + (self.starts.capacity() + self.scratch.capacity()) * size_of::<u32>()
+        self.buckets.heap_bytes() + self.normals.capacity() * size_of::<Point2>()
     }
 
     /// Rebuilds the grid over `points` (non-finite points are ignored) with buckets of about
     /// `cell_m` (a query radius up to `cell_m` looks at 3 × 3 buckets at most).
     pub fn build(&mut self, points: &[Point2], cell_m: f64) {
-        self.points.clear();
         self.normals.clear();
-        self.starts.clear();
-        let finite = points.iter().filter(|p| p.is_finite());
-        let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for p in finite.clone() {
-            x0 = x0.min(p.x);
-            y0 = y0.min(p.y);
-            x1 = x1.max(p.x);
-            y1 = y1.max(p.y);
-        }
-        if !x0.is_finite() {
-            self.width = 0;
-            self.height = 0;
-            return;
-        }
-        let mut cell = cell_m.max(1e-3);
-        loop {
-            let w = ((x1 - x0) / cell).floor() as usize + 1;
-            let h = ((y1 - y0) / cell).floor() as usize + 1;
-            if w.saturating_mul(h) <= MAX_BUCKETS {
-                self.width = w;
-                self.height = h;
-                break;
+        // The bucket side doubles until the grid has at most MAX_BUCKETS buckets.
+        self.buckets.rebuild(points, |lo, hi| {
+            let mut cell = cell_m.max(1e-3);
+            loop {
+                let w = ((hi.x - lo.x) / cell).floor() as usize + 1;
+                let h = ((hi.y - lo.y) / cell).floor() as usize + 1;
+                if w.saturating_mul(h) <= MAX_BUCKETS {
+                    return cell;
+                }
+                cell *= 2.0;
             }
-            cell *= 2.0;
-        }
-        (self.x0, self.y0, self.cell_m) = (x0, y0, cell);
-        let n_buckets = self.width * self.height;
-        self.starts.resize(n_buckets + 1, 0);
-        self.scratch.clear();
-        for p in finite.clone() {
-            let b = self.bucket_of(*p);
-            self.scratch.push(b as u32);
-            self.starts[b + 1] += 1;
-        }
-        for b in 0..n_buckets {
-            self.starts[b + 1] += self.starts[b];
-        }
-        self.points.resize(self.scratch.len(), Point2::default());
-        let mut fill: Vec<u32> = self.starts[..n_buckets].to_vec();
-        for (p, &b) in finite.zip(&self.scratch) {
-            let slot = &mut fill[b as usize];
-            self.points[*slot as usize] = *p;
-            *slot += 1;
-        }
-        let radius = NORMAL_RADIUS_M.min(self.cell_m);
-        self.normals.clear();
-        for k in 0..self.points.len() {
+        });
+        let radius = NORMAL_RADIUS_M.min(self.buckets.side_m());
+        for k in 0..self.buckets.len() {
             let n = self.estimate_normal(k, radius);
             self.normals.push(n);
         }
     }
 
-    #[inline]
-    fn bucket_of(&self, p: Point2) -> usize {
-        let bx = (((p.x - self.x0) / self.cell_m).floor() as usize).min(self.width - 1);
-        let by = (((p.y - self.y0) / self.cell_m).floor() as usize).min(self.height - 1);
-        by * self.width + bx
-    }
-
     /// The nearest target point closer than `max_m` to `p`, with its squared distance.
     #[inline]
     pub fn nearest(&self, p: Point2, max_m: f64) -> Option<(Point2, f64)> {
-        self.nearest_index(p, max_m).map(|(k, d2)| (self.points[k], d2))
+        self.nearest_index(p, max_m).map(|(k, d2)| (self.buckets.points()[k], d2))
     }
 
     /// Unit normal of target point `k` from the spread of its neighbours within `radius_m`
     /// (zero when the neighbourhood is too small or not line-like).
     fn estimate_normal(&self, k: usize, radius_m: f64) -> Point2 {
-        let p = self.points[k];
+        let p = self.buckets.points()[k];
         let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         self.for_each_within(p, radius_m, |q| {
             n += 1.0;
@@ -158,12 +112,10 @@ impl PointGrid {
     }
 
     fn for_each_within(&self, p: Point2, r: f64, mut f: impl FnMut(Point2)) {
-        let Some((bx0, bx1, by0, by1)) = self.bucket_range(p, r) else { return };
-        let r2 = r * r;
-        for by in by0..=by1 {
-            let row = by * self.width;
-            let (s, e) = (self.starts[row + bx0] as usize, self.starts[row + bx1 + 1] as usize);
-            for q in &self.points[s..e] {
+        let Some(rect) = self.buckets.covering(p, r) else { return };
+        let (r2, points) = (r * r, self.buckets.points());
+        for s in self.buckets.rect_spans(rect) {
+            for q in &points[s] {
                 if q.distance_sq(p) <= r2 {
                     f(*q);
                 }
@@ -171,84 +123,11 @@ impl PointGrid {
         }
     }
 
-    #[inline]
-    fn bucket_range(&self, p: Point2, max_m: f64) -> Option<(usize, usize, usize, usize)> {
-        if self.points.is_empty() || !p.is_finite() {
-            return None;
-        }
-        let fx0 = ((p.x - max_m - self.x0) / self.cell_m).floor();
-        let fx1 = ((p.x + max_m - self.x0) / self.cell_m).floor();
-        let fy0 = ((p.y - max_m - self.y0) / self.cell_m).floor();
-        let fy1 = ((p.y + max_m - self.y0) / self.cell_m).floor();
-        if fx1 < 0.0 || fy1 < 0.0 || fx0 >= self.width as f64 || fy0 >= self.height as f64 {
-            return None;
-        }
-        Some((
-            fx0.max(0.0) as usize,
-            (fx1 as usize).min(self.width - 1),
-            fy0.max(0.0) as usize,
-            (fy1 as usize).min(self.height - 1),
-        ))
-    }
-
-    /// Index of the nearest target point closer than `max_m` to `p`, with its squared distance.
-    /// Buckets are visited in square rings around `p`'s bucket, and the search stops as soon as
-    /// no bucket further out can hold a closer point (exact, like a scan of every bucket within
-    /// `max_m`).
+    /// Index of the nearest target point closer than `max_m` to `p`, with its squared distance
+    /// (exact ring search, [`PointBuckets::nearest_within`]).
     #[inline]
     pub fn nearest_index(&self, p: Point2, max_m: f64) -> Option<(usize, f64)> {
-        let (bx0, bx1, by0, by1) = self.bucket_range(p, max_m)?;
-        let mut best = max_m * max_m;
-        let mut found = None;
-        let scan = |row_start: usize, x0: usize, x1: usize, best: &mut f64, found: &mut Option<usize>| {
-            let (s, e) = (self.starts[row_start + x0] as usize, self.starts[row_start + x1 + 1] as usize);
-            for (k, q) in self.points[s..e].iter().enumerate() {
-                let d = q.distance_sq(p);
-                if d < *best {
-                    *best = d;
-                    *found = Some(s + k);
-                }
-            }
-        };
-        // The bucket of p, clamped into the searched rectangle (p may lie outside the grid).
-        let fx = ((p.x - self.x0) / self.cell_m).floor();
-        let fy = ((p.y - self.y0) / self.cell_m).floor();
-        let cx = (fx.max(bx0 as f64) as usize).min(bx1);
-        let cy = (fy.max(by0 as f64) as usize).min(by1);
-        let inside = fx >= 0.0 && fy >= 0.0 && fx as usize == cx && fy as usize == cy;
-        let max_ring = (cx - bx0).max(bx1 - cx).max(cy - by0).max(by1 - cy);
-        for r in 0..=max_ring {
-            let (x0, x1) = (cx.saturating_sub(r).max(bx0), (cx + r).min(bx1));
-            for by in [cy.checked_sub(r), Some(cy + r)].into_iter().flatten() {
-                if by < by0 || by > by1 || (r == 0 && by != cy) {
-                    continue;
-                }
-                scan(by * self.width, x0, x1, &mut best, &mut found);
-                if r == 0 {
-                    break;
-                }
-            }
-            if r > 0 {
-                let (y0, y1) = (cy.saturating_sub(r - 1).max(by0), (cy + r - 1).min(by1));
-                for by in y0..=y1 {
-                    let row = by * self.width;
-                    if cx >= r && cx - r >= bx0 {
-                        scan(row, cx - r, cx - r, &mut best, &mut found);
-                    }
-                    if cx + r <= bx1 {
-                        scan(row, cx + r, cx + r, &mut best, &mut found);
-                    }
-                }
-            }
-            // Every point of ring r + 1 is at least r cells from p when p lies in its bucket.
-            if inside && found.is_some() {
-                let reach = r as f64 * self.cell_m;
-                if reach * reach >= best {
-                    break;
-                }
-            }
-        }
-        found.map(|k| (k, best))
+        self.buckets.nearest_within(p, max_m)
     }
 }
 
@@ -341,7 +220,7 @@ fn normal_equations(
         let (rx, ry) = (c * a.x - s * a.y, s * a.x + c * a.y);
         let q = Point2::new(pose.x + rx, pose.y + ry);
         if let Some((k, _)) = target.nearest_index(q, d_max) {
-            let (m, nrm) = (target.points[k], target.normals[k]);
+            let (m, nrm) = (target.buckets.points()[k], target.normals[k]);
             if nrm.x == 0.0 && nrm.y == 0.0 {
                 continue;
             }
