@@ -2,8 +2,6 @@
 //! (random poses, NaN distances) gives bit-identical estimates, verdicts, recoveries and maps.
 #![allow(clippy::unwrap_used)]
 
-#![allow(clippy::unwrap_used)]
-
 use mapkeeper_grid::Pose2;
 use mapkeeper_harness::{
     Control, NoClock, Observer, PoseSource, RobotControl, SensorSource, Session, SourceError, Step, StepReport, Truth,
