@@ -20,7 +20,7 @@ where
     E: Display,
 {
     let Some(path) = file else {
-        validate(&base).map_err(|e| HarnessError::Config { path: "(preset)".into(), message: e.to_string() })?;
+        validate(&base).map_err(|e| HarnessError::InvalidParams(e.to_string()))?;
         return Ok(base);
     };
     let bad = |message: String| HarnessError::Config { path: path.to_path_buf(), message };

@@ -23,6 +23,9 @@ pub enum HarnessError {
     /// The baseline localiser's thread panicked.
     #[error("the baseline localiser's thread panicked")]
     BaselinePanicked,
+    /// Parameters given without a file (a preset, the defaults) are invalid.
+    #[error("invalid parameters: {0}")]
+    InvalidParams(String),
     /// A parameter file could not be read, parsed or validated.
     #[error("{path}: {message}")]
     Config {
