@@ -1,0 +1,195 @@
+//! The loop's contract on tiny hand-built logs: how a log becomes steps (grouping by stamp, the
+//! odometry and truth rules), the order in which controls and observers see a step, and the
+//! replay jobs end to end on a hand-built map.
+#![allow(clippy::unwrap_used)]
+
+use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2};
+use mapkeeper_harness::jobs::localise::{InitFrom, localise_log};
+use mapkeeper_harness::jobs::update::{PoseInput, update_log};
+use mapkeeper_harness::{
+    Control, HarnessError, LogSource, NoClock, Observer, OdometryAt, PoseSource, ReplayOptions, RobotControl,
+    SensorSource, Session, Step, StepReport, run,
+};
+use mapkeeper_localiser::FilterParams;
+use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, TruePose};
+use mapkeeper_updater::UpdaterParams;
+use std::cell::RefCell;
+
+fn scan(stamp_ns: u64, lidar_id: u32) -> LaserScan {
+    LaserScan {
+        stamp_ns,
+        lidar_id,
+        lidar_in_robot: Pose2::IDENTITY,
+        angle_min_rad: -1.5,
+        angle_increment_rad: 0.01,
+        range_min_m: 0.05,
+        range_max_m: 20.0,
+        ranges_m: vec![2.0; 301],
+    }
+}
+
+fn log(records: Vec<LogRecord>) -> SensorLog {
+    SensorLog { header: LogHeader::new(Default::default()), records }
+}
+
+fn odom(stamp_ns: u64, x: f64) -> LogRecord {
+    LogRecord::Odom(OdometryReading { stamp_ns, pose_in_odom: Pose2::new(x, 0.0, 0.0) })
+}
+
+fn truth(stamp_ns: u64, x: f64) -> LogRecord {
+    LogRecord::Truth(TruePose { stamp_ns, pose_in_map: Pose2::new(x, 0.0, 0.0) })
+}
+
+/// A 10 m × 10 m room of free cells with an occupied border, 0.1 m cells, origin at (-5, -5).
+fn room() -> OccupancyGrid {
+    let g = GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap();
+    let mut m = OccupancyGrid::filled(g, CellState::Free);
+    for i in 0..100 {
+        for (x, y) in [(i, 0), (i, 99), (0, i), (99, i)] {
+            m.cells_mut()[y * 100 + x] = CellState::Occupied;
+        }
+    }
+    m
+}
+
+#[test]
+fn scans_with_one_stamp_form_one_step_and_odometry_follows_the_chosen_rule() {
+    let records = vec![
+        odom(100, 0.0),
+        scan_rec(50, 0),
+        scan_rec(150, 0),
+        scan_rec(150, 1),
+        odom(200, 1.0),
+        scan_rec(300, 1),
+        truth(140, 5.0),
+        truth(160, 7.0),
+    ];
+    let steps = |options| {
+        let mut s = LogSource::new(log(records.clone()), "test", options);
+        let mut out = Vec::new();
+        while let Some(step) = s.next_step().unwrap() {
+            out.push(step);
+        }
+        out
+    };
+    let latest = steps(ReplayOptions::default());
+    assert_eq!(
+        latest.iter().map(|s| (s.frame.stamp_ns, s.frame.scans.len())).collect::<Vec<_>>(),
+        [(50, 1), (150, 2), (300, 1)]
+    );
+    // Latest at or before: none before the first reading, then the reading at 100, then 200.
+    let xs: Vec<Option<f64>> = latest.iter().map(|s| s.frame.odometry.map(|p| p.x)).collect();
+    assert_eq!(xs, [None, Some(0.0), Some(1.0)]);
+    // Interpolated, clamped outside the records.
+    let interp = steps(ReplayOptions { odometry_at: OdometryAt::Interpolated, ..ReplayOptions::default() });
+    let xs: Vec<Option<f64>> = interp.iter().map(|s| s.frame.odometry.map(|p| p.x)).collect();
+    assert_eq!(xs, [Some(0.0), Some(0.5), Some(1.0)]);
+    // Truth: interpolated at 150 (6.0); with a 20 ns gap limit, 50 and 300 have none.
+    assert_eq!(latest[1].truth.unwrap().pose_in_map.x, 6.0);
+    let gapped = steps(ReplayOptions { max_truth_gap_ns: 20, ..ReplayOptions::default() });
+    let t: Vec<Option<f64>> = gapped.iter().map(|s| s.truth.map(|t| t.pose_in_map.x)).collect();
+    assert_eq!(t, [None, Some(6.0), None]);
+}
+
+fn scan_rec(stamp_ns: u64, lidar_id: u32) -> LogRecord {
+    LogRecord::Scan(scan(stamp_ns, lidar_id))
+}
+
+/// Records the order of the hooks it sees.
+struct Trace<'a>(&'a RefCell<Vec<String>>, &'static str);
+
+impl Control for Trace<'_> {
+    fn before_step(
+        &mut self,
+        s: &Step,
+        _: &mut Session<'_>,
+        _: Option<&mut dyn RobotControl>,
+    ) -> Result<(), HarnessError> {
+        self.0.borrow_mut().push(format!("{} before {}", self.1, s.frame.stamp_ns));
+        Ok(())
+    }
+
+    fn after_step(
+        &mut self,
+        s: &Step,
+        _: &StepReport,
+        _: &mut Session<'_>,
+        _: Option<&mut dyn RobotControl>,
+    ) -> Result<(), HarnessError> {
+        self.0.borrow_mut().push(format!("{} after {}", self.1, s.frame.stamp_ns));
+        Ok(())
+    }
+}
+
+impl Observer for Trace<'_> {
+    fn on_step(&mut self, s: &Step, _: &StepReport) {
+        self.0.borrow_mut().push(format!("{} observe {}", self.1, s.frame.stamp_ns));
+    }
+}
+
+#[test]
+fn controls_act_before_and_after_the_session_and_observers_see_each_step_in_between() {
+    let trace = RefCell::new(Vec::new());
+    let mut source = LogSource::new(log(vec![scan_rec(1, 0), scan_rec(2, 0)]), "t", ReplayOptions::default());
+    let mut session = Session::new(PoseSource::None, None, None, &NoClock);
+    let (mut a, mut b, mut o) = (Trace(&trace, "a"), Trace(&trace, "b"), Trace(&trace, "o"));
+    let n = run(&mut source, &mut session, &mut [&mut a, &mut b], &mut [&mut o]).unwrap();
+    assert_eq!(n, 2);
+    let want: Vec<String> = [1, 2]
+        .iter()
+        .flat_map(|t| {
+            [
+                format!("a before {t}"),
+                format!("b before {t}"),
+                format!("o observe {t}"),
+                format!("a after {t}"),
+                format!("b after {t}"),
+            ]
+        })
+        .collect();
+    assert_eq!(*trace.borrow(), want);
+}
+
+#[test]
+fn replay_jobs_localise_and_update_a_hand_built_log() {
+    // A robot standing at the room's centre, two lidars, odometry and truth at every step.
+    let mut records = Vec::new();
+    for k in 0..20u64 {
+        let t = 1_000_000 * (k + 1);
+        records.extend([odom(t, 0.0), truth(t, 0.0), scan_rec(t, 0), scan_rec(t, 1)]);
+    }
+    let (r, init) = localise_log(
+        LogSource::new(log(records.clone()), "t", ReplayOptions::default()),
+        &room(),
+        FilterParams::default(),
+        None,
+        3,
+    )
+    .unwrap();
+    assert!(matches!(init, InitFrom::LoggedTruth(p) if p == Pose2::IDENTITY));
+    assert_eq!((r.updates, r.no_odometry, r.estimates.len()), (20, 0, 20));
+    assert_eq!(r.covariance_csv.lines().count(), 21);
+    assert!(r.rmse.is_some_and(|(pos, _, n)| pos.is_finite() && n == 20));
+    let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, ..ReplayOptions::default() };
+    let u = update_log(
+        LogSource::new(log(records), "t", options),
+        room(),
+        UpdaterParams::paper(),
+        PoseInput::LoggedTruth,
+        &NoClock,
+    )
+    .unwrap();
+    // The robot never moves: the gate lets only the first step through.
+    assert_eq!((u.stats.steps, u.stats.processed, u.stats.gated), (20, 1, 19));
+    assert_eq!(u.steps_csv.lines().count(), 21);
+    // No scans, no job.
+    let e = update_log(
+        LogSource::new(log(vec![odom(1, 0.0)]), "empty.jsonl", options),
+        room(),
+        UpdaterParams::paper(),
+        PoseInput::AlignedOdometry,
+        &NoClock,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("empty.jsonl"), "{e}");
+}
