@@ -115,6 +115,12 @@ fn render_writes_a_png_and_a_diff() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     // 8-bit RGB (colour type 2), twice the grid's size.
     assert_eq!(png_header(&png_path), (240, 200, 8, 2));
+    // An existing output is refused without --force, as by every command, and replaced with it.
+    let again = mapkeeper(&["render", s(&a), "-o", s(&png_path)]);
+    assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("--force"));
+    let forced = mapkeeper(&["render", s(&a), "-o", s(&png_path), "--force"]);
+    assert!(forced.status.success(), "{}", String::from_utf8_lossy(&forced.stderr));
+    assert_eq!(png_header(&png_path), (120, 100, 8, 2));
 
     let diff_path = dir.join("diff.png");
     let out = mapkeeper(&["render", s(&a), "--diff", s(&b), "-o", s(&diff_path)]);

@@ -28,6 +28,9 @@ pub struct Args {
     /// Integer enlargement: each cell becomes K × K pixels (K ≥ 1).
     #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub scale: u32,
+    /// Overwrite an existing output file.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Runs the subcommand.
@@ -50,6 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     let image = if args.scale > 1 { image.scaled(args.scale as usize)? } else { image };
+    mapkeeper_grid::check_output_file(&args.out, args.force)?;
     image.write_png(&args.out)?;
     println!("wrote {} ({} × {} pixels)", args.out.display(), image.width(), image.height());
     Ok(())
