@@ -410,8 +410,7 @@ pub fn run_seed_in(
         let gi = ground_truth_map(world, &geometry);
         let static_map = Scores::from(map_metrics(&m1.map, &gi, &params.metrics)?);
         let updated_map = Scores::from(map_metrics(&run.map, &gi, &params.metrics)?);
-        let times = run.scan_times_us.clone();
-        let median_scan_us = median(times.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
+        let median_scan_us = median(run.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
         all_times.extend_from_slice(&run.scan_times_us);
         rows.push(WorldRow {
             seed,
