@@ -28,8 +28,9 @@
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
 //! | `support/votes.rs` | support: vote packing, radix sort and merge shared by the evaluators and the cells update |
 //!
-//! All parameters are in [`UpdaterParams`] (presets `paper`, `reference`, `always-update`,
-//! `no-update`, `log-odds`). The updater depends only on the grid crate and plain sensor types,
+//! All parameters are in [`UpdaterParams`]: presets `paper` (§4 as written, nothing added),
+//! `authors` (the behaviour of the authors' ROS code), `mapkeeper` (`paper` plus the additions,
+//! each switchable), and the ablations `always-update`, `no-update`, `log-odds`. The updater depends only on the grid crate and plain sensor types,
 //! so any localiser, a log file or a real robot can feed it.
 //!
 //! ```
@@ -44,7 +45,9 @@
 //!         map.set(c, CellState::Occupied);
 //!     }
 //! }
-//! let mut updater = MapUpdater::new(map, UpdaterParams::paper()).unwrap();
+//! // This toy scan has 4 beams; the localisation check wants 20 by default.
+//! let params = UpdaterParams { min_valid_beams: 4, ..UpdaterParams::paper() };
+//! let mut updater = MapUpdater::new(map, params).unwrap();
 //! // A 360° lidar at the centre that sees exactly the map: the wall is 1.95 m away along x.
 //! let robot = Pose2::new(2.0, 2.0, 0.0);
 //! let scan = LaserScan {
@@ -103,5 +106,5 @@ pub use paper::gating::GateReason;
 pub use paper::icp::Fitness;
 pub use paper::localisation_check::Verdict;
 pub use paper::pose_updating::{PoseRecovery, RecoveryFailure};
-pub use params::{PRESET_NAMES, PoseUpdatingParams, UpdateMethod, UpdaterParams};
+pub use params::{FlagRule, PRESET_NAMES, PoseUpdatingParams, RevertRule, UnchangedHitRule, UpdateMethod, UpdaterParams};
 pub use updater::{MapUpdater, StepOutcome, StepReport, UpdaterStats};

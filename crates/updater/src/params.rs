@@ -1,6 +1,8 @@
-//! `UpdaterParams`: every parameter of the updater in one struct, with the `paper` and
-//! `reference` presets, the `always-update` / `no-update` ablations and the naive log-odds
-//! baseline (paper §4 and its parameter table; `spec/10-updater.md`).
+//! `UpdaterParams`: every parameter of the updater in one struct, with the presets `paper` (§4
+//! as written), `authors` (the behaviour of the authors' code), `mapkeeper` (`paper` plus this
+//! project's additions, each switchable), the `always-update` / `no-update` ablations and the
+//! naive log-odds baseline (paper §4 and its parameter table; `spec/10-updater.md`;
+//! `docs/paper-vs-implementation.md` has one row per rule and one column per preset).
 
 use crate::UpdaterError;
 use mapkeeper_grid::mapper::MapperParams;
@@ -17,6 +19,45 @@ pub enum UpdateMethod {
     LogOdds,
 }
 
+/// How the votes a cell got in one step become flags of its rolling buffer (§4.5 records "the
+/// outcomes of the evaluator blocks at different time instants").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FlagRule {
+    /// One flag per step: "changed" iff the step gave the cell at least as many "changed" as
+    /// "unchanged" votes (`paper`, `mapkeeper`).
+    StepMajority,
+    /// One flag per kind per step: a "changed" flag if any vote was "changed", then an
+    /// "unchanged" flag if any was "unchanged" (the authors' code).
+    StepEachKind,
+}
+
+/// When a flipped cell of `M_i` returns to its `M_{i-1}` state (the paper never says).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RevertRule {
+    /// Never within a run: a change, once confirmed, stays (`paper`).
+    Never,
+    /// As soon as the flip rule no longer holds: `M_i` follows the buffers (the authors' code
+    /// rebuilds its map from the prior at every tick).
+    BelowThreshold,
+    /// Once the buffer holds `change_threshold` "unchanged" flags (`mapkeeper`): a hysteresis,
+    /// which needs `change_threshold` > N_b / 2.
+    UnchangedThreshold,
+}
+
+/// Which cells near the hit cell c(p_i) of a beam without detected change get an "unchanged"
+/// vote (§4.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnchangedHitRule {
+    /// §4.4: if c(p_i) is free in `M_{i-1}`, its non-free 8-neighbours ("adjacent"); otherwise
+    /// c(p_i) itself (`paper`, `mapkeeper`).
+    Adjacent8,
+    /// c(p_i) and its 4-neighbours, each if non-free in `M_{i-1}` (the authors' code).
+    Cross4,
+}
+
 /// Parameters of the pose-updating module (§4.6): ICP with several initial hypotheses and a
 /// fitness gate.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -24,6 +65,9 @@ pub enum UpdateMethod {
 pub struct PoseUpdatingParams {
     /// Run pose updating when the localisation check says Lost. Default `true`.
     pub enabled: bool,
+    /// While Lost persists, pose updating is tried again at most this often (stamps of the
+    /// scans), seconds; the first Lost step of an episode always tries. Default 0.5.
+    pub retry_interval_s: f64,
     /// Use every k-th valid beam of the current scan as ICP source point. Default 2.
     pub source_beam_step: u32,
     /// Largest correspondence distance at the first ICP iteration, metres. Default 1.0.
@@ -79,6 +123,7 @@ impl Default for PoseUpdatingParams {
     fn default() -> Self {
         Self {
             enabled: true,
+            retry_interval_s: 0.5,
             source_beam_step: 2,
             max_correspondence_m: 1.0,
             correspondence_decay: 0.8,
@@ -112,8 +157,9 @@ impl Default for PoseUpdatingParams {
 /// assert_eq!(p.buffer_size, 10);
 /// p.change_threshold = 8;
 /// assert!(p.validate().is_ok());
-/// let r = UpdaterParams::preset("reference").unwrap();
-/// assert_eq!(r.max_range_m, 18.0);
+/// let a = UpdaterParams::preset("authors").unwrap();
+/// assert_eq!(a.max_range_m, 18.0);
+/// assert!(UpdaterParams::preset("mapkeeper").unwrap().free_pass_votes);
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -122,14 +168,17 @@ pub struct UpdaterParams {
     pub method: UpdateMethod,
 
     // --- Update gating (§4.5) ---
-    /// Process a scan only after the robot moved at least this far since the last processed
-    /// scan (odometry), metres. Default 0.05.
+    /// The cells update runs only after the robot moved at least this far since the last scan
+    /// that updated the cells (odometry), metres. The localisation check runs on every scan.
+    /// Default 0.05.
     pub gating_min_translation_m: f64,
     /// …or turned at least this much, radians. Default 20° (0.349).
     pub gating_min_rotation_rad: f64,
-    /// …and at least this long after the last processed scan, seconds. Default 0 (reference 0.3).
+    /// …and at least this long after the last scan that updated the cells, seconds. Default 0
+    /// (`authors` 0.3).
     pub gating_min_interval_s: f64,
-    /// Pause the update after a rotation faster than this, rad/s (`inf` = never; reference 12°/s).
+    /// Pause the cells update after a rotation faster than this, rad/s (`inf` = never;
+    /// `authors` 12°/s).
     #[serde(with = "inf_as_text")]
     pub fast_rotation_rad_s: f64,
     /// The pause lasts at least this long, seconds. Default 1.2 (only with `fast_rotation_rad_s`).
@@ -139,7 +188,7 @@ pub struct UpdaterParams {
 
     // --- Beam classifier (§4.1, Appendix A.1) ---
     /// Beams at or beyond this range are invalid, metres; `inf` = each lidar's own maximum.
-    /// Default `inf` (reference 18).
+    /// Default `inf` (`authors` 18).
     #[serde(with = "inf_as_text")]
     pub max_range_m: f64,
     /// n_e: virtual rays on each side of a beam. Default 1.
@@ -147,7 +196,7 @@ pub struct UpdaterParams {
     /// v: spacing of the virtual rays in units of the beam increment Δθ. Default 0.5 (Fig. 7).
     pub virtual_ray_spacing_beams: f64,
     /// If positive, n_e is derived per scan as ceil(window / (v·|Δθ|)) instead, radians.
-    /// Default 0 (reference ±4° at v = 1).
+    /// Default 0 (`authors` ±4° at v = 1).
     pub virtual_window_rad: f64,
     /// m_th of D_th(z) = min(m_th·z + q_th, D_max), metres per metre. Default 0.01327.
     pub change_slope: f64,
@@ -156,70 +205,96 @@ pub struct UpdaterParams {
     /// D_max, metres. Default 0.30.
     pub change_max_m: f64,
     /// Outlier filter: detected-change beams count only in runs of at least this many adjacent
-    /// beams of one lidar. Default 1 (no filter; reference 3).
+    /// beams of one lidar. Default 1 (no filter; `authors` 3).
     pub min_change_run: u32,
 
     // --- Localisation check (§4.2) ---
     /// Run the localisation check; `false` is the `always-update` ablation. Default `true`.
     pub localisation_check: bool,
-    /// D_εmin of eq. 6-7. Default 0.75 (reference 0.58).
+    /// D_εmin of eq. 6-7. Default 0.75 (`authors` 0.58).
     pub d_eps_min: f64,
-    /// D_εmax of eq. 7-8. Default 0.90 (reference 0.58: no Suspend band).
+    /// D_εmax of eq. 7-8. Default 0.90 (`authors` 0.58: no Suspend band).
     pub d_eps_max: f64,
+    /// A guard outside the algorithm (every preset): a step with fewer valid beams than this
+    /// gets no verdict (no cells update, no pose updating): eq. 6-8 need a sample, and one valid
+    /// beam that is a change would otherwise make the robot Lost. Default 20.
+    pub min_valid_beams: u32,
 
     // --- Changed / unchanged cells evaluators (§4.3, §4.4) ---
     /// tol(z) = min(tol_slope·z + tol_intercept_m, tol_max_m): slope. Default 0.01.
     pub tol_slope: f64,
-    /// tol intercept, metres. Default 0.10 (reference 0.15).
+    /// tol intercept, metres. Default 0.10 (`authors` 0.15).
     pub tol_intercept_m: f64,
-    /// tol cap, metres (`inf` = uncapped). Default 0.20 (reference `inf`).
+    /// tol cap, metres (`inf` = uncapped). Default 0.20 (`authors` `inf`).
     #[serde(with = "inf_as_text")]
     pub tol_max_m: f64,
-    /// Final chunk skipped by the changed evaluator: max(slope·z, min), slope. Default 0.02.
+    /// Final chunk skipped by the changed evaluator: max(slope·z, min); the slope is eq. 9's m.
+    /// Default 0.02.
     pub skip_changed_slope: f64,
-    /// …and its minimum, metres. Default 0.15.
+    /// …and its minimum, metres (not in eq. 9). Default 0 (`authors`, `mapkeeper` 0.15).
     pub skip_changed_min_m: f64,
     /// Final chunk skipped by the unchanged evaluator: max(slope·z, min), slope. Default 0.02.
     pub skip_unchanged_slope: f64,
     /// …and its minimum, metres. Default 0.
     pub skip_unchanged_min_m: f64,
+    /// Which cells around the hit cell of an agreeing beam get an "unchanged" vote. Default
+    /// [`UnchangedHitRule::Adjacent8`] (`authors` [`UnchangedHitRule::Cross4`]).
+    pub unchanged_hit: UnchangedHitRule,
+    /// The unchanged evaluator votes only the cells along the ray that are free in `M_{i-1}`
+    /// (`authors`); `false`: every cell up to p_th (§4.4). Default `false`.
+    pub unchanged_ray_free_only: bool,
     /// Beams within ±this many beams of a detected change are not evaluated as unchanged.
-    /// Default 0 (reference 2).
+    /// Default 0 (`authors` 2).
     pub skip_near_changes_beams: u32,
-    /// Hit clearance of the removal vote (a project addition, not in the paper): a cell crossed
-    /// by a detected-change ray gets no "changed" (removed) vote when a beam of the same step
-    /// hit a surface closer than this to the cell's centre, metres; 0 disables the rule. It
-    /// stops rays at grazing incidence from eroding the edge cells of walls when the pose is a
-    /// fraction of a cell off. Default 0.20 (reference 0).
+    /// Hit clearance of the removal vote (a `mapkeeper` addition): a cell crossed by a
+    /// detected-change ray gets no "changed" (removed) vote when a beam of the same step hit a
+    /// surface closer than this to the cell's centre, metres; 0 disables the rule. It stops rays
+    /// at grazing incidence from eroding the edge cells of walls when the pose is a fraction of
+    /// a cell off. Default 0 (`mapkeeper` 0.20).
     pub removal_hit_clearance_m: f64,
-    /// Free-pass votes (a project addition, not in the paper): cells free in `M_{i-1}` that a
-    /// detected-change beam crossed get an "unchanged" vote, as the unchanged evaluator gives
-    /// them for agreeing beams (see the `free_pass` module). Default `true` (reference `false`).
+    /// Free-pass votes (a `mapkeeper` addition): cells free in `M_{i-1}` that a detected-change
+    /// beam crossed before its final chunk (never its own hit cell) get an "unchanged" vote, as
+    /// the unchanged evaluator gives them for agreeing beams (see the `free_pass` module).
+    /// Default `false` (`mapkeeper` `true`).
     pub free_pass_votes: bool,
-    /// Grazing gate of the removal vote (a project addition, not in the paper): a cell on the
-    /// boundary of a wall of `M_{i-1}` gets no "changed" (removed) vote from a ray that meets
-    /// the wall at less than this angle (see the `grazing` module), radians; 0 disables the
-    /// gate. Default 20° (0.349; reference 0).
+    /// Grazing gate of the removal vote (a `mapkeeper` addition): a cell on the boundary of a
+    /// wall of `M_{i-1}` gets no "changed" (removed) vote from a ray that meets the wall at less
+    /// than this angle (see the `grazing` module), radians; 0 disables the gate. Default 0
+    /// (`mapkeeper` 20°, 0.349).
     pub removal_min_incidence_rad: f64,
-    /// Core of the removal ray (a project addition, not in the paper): a cell gets a "changed"
-    /// (removed) vote only if the ray passes within this many cells of its centre, so a ray
-    /// that clips a corner of the cell does not vote it; `inf` disables. Default 0.35
-    /// (reference `inf`).
+    /// Core of the removal ray (a `mapkeeper` addition): a cell gets a "changed" (removed) vote
+    /// only if the ray passes within this many cells of its centre, so a ray that clips a corner
+    /// of the cell does not vote it; `inf` disables. Default `inf` (`mapkeeper` 0.35).
     #[serde(with = "inf_as_text")]
     pub removal_max_offset_cells: f64,
+    /// Shadow of a withheld removal vote (a `mapkeeper` addition): after the hit clearance or
+    /// the grazing gate withheld a vote, the rest of that run of non-free cells gets none
+    /// either (see the `removal_gates` module). Default `false` (`mapkeeper` `true`).
+    pub removal_shadow: bool,
 
     // --- Cells update (§4.5) ---
     /// Run the map update at all; `false` is the `no-update` ablation (M_1 kept). Default `true`.
     pub map_update: bool,
     /// N_b: rolling buffer size, flags (1..=32). Default 10.
     pub buffer_size: u32,
-    /// A cell flips when it holds at least this many "changed" flags (1..=N_b). Default 7.
+    /// A cell flips when it holds at least this many "changed" flags (1..=N_b; with
+    /// `revert = "unchanged-threshold"`, more than N_b / 2). Default 7.
     pub change_threshold: u32,
-    /// Reference rule: the count plus the number of 8-neighbours already at the threshold with
-    /// the same initial state must reach the threshold. Default `false` (reference `true`).
+    /// How a step's votes on a cell become flags in its buffer. Default
+    /// [`FlagRule::StepMajority`].
+    pub flags: FlagRule,
+    /// When a flipped cell returns to its `M_{i-1}` state. Default [`RevertRule::Never`]
+    /// (`authors` [`RevertRule::BelowThreshold`], `mapkeeper` [`RevertRule::UnchangedThreshold`]).
+    pub revert: RevertRule,
+    /// `authors` rule: the count plus the number of 8-neighbours already at the threshold with
+    /// the same initial state must reach the threshold. Default `false` (`authors` `true`).
     pub neighbour_support: bool,
     /// Set unknown 8-neighbours of a cell that became free to occupied (Fig. 14). Default `true`.
     pub border_reconstruction: bool,
+    /// Border reconstruction only sets unknown cells that are an obstacle's interior in
+    /// `M_{i-1}` (enclosed by occupied cells, see `cell_update`), not never-observed space
+    /// (a `mapkeeper` addition). Default `false` (`mapkeeper` `true`).
+    pub border_interior_only: bool,
 
     // --- Pose updating (§4.6) ---
     /// Pose updating (ICP) parameters.
@@ -235,10 +310,14 @@ impl Default for UpdaterParams {
 }
 
 /// The names accepted by [`UpdaterParams::preset`].
-pub const PRESET_NAMES: [&str; 5] = ["paper", "reference", "always-update", "no-update", "log-odds"];
+pub const PRESET_NAMES: [&str; 6] = ["paper", "authors", "mapkeeper", "always-update", "no-update", "log-odds"];
 
 impl UpdaterParams {
-    /// The paper's parameters (§4 and its table).
+    /// §4 as written, nothing added: eq. 2-9 with n_e = 1, v = Δθ/2, D_th(z) of A.1, tol(z),
+    /// the final chunk m·z of eq. 9 (m = 0.02), N_b = 10, threshold 7, the 0.05 m / 20° gate,
+    /// unknown treated as occupied, border reconstruction of every unknown 8-neighbour, no
+    /// revert. Where the text gives no number (D_th, tol, m) the values are the spec's; choices
+    /// where it is silent are listed in `docs/paper-vs-implementation.md`.
     pub fn paper() -> Self {
         Self {
             method: UpdateMethod::Stefanini,
@@ -259,54 +338,83 @@ impl UpdaterParams {
             localisation_check: true,
             d_eps_min: 0.75,
             d_eps_max: 0.90,
+            min_valid_beams: 20,
             tol_slope: 0.01,
             tol_intercept_m: 0.10,
             tol_max_m: 0.20,
             skip_changed_slope: 0.02,
-            skip_changed_min_m: 0.15,
+            skip_changed_min_m: 0.0,
             skip_unchanged_slope: 0.02,
             skip_unchanged_min_m: 0.0,
+            unchanged_hit: UnchangedHitRule::Adjacent8,
+            unchanged_ray_free_only: false,
             skip_near_changes_beams: 0,
-            removal_hit_clearance_m: 0.20,
-            free_pass_votes: true,
-            removal_min_incidence_rad: 20f64.to_radians(),
-            removal_max_offset_cells: 0.35,
+            removal_hit_clearance_m: 0.0,
+            free_pass_votes: false,
+            removal_min_incidence_rad: 0.0,
+            removal_max_offset_cells: f64::INFINITY,
+            removal_shadow: false,
             map_update: true,
             buffer_size: 10,
             change_threshold: 7,
+            flags: FlagRule::StepMajority,
+            revert: RevertRule::Never,
             neighbour_support: false,
             border_reconstruction: true,
+            border_interior_only: false,
             pose_updating: PoseUpdatingParams::default(),
             log_odds: MapperParams::default(),
         }
     }
 
-    /// The behaviour of the authors' published code, as `spec/10-updater.md` lists it.
-    pub fn reference() -> Self {
+    /// The project's recommended variant: `paper` plus the additions, each switchable by its
+    /// own field (hit clearance 0.2 m, grazing gate 20°, ray core 0.35 cells, shadow, free-pass
+    /// votes, a 0.15 m minimum final chunk, revert of flipped cells, border reconstruction of
+    /// obstacle interiors only). `tests/additions.rs` shows the failure each one prevents.
+    pub fn mapkeeper() -> Self {
+        Self {
+            skip_changed_min_m: 0.15,
+            removal_hit_clearance_m: 0.20,
+            free_pass_votes: true,
+            removal_min_incidence_rad: 20f64.to_radians(),
+            removal_max_offset_cells: 0.35,
+            removal_shadow: true,
+            revert: RevertRule::UnchangedThreshold,
+            border_interior_only: true,
+            ..Self::paper()
+        }
+    }
+
+    /// The behaviour of the authors' published code, as `spec/10-updater.md` lists it (the
+    /// departures from it that remain are listed in `docs/paper-vs-implementation.md`).
+    pub fn authors() -> Self {
         Self {
             gating_min_interval_s: 0.3,
             fast_rotation_rad_s: 12f64.to_radians(),
             max_range_m: 18.0,
             virtual_ray_spacing_beams: 1.0,
             virtual_window_rad: 4f64.to_radians(),
+            change_slope: 0.013265,
+            change_intercept_m: 0.14735,
             min_change_run: 3,
             d_eps_min: 0.58,
             d_eps_max: 0.58,
             tol_slope: 0.013,
             tol_intercept_m: 0.15,
             tol_max_m: f64::INFINITY,
+            skip_changed_min_m: 0.15,
             skip_near_changes_beams: 2,
-            removal_hit_clearance_m: 0.0,
-            free_pass_votes: false,
-            removal_min_incidence_rad: 0.0,
-            removal_max_offset_cells: f64::INFINITY,
+            unchanged_hit: UnchangedHitRule::Cross4,
+            unchanged_ray_free_only: true,
+            flags: FlagRule::StepEachKind,
+            revert: RevertRule::BelowThreshold,
             neighbour_support: true,
             ..Self::paper()
         }
     }
 
-    /// The paper's "old approach" (Table 1): the localisation check is off, every processed
-    /// scan updates the map.
+    /// The paper's "old approach" (Table 1): the localisation check is off, every scan that
+    /// passes the gate updates the map.
     pub fn always_update() -> Self {
         Self { localisation_check: false, ..Self::paper() }
     }
@@ -325,14 +433,14 @@ impl UpdaterParams {
     pub fn preset(name: &str) -> Result<Self, UpdaterError> {
         match name {
             "paper" => Ok(Self::paper()),
-            "reference" => Ok(Self::reference()),
+            "authors" => Ok(Self::authors()),
+            "mapkeeper" => Ok(Self::mapkeeper()),
             "always-update" => Ok(Self::always_update()),
             "no-update" => Ok(Self::no_update()),
             "log-odds" => Ok(Self::log_odds()),
             other => Err(UpdaterError::UnknownPreset { name: other.to_string(), known: PRESET_NAMES.join(", ") }),
         }
     }
-
     /// D_th(z) (Appendix A.1), metres.
     #[inline]
     pub fn change_distance_m(&self, z: f64) -> f64 {
@@ -435,6 +543,19 @@ impl UpdaterParams {
         if !(1..=self.buffer_size).contains(&self.change_threshold) {
             return Err(bad("change_threshold", format!("must lie in 1..=buffer_size, got {}", self.change_threshold)));
         }
+        if self.revert == RevertRule::UnchangedThreshold && 2 * self.change_threshold <= self.buffer_size {
+            return Err(bad(
+                "change_threshold",
+                format!(
+                    "with revert = \"unchanged-threshold\" it must exceed buffer_size / 2 ({} <= {} / 2): a buffer could then hold \
+                     enough flags to flip and to flip back at once",
+                    self.change_threshold, self.buffer_size
+                ),
+            ));
+        }
+        if self.min_valid_beams == 0 {
+            return Err(bad("min_valid_beams", "must be >= 1"));
+        }
         Ok(())
     }
 }
@@ -456,6 +577,7 @@ impl PoseUpdatingParams {
     /// prefixed `pose_updating.`.
     pub fn validate(&self) -> Result<(), UpdaterError> {
         let p = self;
+        non_neg_finite("pose_updating.retry_interval_s", p.retry_interval_s)?;
         if p.source_beam_step == 0 {
             return Err(bad("pose_updating.source_beam_step", "must be >= 1"));
         }
@@ -548,7 +670,7 @@ mod tests {
             UpdaterParams::preset(name).unwrap().validate().unwrap();
         }
         assert!(matches!(UpdaterParams::preset("nope"), Err(UpdaterError::UnknownPreset { .. })));
-        let r = UpdaterParams::reference();
+        let r = UpdaterParams::authors();
         // 0.013z + 0.15, uncapped.
         assert!((r.tol_m(100.0) - 1.45).abs() < 1e-12);
         let p = UpdaterParams::paper();
@@ -557,8 +679,19 @@ mod tests {
         // D_th saturates at 0.30.
         assert!((p.change_distance_m(1.0) - 0.16057).abs() < 1e-12);
         assert!((p.change_distance_m(30.0) - 0.30).abs() < 1e-12);
-        assert!((p.skip_changed_m(2.0) - 0.15).abs() < 1e-12);
+        // Eq. 9: the final chunk is m·z in `paper`; `mapkeeper` and `authors` floor it at 0.15 m.
+        assert!((p.skip_changed_m(2.0) - 0.04).abs() < 1e-12);
         assert!((p.skip_changed_m(10.0) - 0.20).abs() < 1e-12);
+        assert!((UpdaterParams::mapkeeper().skip_changed_m(2.0) - 0.15).abs() < 1e-12);
+        assert!((r.skip_changed_m(2.0) - 0.15).abs() < 1e-12);
+        // `paper` has none of the additions; `mapkeeper` has them all.
+        let m = UpdaterParams::mapkeeper();
+        assert!(!p.free_pass_votes && !p.removal_shadow && !p.border_interior_only);
+        assert_eq!((p.revert, r.revert, UpdaterParams::mapkeeper().revert), (RevertRule::Never, RevertRule::BelowThreshold, RevertRule::UnchangedThreshold));
+        assert!(p.removal_hit_clearance_m == 0.0 && p.removal_min_incidence_rad == 0.0);
+        assert!(p.removal_max_offset_cells.is_infinite());
+        assert!(m.free_pass_votes && m.removal_shadow && m.border_interior_only);
+        assert_eq!(UpdaterParams { skip_changed_min_m: 0.0, ..m.clone() }.removal_hit_clearance_m, 0.20);
         assert!(!UpdaterParams::always_update().localisation_check);
         assert!(!UpdaterParams::no_update().map_update);
     }
@@ -568,6 +701,19 @@ mod tests {
         let mut p = UpdaterParams::paper();
         p.change_threshold = 11;
         assert!(matches!(p.validate(), Err(UpdaterError::InvalidParam { field: "change_threshold", .. })));
+        // Flip and flip back would both hold with a threshold of at most N_b / 2.
+        let mut p = UpdaterParams::mapkeeper();
+        p.change_threshold = 5;
+        let err = p.validate().unwrap_err().to_string();
+        assert!(err.contains("change_threshold") && err.contains("unchanged-threshold"), "{err}");
+        p.change_threshold = 6;
+        assert!(p.validate().is_ok());
+        p.revert = RevertRule::BelowThreshold;
+        p.change_threshold = 3;
+        assert!(p.validate().is_ok());
+        let mut p = UpdaterParams::paper();
+        p.min_valid_beams = 0;
+        assert!(p.validate().is_err());
         let mut p = UpdaterParams::paper();
         p.d_eps_min = 0.95;
         assert!(p.validate().is_err());

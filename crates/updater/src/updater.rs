@@ -23,33 +23,41 @@ use mapkeeper_sensor::LaserScan;
 /// What happened to one step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StepOutcome {
-    /// Processed: classified, checked and (on Update) used to update the map.
+    /// Checked: classified and given a verdict; on Update the cells update ran.
     Processed,
-    /// Not processed by the update gating.
+    /// Checked and given the verdict Update, but the update gating paced the cells update out
+    /// (the robot has not moved enough since the last cells update). The localisation check
+    /// runs on every scan; the gate only paces the cells update.
     Gated(GateReason),
     /// Skipped because no beam of any scan was valid.
     NoValidBeams,
+    /// Skipped because fewer beams than `min_valid_beams` were valid: no verdict.
+    TooFewBeams,
 }
 
 /// The result of [`MapUpdater::process`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepReport {
-    /// Whether the step was processed.
+    /// What happened to the step.
     pub outcome: StepOutcome,
     /// The localisation check's verdict (always `Update` with the check disabled); `None` if
-    /// the step was not processed.
+    /// the step was not checked.
     pub verdict: Option<Verdict>,
     /// n: valid beams over all lidars of the step.
     pub n_valid: usize,
-    /// Invalid beams (bad readings, and every beam of a scan whose header is invalid).
+    /// Invalid beams (bad readings, every beam of a scan whose header is invalid, and every
+    /// beam of an occluded scan).
     pub n_invalid: usize,
     /// Scans whose header failed `LaserScan::validate`.
     pub invalid_scans: usize,
+    /// Scans not used because their lidar lay in a non-free cell of `M_{i-1}`.
+    pub occluded_scans: usize,
     /// n_dc: detected-change beams.
     pub n_dc: usize,
     /// Cells of `M_i` whose state changed during this step, in processing order.
     pub changed_cells: Vec<CellChange>,
-    /// On Lost (with pose updating enabled): the recovered pose or why there is none.
+    /// On Lost (with pose updating enabled, at most once per `pose_updating.retry_interval_s`):
+    /// the recovered pose or why there is none; `None` between attempts.
     pub pose_recovery: Option<PoseRecovery>,
 }
 
@@ -61,6 +69,7 @@ impl StepReport {
             n_valid: 0,
             n_invalid: 0,
             invalid_scans: 0,
+            occluded_scans: 0,
             n_dc: 0,
             changed_cells: Vec::new(),
             pose_recovery: None,
@@ -73,16 +82,22 @@ impl StepReport {
 pub struct UpdaterStats {
     /// Calls to `process`.
     pub steps: u64,
-    /// Steps processed.
+    /// Steps checked (given a verdict).
     pub processed: u64,
-    /// Steps stopped by the gating.
+    /// Steps with the verdict Update whose cells update the gating paced out.
     pub gated: u64,
+    /// Steps whose cells update ran.
+    pub cells_updates: u64,
     /// Steps skipped for lack of a valid beam.
     pub skipped_no_valid_beam: u64,
-    /// Invalid beams seen in processed or skipped steps.
+    /// Steps skipped with fewer than `min_valid_beams` valid beams.
+    pub skipped_too_few_beams: u64,
+    /// Invalid beams seen.
     pub invalid_beams: u64,
     /// Invalid scans seen.
     pub invalid_scans: u64,
+    /// Scans not used because their lidar lay in a non-free cell of `M_{i-1}`.
+    pub occluded_scans: u64,
     /// Verdicts: Update.
     pub updates: u64,
     /// Verdicts: Suspend.
@@ -117,6 +132,8 @@ pub struct MapUpdater {
     log_odds: Option<LogOddsBaseline>,
     /// (robot_in_map, robot_in_odom) at the last step that passed the localisation check.
     last_good: Option<(Pose2, Pose2)>,
+    /// Stamp of the last pose-updating attempt of the current Lost episode.
+    last_attempt_ns: Option<u64>,
     stats: UpdaterStats,
 }
 
@@ -149,6 +166,7 @@ impl MapUpdater {
             pose_updater: PoseUpdater::new(),
             log_odds,
             last_good: None,
+            last_attempt_ns: None,
             stats: UpdaterStats::default(),
         })
     }
@@ -233,21 +251,22 @@ impl MapUpdater {
 
     /// Processes one time step: the robot pose from any localiser, the robot pose in the
     /// odometry frame (for the gating and for pose updating) and every scan of the step (one
-    /// per lidar, each with its own mounting pose). Never panics on bad scans.
+    /// per lidar, each with its own mounting pose). Every step with enough valid beams is
+    /// classified and checked; the update gating only paces the cells update. Never panics on
+    /// bad scans.
     pub fn process(&mut self, robot_in_map: Pose2, robot_in_odom: Pose2, scans: &[LaserScan]) -> StepReport {
         self.stats.steps += 1;
         let stamp_ns = scans.iter().map(|s| s.stamp_ns).max().unwrap_or(0);
-        if let Some(reason) = self.gate.check(robot_in_odom, stamp_ns, &self.params) {
-            self.stats.gated += 1;
-            return StepReport::empty(StepOutcome::Gated(reason));
-        }
+        let gate = self.gate.check(robot_in_odom, stamp_ns, &self.params);
         let counts = self.classifier.classify(&self.base, &robot_in_map, scans, &self.params);
         self.stats.invalid_beams += counts.n_invalid as u64;
         self.stats.invalid_scans += counts.invalid_scans as u64;
+        self.stats.occluded_scans += counts.occluded_scans as u64;
         let mut report = StepReport {
             n_valid: counts.n_valid,
             n_invalid: counts.n_invalid,
             invalid_scans: counts.invalid_scans,
+            occluded_scans: counts.occluded_scans,
             n_dc: counts.n_dc,
             ..StepReport::empty(StepOutcome::Processed)
         };
@@ -256,7 +275,11 @@ impl MapUpdater {
             report.outcome = StepOutcome::NoValidBeams;
             return report;
         }
-        self.gate.mark_processed(robot_in_odom, stamp_ns);
+        if counts.n_valid < self.params.min_valid_beams as usize {
+            self.stats.skipped_too_few_beams += 1;
+            report.outcome = StepOutcome::TooFewBeams;
+            return report;
+        }
         self.stats.processed += 1;
         let verdict = if self.params.localisation_check {
             localisation_check(counts.n_valid, counts.n_dc, self.params.d_eps_min, self.params.d_eps_max)
@@ -264,41 +287,67 @@ impl MapUpdater {
             Verdict::Update
         };
         report.verdict = Some(verdict);
+        if verdict != Verdict::Lost {
+            self.last_attempt_ns = None;
+        }
         match verdict {
             Verdict::Update => {
                 self.stats.updates += 1;
                 self.last_good = Some((robot_in_map, robot_in_odom));
-                if self.params.map_update {
-                    self.update_cells(&mut report.changed_cells);
+                if let Some(reason) = gate {
+                    self.stats.gated += 1;
+                    report.outcome = StepOutcome::Gated(reason);
+                } else {
+                    self.gate.mark_processed(robot_in_odom, stamp_ns);
+                    if self.params.map_update {
+                        self.stats.cells_updates += 1;
+                        self.update_cells(&mut report.changed_cells);
+                    }
                 }
             }
             Verdict::Suspend => self.stats.suspends += 1,
             Verdict::Lost => {
                 self.stats.losts += 1;
-                if self.params.pose_updating.enabled {
-                    let predicted = match self.last_good {
-                        Some((good_in_map, good_in_odom)) => good_in_map.compose(&good_in_odom.between(&robot_in_odom)),
-                        None => robot_in_map,
-                    };
-                    let r = self.pose_updater.recover(
-                        &self.current,
-                        predicted,
-                        scans,
-                        self.params.max_range_m,
-                        &self.params.pose_updating,
-                    );
-                    if let PoseRecovery::Recovered { pose_in_map, .. } = &r {
-                        self.stats.recoveries += 1;
-                        self.last_good = Some((*pose_in_map, robot_in_odom));
-                    } else {
-                        self.stats.failed_recoveries += 1;
-                    }
-                    report.pose_recovery = Some(r);
-                }
+                report.pose_recovery = self.try_pose_updating(robot_in_map, robot_in_odom, scans, stamp_ns);
             }
         }
         self.stats.cell_changes += report.changed_cells.len() as u64;
         report
+    }
+
+    /// Pose updating (§4.6) on a Lost step, if enabled and due (the first Lost step of an
+    /// episode, then at most once per `retry_interval_s`).
+    fn try_pose_updating(
+        &mut self,
+        robot_in_map: Pose2,
+        robot_in_odom: Pose2,
+        scans: &[LaserScan],
+        stamp_ns: u64,
+    ) -> Option<PoseRecovery> {
+        let p = &self.params.pose_updating;
+        if !p.enabled {
+            return None;
+        }
+        if let Some(last) = self.last_attempt_ns
+            && (stamp_ns.saturating_sub(last) as f64) * 1e-9 < p.retry_interval_s
+        {
+            return None;
+        }
+        self.last_attempt_ns = Some(stamp_ns);
+        let predicted = match self.last_good {
+            Some((good_in_map, good_in_odom)) => good_in_map.compose(&good_in_odom.between(&robot_in_odom)),
+            None => robot_in_map,
+        };
+        let r = self.pose_updater.recover(&self.current, predicted, scans, self.params.max_range_m, p);
+        if let PoseRecovery::Recovered { pose_in_map, .. } = &r {
+            self.stats.recoveries += 1;
+            self.last_good = Some((*pose_in_map, robot_in_odom));
+            // A new episode starts if the robot is still Lost at the recovered pose.
+            self.last_attempt_ns = None;
+        } else {
+            self.stats.failed_recoveries += 1;
+        }
+        Some(r)
     }
 
     /// Changed and unchanged cells evaluators, then the cells update, over the classified beams.

@@ -45,8 +45,10 @@ fn fig8_one_to_n_prevents_false_change_at_removed_obstacle_edge() {
     assert!(!detects_change(&caster, &one_to_n, a, hit, z, d_th), "1-to-N does not");
 }
 
-/// Fig. 10 / eq. 9: only cells whose centre is further than max(0.02 z, 0.15 m) from p_i are
+/// Fig. 10 / eq. 9: only cells whose centre is further than m·z (m = 0.02) from p_i are
 /// evaluated; a mapped wall just before a hit point that overshoots (pose error) is not freed.
+/// At 2 m that chunk is 4 cm, so an overshoot of 5 cm frees the wall in `paper`; `mapkeeper`'s
+/// 0.15 m minimum chunk (and `authors'`) prevents it.
 #[test]
 fn fig10_final_chunk_is_skipped() {
     let g = GridGeometry::new(60, 10, 0.05, Pose2::IDENTITY).unwrap();
@@ -58,23 +60,31 @@ fn fig10_final_chunk_is_skipped() {
         base.set(CellCoord::new(40, y), CellState::Occupied); // the wall the beam overshoots
     }
     let origin = g.cell_center(CellCoord::new(0, 5));
-    let hit = Point2::new(2.1, origin.y); // 5 cm beyond the wall's far face
-    let z = hit.x - origin.x;
+    let flagged = |hit_x: f64, p: &UpdaterParams| {
+        let hit = Point2::new(hit_x, origin.y);
+        let mut votes = Vec::new();
+        evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, hit.x - origin.x), p, &HitIndex::new(), &mut votes);
+        decode(&votes, 60)
+    };
     let p = UpdaterParams::paper();
-    let mut votes = Vec::new();
-    evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &p, &HitIndex::new(), &mut votes);
-    let cells = decode(&votes, 60);
+    // 1 cm beyond the wall's far face: the wall's centre (3.5 cm from p_i) is inside the chunk.
+    let cells = flagged(2.06, &p);
     for x in 19..=21 {
         assert!(cells.contains(&(CellCoord::new(x, 5), true)), "{cells:?}");
     }
     assert!(!cells.iter().any(|(c, _)| c.ix == 40), "wall inside the final chunk must not be flagged: {cells:?}");
     // The hit cell has the wall within tol: not an added obstacle either.
     assert_eq!(cells.len(), 3);
+    // 5 cm beyond: `paper` frees the wall, the 0.15 m minimum chunk does not.
+    assert!(flagged(2.1, &p).contains(&(CellCoord::new(40, 5), true)));
+    assert!(!flagged(2.1, &UpdaterParams::mapkeeper()).iter().any(|(c, _)| c.ix == 40));
+    assert!(!flagged(2.1, &UpdaterParams::authors()).iter().any(|(c, _)| c.ix == 40));
+    let (hit, z) = (Point2::new(2.06, origin.y), 2.06 - origin.x);
     // With no skipped chunk, the wall would be flagged.
     let mut p0 = p.clone();
     p0.skip_changed_min_m = 0.0;
     p0.skip_changed_slope = 0.0;
-    votes.clear();
+    let mut votes = Vec::new();
     evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &p0, &HitIndex::new(), &mut votes);
     assert!(decode(&votes, 60).contains(&(CellCoord::new(40, 5), true)));
 }

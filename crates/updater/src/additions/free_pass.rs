@@ -8,7 +8,10 @@
 //! pushes an "unchanged" flag, as an occupancy mapper would count a miss.
 //!
 //! The votes follow the unchanged evaluator's geometry (§4.4): cells up to p_th, the final
-//! chunk of `skip_unchanged_m(z)` skipped, and only cells that already hold a buffer.
+//! chunk of `skip_unchanged_m(z)` skipped, and only cells that already hold a buffer. The
+//! beam's own hit cell c(p_i) never gets one: the changed evaluator may vote it "changed" (an
+//! added obstacle, §4.3.2), and on a short beam the final chunk is shorter than the distance
+//! from p_i to its cell's centre, so the walk would otherwise vote it both ways.
 
 use crate::UpdaterParams;
 use crate::paper::cell_buffers::TileProbe;
@@ -34,8 +37,9 @@ pub fn evaluate_free_pass(
     let cells = base.cells();
     let skip = params.skip_unchanged_m(beam.range_m);
     let skip_sq = skip * skip;
+    let hit_cell = g.world_to_cell(beam.hit);
     buffered_cells_before_chunk(g, beam, skip, first_buffer_m, probe, |c, i| {
-        if cells[i] == CellState::Free && g.cell_center(c).distance_sq(beam.hit) > skip_sq {
+        if cells[i] == CellState::Free && g.cell_center(c).distance_sq(beam.hit) > skip_sq && Some(c) != hit_cell {
             votes.push(vote(i, false));
         }
     });
@@ -78,6 +82,7 @@ mod tests {
                     if m.cells()[i] == CellState::Free
                         && probe.contains(c)
                         && g.cell_center(c).distance_sq(hit) > skip * skip
+                        && Some(c) != g.world_to_cell(hit)
                     {
                         want.push(vote(i, false));
                     }

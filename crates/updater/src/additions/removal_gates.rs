@@ -4,8 +4,8 @@
 //!
 //! With the pose a fraction of a cell off (a localiser's usual 2-4 cm), rays that graze a wall
 //! cross its edge cells far from where they end, rays that clip an obstacle's corner run inside
-//! it, and a robot driving along a wall erodes it. The gates (each off at its `reference` value,
-//! which leaves §4.3.1 as written):
+//! it, and a robot driving along a wall erodes it. The gates (each off in `paper` and `authors`,
+//! which leaves §4.3.1 as written; on in `mapkeeper`):
 //!
 //! - **hit clearance** (`removal_hit_clearance_m`, [`crate::additions::hit_index`]): no vote for
 //!   a cell whose centre lies within the clearance of a hit of the same step;
@@ -38,13 +38,20 @@ pub struct RemovalGates<'a> {
     dx: f64,
     dy: f64,
     inv_len: f64,
-    /// The ray's incidence on the x faces and on the y faces of the cells (|sin| to the face).
+    /// The ray's direction in the grid frame (the map's origin may carry a yaw), for the
+    /// grazing gate, which compares it with cell faces and wall lines of the grid.
+    gx: f64,
+    gy: f64,
+    /// The ray's incidence on the x faces and on the y faces of the cells (|sin| to the face,
+    /// grid frame).
     sin_x: f64,
     sin_y: f64,
     /// Sine of the minimum incidence (0: the grazing gate is off).
     min_sin: f64,
     /// Largest offset of a voted cell's centre from the ray, metres.
     max_off_m: f64,
+    /// Whether a withheld vote shadows the rest of its run of non-free cells.
+    shadow: bool,
     /// Set by a withheld vote, cleared by a gap of more than `SHADOW_CLEAR_CELLS` free cells.
     shadowed: bool,
     /// The previous non-free cell visited.
@@ -58,6 +65,9 @@ impl<'a> RemovalGates<'a> {
         let (origin, hit) = (beam.origin, beam.hit);
         let (dx, dy) = (hit.x - origin.x, hit.y - origin.y);
         let inv_len = 1.0 / dx.hypot(dy).max(1e-12);
+        // World frame → grid frame: rotate by minus the yaw of the map's origin.
+        let (s, c) = base.geometry().origin().yaw.sin_cos();
+        let (gx, gy) = (c * dx + s * dy, -s * dx + c * dy);
         Self {
             base,
             hits,
@@ -65,10 +75,13 @@ impl<'a> RemovalGates<'a> {
             dx,
             dy,
             inv_len,
-            sin_x: dx.abs() * inv_len,
-            sin_y: dy.abs() * inv_len,
+            gx,
+            gy,
+            sin_x: gx.abs() * inv_len,
+            sin_y: gy.abs() * inv_len,
             min_sin: params.removal_min_incidence_rad.sin(),
             max_off_m: params.removal_max_offset_cells * base.geometry().resolution_m(),
+            shadow: params.removal_shadow,
             shadowed: false,
             prev: None,
         }
@@ -102,8 +115,8 @@ impl<'a> RemovalGates<'a> {
         // Cheapest test first (the result is their "or").
         let withheld = grazing::meets_a_free_face_grazing(self.base, c, self.sin_x, self.sin_y, self.min_sin)
             || self.hits.any_within(centre)
-            || grazing::is_grazing(self.base, c, self.dx, self.dy, self.min_sin);
-        if withheld {
+            || grazing::is_grazing(self.base, c, self.gx, self.gy, self.min_sin);
+        if withheld && self.shadow {
             self.shadowed = true;
         }
         withheld

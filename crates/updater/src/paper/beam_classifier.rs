@@ -16,7 +16,7 @@
 //! next beam of the scan ([`ScanHints`]).
 
 use crate::UpdaterParams;
-use mapkeeper_grid::{CellCoord, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
+use mapkeeper_grid::{CellCoord, CellState, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// The classifier's verdict on one beam.
@@ -81,6 +81,10 @@ pub struct ClassCounts {
     pub n_invalid: usize,
     /// Scans whose header failed [`LaserScan::validate`].
     pub invalid_scans: usize,
+    /// Valid scans whose lidar lies in a non-free cell of `M_{i-1}` (the robot stands where a
+    /// removed obstacle was mapped): every ray would start inside an obstacle and be a
+    /// change, so the scan is not used this step (its beams count as invalid).
+    pub occluded_scans: usize,
     /// n_dc: detected-change beams after the outlier filter.
     pub n_dc: usize,
 }
@@ -282,6 +286,12 @@ impl BeamClassifier {
             }
             let lidar_in_map = scan.lidar_in_map(robot_in_map);
             let origin = lidar_in_map.position();
+            let map = base.map();
+            if map.geometry().world_to_cell(origin).and_then(|c| map.get(c)) != Some(CellState::Free) {
+                counts.occluded_scans += 1;
+                counts.n_invalid += scan.len();
+                continue;
+            }
             let lidar = self.lidars.len() as u32;
             self.lidars.push(LidarFrame {
                 origin,

@@ -1,19 +1,20 @@
 //! Cells update (§4.5) and border reconstruction (Fig. 14).
 //!
-//! Votes of one step are reduced to one flag per cell (a cell crossed by many beams of one scan
-//! gets one flag per time instant, not one per beam: "changed" if it got at least as many
-//! "changed" as "unchanged" votes). Each flag is pushed into the cell's rolling buffer. A cell
-//! flips from its `M_{i-1}` state to the other one (occupied or unknown → free, free →
-//! occupied) when its buffer holds at least `change_threshold` "changed" flags (with the
-//! `reference` neighbour-support rule if enabled), and flips back when it holds at least
-//! `change_threshold` "unchanged" flags. When a cell becomes free, its unknown 8-neighbours in
-//! `M_i` are set occupied so that a partly removed obstacle keeps a closed border — but only
-//! unknown cells that are an obstacle's interior in `M_{i-1}`: an unknown region enclosed by
-//! occupied cells (no free 4-neighbour, not on the map's edge). Unknown space that was simply
-//! never observed (shadows behind rack posts, frontiers of a mapped `M_1`) is not an obstacle;
-//! when the robot sees into it, it becomes free without growing spurious borders.
+//! Votes of one step become flags by `flags` ([`FlagRule`]: in `paper` a cell crossed by many
+//! beams of one scan gets one flag per time instant, not one per beam: "changed" if it got at
+//! least as many "changed" as "unchanged" votes). Each flag is pushed into the cell's rolling buffer. A cell flips from its `M_{i-1}` state to the other
+//! one (occupied or unknown → free, free → occupied) when its buffer holds at least
+//! `change_threshold` "changed" flags (with the `authors` neighbour-support rule if enabled),
+//! and flips back by `revert` ([`RevertRule`]; never in `paper`). When a cell becomes free, its unknown 8-neighbours in
+//! `M_i` are set occupied so that a partly removed obstacle keeps a closed border (Fig. 14).
+//! With `border_interior_only` (a `mapkeeper` addition) only unknown cells that are an
+//! obstacle's interior in `M_{i-1}` are: an unknown region enclosed by occupied cells (no free
+//! 4-neighbour, not on the map's edge). Unknown space that was simply never observed (shadows
+//! behind rack posts, frontiers of a mapped `M_1`) is not an obstacle; when the robot sees into
+//! it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
+use crate::params::{FlagRule, RevertRule};
 use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
 use crate::support::votes::Vote;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
@@ -95,7 +96,14 @@ impl CellUpdater {
                 i += 1;
             }
             let cell = g.coord(index as usize);
-            if let Some(b) = buffers.push(index, cell, n_changed >= n_unchanged, params.buffer_size) {
+            let last = match params.flags {
+                FlagRule::StepMajority => buffers.push(index, cell, n_changed >= n_unchanged, params.buffer_size),
+                FlagRule::StepEachKind => {
+                    let c = (n_changed > 0).then(|| buffers.push(index, cell, true, params.buffer_size)).flatten();
+                    (n_unchanged > 0).then(|| buffers.push(index, cell, false, params.buffer_size)).flatten().or(c)
+                }
+            };
+            if let Some(b) = last {
                 self.flagged.push((index, b));
             }
         }
@@ -107,25 +115,14 @@ impl CellUpdater {
             let target = flipped(base_state);
             let now = current.cells()[idx];
             if now != target {
-                let mut support = buffer.changed();
-                if params.neighbour_support && support < threshold {
-                    for n in cell.neighbours8() {
-                        if let Some(j) = g.index(n)
-                            && base.cells()[j] == base_state
-                            && buffers.get(j as u32).is_some_and(|b| b.changed() >= threshold)
-                        {
-                            support += 1;
-                        }
-                    }
-                }
-                if support >= threshold {
+                if self.support(buffer, cell, base, buffers, params) >= threshold {
                     current.cells_mut()[idx] = target;
                     changes.push(CellChange { cell, from: now, to: target });
                     if target == CellState::Free && params.border_reconstruction {
                         for n in cell.neighbours8() {
                             if let Some(j) = g.index(n)
                                 && current.cells()[j] == CellState::Unknown
-                                && self.is_interior(j)
+                                && (!params.border_interior_only || self.is_interior(j))
                             {
                                 current.cells_mut()[j] = CellState::Occupied;
                                 changes.push(CellChange { cell: n, from: CellState::Unknown, to: CellState::Occupied });
@@ -133,11 +130,44 @@ impl CellUpdater {
                         }
                     }
                 }
-            } else if buffer.unchanged() >= threshold {
+            } else if match params.revert {
+                RevertRule::Never => false,
+                RevertRule::BelowThreshold => self.support(buffer, cell, base, buffers, params) < threshold,
+                RevertRule::UnchangedThreshold => buffer.unchanged() >= threshold,
+            } {
                 current.cells_mut()[idx] = base_state;
                 changes.push(CellChange { cell, from: now, to: base_state });
             }
         }
+    }
+}
+
+impl CellUpdater {
+    /// The flip rule's count for `cell`: its "changed" flags, plus (with `neighbour_support`,
+    /// below the threshold) the 8-neighbours with the same `M_{i-1}` state already at it.
+    fn support(
+        &self,
+        buffer: RollingBuffer,
+        cell: CellCoord,
+        base: &OccupancyGrid,
+        buffers: &CellBuffers,
+        params: &UpdaterParams,
+    ) -> u32 {
+        let threshold = params.change_threshold;
+        let mut support = buffer.changed();
+        if params.neighbour_support && support < threshold {
+            let g = base.geometry();
+            let base_state = base.get(cell);
+            for n in cell.neighbours8() {
+                if let Some(j) = g.index(n)
+                    && Some(base.cells()[j]) == base_state
+                    && buffers.get(j as u32).is_some_and(|b| b.changed() >= threshold)
+                {
+                    support += 1;
+                }
+            }
+        }
+        support
     }
 }
 

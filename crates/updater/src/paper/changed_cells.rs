@@ -9,7 +9,7 @@
 //!
 //! The removal vote of §4.3.1 passes through the project's gates
 //! ([`crate::additions::removal_gates`]: hit clearance, grazing incidence, ray core, shadow),
-//! which are off in the `reference` preset. The non-free cells along the ray are found by
+//! which are off in the `paper` and `authors` presets. The non-free cells along the ray are found by
 //! [`RayCaster::visit_blocking`] (open stretches crossed without visiting them), and the tol
 //! test is answered by the caster's clearance where it decides; both give the plain walk's
 //! votes (test below).

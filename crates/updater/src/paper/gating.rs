@@ -1,6 +1,6 @@
-//! Update gating (§4.5 and the parameter table): a scan is processed only after the robot has
+//! Update gating (§4.5 and the parameter table): the cells update runs only after the robot has
 //! moved at least `gating_min_translation_m` or turned at least `gating_min_rotation_rad` since
-//! the last processed scan, measured by odometry. The `reference` preset adds a minimum interval
+//! the last processed scan, measured by odometry. The `authors` preset adds a minimum interval
 //! and a pause after fast rotations.
 
 use crate::UpdaterParams;
@@ -40,7 +40,7 @@ impl UpdateGate {
     /// Decides whether the step at `robot_in_odom`, `stamp_ns` is processed; `None` means yes.
     /// The caller reports a processed step with [`UpdateGate::mark_processed`].
     pub fn check(&mut self, robot_in_odom: Pose2, stamp_ns: u64, params: &UpdaterParams) -> Option<GateReason> {
-        // Fast-rotation pause bookkeeping (reference preset), over every step seen.
+        // Fast-rotation pause bookkeeping (`authors` preset), over every step seen.
         if let Some((prev, prev_ns)) = self.last_seen {
             let dt_s = stamp_ns.saturating_sub(prev_ns) as f64 * 1e-9;
             let step_m = prev.distance(&robot_in_odom);
@@ -97,8 +97,8 @@ mod tests {
     }
 
     #[test]
-    fn reference_gate_interval_and_fast_rotation_pause() {
-        let p = UpdaterParams::reference();
+    fn authors_gate_interval_and_fast_rotation_pause() {
+        let p = UpdaterParams::authors();
         let mut g = UpdateGate::new();
         assert_eq!(g.check(Pose2::IDENTITY, 0, &p), None);
         g.mark_processed(Pose2::IDENTITY, 0);

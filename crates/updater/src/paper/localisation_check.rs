@@ -31,7 +31,7 @@ impl Verdict {
 const EPS: f64 = 1e-9;
 
 /// Eq. 6-8. The comparisons are inclusive exactly as written: n_dc = D_εmin·n is Update,
-/// n_dc = D_εmax·n is Lost. With D_εmin = D_εmax (the `reference` preset) there is no Suspend.
+/// n_dc = D_εmax·n is Lost. With D_εmin = D_εmax (the `authors` preset) there is no Suspend.
 pub fn localisation_check(n: usize, n_dc: usize, d_eps_min: f64, d_eps_max: f64) -> Verdict {
     let (n, n_dc) = (n as f64, n_dc as f64);
     if n_dc <= d_eps_min * n + EPS {

@@ -1,7 +1,9 @@
 //! Unchanged cells evaluator (§4.4) for one beam without detected change: cells traversed up
-//! to p_th (final chunk max(0.02·z, min) skipped) get an "unchanged" vote; for the hit cell, if
-//! it is free in `M_{i-1}` the occupied (or unknown) cells adjacent to it get the vote,
-//! otherwise the hit cell itself does.
+//! to p_th (final chunk max(0.02·z, min) skipped) get an "unchanged" vote (with
+//! `unchanged_ray_free_only`, only those free in `M_{i-1}`); for the hit cell, if it is free in
+//! `M_{i-1}` the occupied (or unknown) cells adjacent to it get the vote, otherwise the hit cell
+//! itself does (`unchanged_hit = "adjacent8"`); the authors' code instead votes the hit cell
+//! and its 4-neighbours, each if non-free (`"cross4"`).
 //!
 //! Only cells that already hold a buffer are voted on: an "unchanged" flag in a cell without a
 //! buffer would create a buffer without a "changed" flag, which is dropped at once
@@ -14,7 +16,8 @@ use crate::UpdaterParams;
 use crate::paper::cell_buffers::TileProbe;
 use crate::support::beam_walk::{BeamGeometry, buffered_cells_before_chunk};
 use crate::support::votes::{Vote, vote};
-use mapkeeper_grid::{CellState, OccupancyGrid};
+use crate::params::UnchangedHitRule;
+use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 
 /// Appends the unchanged evaluator's votes for one `beam` to `votes`. `first_buffer_m`: no cell
 /// closer than this to the beam's origin along the beam holds a buffer (0 if unknown; see
@@ -31,12 +34,24 @@ pub fn evaluate_unchanged_beam(
     let hit = beam.hit;
     let skip = params.skip_unchanged_m(beam.range_m);
     let skip_sq = skip * skip;
+    let free_only = params.unchanged_ray_free_only;
     buffered_cells_before_chunk(g, beam, skip, first_buffer_m, probe, |c, i| {
-        if g.cell_center(c).distance_sq(hit) > skip_sq {
+        if g.cell_center(c).distance_sq(hit) > skip_sq && (!free_only || base.cells()[i] == CellState::Free) {
             votes.push(vote(i, false));
         }
     });
     let Some(c) = g.world_to_cell(hit) else { return };
+    if params.unchanged_hit == UnchangedHitRule::Cross4 {
+        for n in [c, CellCoord::new(c.ix + 1, c.iy), CellCoord::new(c.ix - 1, c.iy), CellCoord::new(c.ix, c.iy + 1), CellCoord::new(c.ix, c.iy - 1)] {
+            if let Some(i) = g.index(n)
+                && base.cells()[i] != CellState::Free
+                && probe.contains(n)
+            {
+                votes.push(vote(i, false));
+            }
+        }
+        return;
+    }
     match base.get(c) {
         Some(CellState::Free) => {
             for n in c.neighbours8() {

@@ -46,7 +46,7 @@ pub struct Scenario {
 }
 
 /// The pinned scenarios.
-pub const SCENARIOS: [Scenario; 4] = [
+pub const SCENARIOS: [Scenario; 5] = [
     Scenario {
         name: "paper, exact poses, one lap",
         preset: "paper",
@@ -55,16 +55,17 @@ pub const SCENARIOS: [Scenario; 4] = [
         pose_error: false,
     },
     Scenario { name: "paper, pose errors", preset: "paper", map_origin: Pose2::IDENTITY, steps: 320, pose_error: true },
+    Scenario { name: "authors, pose errors", preset: "authors", map_origin: Pose2::IDENTITY, steps: 320, pose_error: true },
     Scenario {
-        name: "reference, pose errors",
-        preset: "reference",
+        name: "mapkeeper, pose errors",
+        preset: "mapkeeper",
         map_origin: Pose2::IDENTITY,
         steps: 320,
         pose_error: true,
     },
     Scenario {
-        name: "paper, rotated map origin, pose errors",
-        preset: "paper",
+        name: "mapkeeper, rotated map origin, pose errors",
+        preset: "mapkeeper",
         map_origin: Pose2::new(-3.0, 2.0, 0.3),
         steps: 320,
         pose_error: true,
