@@ -179,8 +179,9 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
         &NoClock,
     )
     .unwrap();
-    // The robot never moves: the gate lets only the first step through.
-    assert_eq!((u.stats.steps, u.stats.processed, u.stats.gated), (20, 1, 19));
+    // The robot never moves: every step is checked, the gate lets only the first cells update
+    // through.
+    assert_eq!((u.stats.steps, u.stats.processed, u.stats.gated, u.stats.cells_updates), (20, 20, 19, 1));
     assert_eq!(u.steps_csv.lines().count(), 21);
     // No scans, no job.
     let e = update_log(

@@ -50,6 +50,7 @@ impl Observer for Rows {
             StepOutcome::Processed => "processed",
             StepOutcome::Gated(_) => "gated",
             StepOutcome::NoValidBeams => "no_valid_beams",
+            StepOutcome::TooFewBeams => "too_few_beams",
         };
         let recovery = match &r.pose_recovery {
             Some(PoseRecovery::Recovered { pose_in_map, .. }) => {
