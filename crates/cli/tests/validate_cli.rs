@@ -41,7 +41,7 @@ fn scratch() -> PathBuf {
 
 /// The number of `#[test]` functions in this file: the last one to pass removes the scratch
 /// folder (it is kept when a test fails, or when tests are filtered).
-const TESTS: usize = 6;
+const TESTS: usize = 7;
 
 /// Called at the end of each test.
 fn done() {
@@ -398,5 +398,38 @@ fn preset_sweeps_shard_over_preset_and_seed_jobs() {
         assert!(stderr(&r).contains(want), "--presets {list}: {}", stderr(&r));
         assert!(!out.exists());
     }
+    done();
+}
+
+/// `--updater-params` overrides fields of the preset, is recorded in summary.json, and a bad
+/// file is refused before any work with an error naming the file and the field.
+#[test]
+fn updater_params_file_overrides_the_preset() {
+    let dir = scratch();
+    let good = dir.join("clearance.toml");
+    std::fs::write(&good, "removal_hit_clearance_m = 0.125\n").unwrap();
+    let out = validate(
+        "updater-params",
+        &["--preset", "mapkeeper", "--worlds", "2", "--updater-params", good.to_str().unwrap()],
+    );
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"removal_hit_clearance_m\": 0.125"), "{summary}");
+    assert!(summary.contains("\"free_pass_votes\": true"), "the rest is mapkeeper's");
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "change_threshold = 5\n").unwrap();
+    let out = dir.join("updater-params-bad");
+    let r = mapkeeper(&[
+        "validate",
+        "--preset",
+        "mapkeeper",
+        "--updater-params",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!r.status.success());
+    let e = stderr(&r);
+    assert!(e.contains("bad.toml") && e.contains("change_threshold"), "{e}");
+    assert!(!out.exists());
     done();
 }

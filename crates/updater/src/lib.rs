@@ -106,5 +106,7 @@ pub use paper::gating::GateReason;
 pub use paper::icp::Fitness;
 pub use paper::localisation_check::Verdict;
 pub use paper::pose_updating::{PoseRecovery, RecoveryFailure};
-pub use params::{FlagRule, PRESET_NAMES, PoseUpdatingParams, RevertRule, UnchangedHitRule, UpdateMethod, UpdaterParams};
+pub use params::{
+    FlagRule, PRESET_NAMES, PoseUpdatingParams, RevertRule, UnchangedHitRule, UpdateMethod, UpdaterParams,
+};
 pub use updater::{MapUpdater, StepOutcome, StepReport, UpdaterStats};

@@ -687,7 +687,10 @@ mod tests {
         // `paper` has none of the additions; `mapkeeper` has them all.
         let m = UpdaterParams::mapkeeper();
         assert!(!p.free_pass_votes && !p.removal_shadow && !p.border_interior_only);
-        assert_eq!((p.revert, r.revert, UpdaterParams::mapkeeper().revert), (RevertRule::Never, RevertRule::BelowThreshold, RevertRule::UnchangedThreshold));
+        assert_eq!(
+            (p.revert, r.revert, UpdaterParams::mapkeeper().revert),
+            (RevertRule::Never, RevertRule::BelowThreshold, RevertRule::UnchangedThreshold)
+        );
         assert!(p.removal_hit_clearance_m == 0.0 && p.removal_min_incidence_rad == 0.0);
         assert!(p.removal_max_offset_cells.is_infinite());
         assert!(m.free_pass_votes && m.removal_shadow && m.border_interior_only);

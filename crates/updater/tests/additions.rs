@@ -147,13 +147,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         let hit = Point2::new(1.02, 3.9);
         let z = origin.distance(hit);
         let mut votes = Vec::new();
-        evaluate_changed_beam(
-            &base,
-            &BeamGeometry::new(origin, hit, z),
-            &mapkeeper(),
-            &HitIndex::new(),
-            &mut votes,
-        );
+        evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &mapkeeper(), &HitIndex::new(), &mut votes);
         let voted: Vec<CellCoord> = votes.iter().map(|v| g.coord((v >> 1) as usize)).collect();
         assert!(!voted.iter().any(|c| (20..=35).contains(&c.iy)), "gap {gap}: box A voted: {voted:?}");
         let in_b = voted.iter().any(|c| (b0..=b0 + 15).contains(&c.iy));

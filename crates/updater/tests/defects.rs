@@ -13,8 +13,10 @@ use mapkeeper_updater::{MapUpdater, PoseRecovery, StepOutcome, UpdaterParams, Ve
 /// `m` with its origin moved to `origin` (same cells: the map turned and shifted in the world).
 fn placed(m: &OccupancyGrid, origin: Pose2) -> OccupancyGrid {
     let g = m.geometry();
-    let mut out =
-        OccupancyGrid::filled(GridGeometry::new(g.width(), g.height(), g.resolution_m(), origin).unwrap(), CellState::Free);
+    let mut out = OccupancyGrid::filled(
+        GridGeometry::new(g.width(), g.height(), g.resolution_m(), origin).unwrap(),
+        CellState::Free,
+    );
     out.cells_mut().copy_from_slice(m.cells());
     out
 }
@@ -79,7 +81,12 @@ fn free_pass_never_votes_the_hit_cell() {
 
 /// A square room's 360° scan with the first `changed` beams of every 20 shortened by 1 m (an
 /// unmapped object close to the robot in those directions).
-fn scan_with_changes(world: &OccupancyGrid, robot: Pose2, changed: usize, stamp_ns: u64) -> mapkeeper_sensor::LaserScan {
+fn scan_with_changes(
+    world: &OccupancyGrid,
+    robot: Pose2,
+    changed: usize,
+    stamp_ns: u64,
+) -> mapkeeper_sensor::LaserScan {
     let mut s = scan360(world, robot, stamp_ns);
     for (i, r) in s.ranges_m.iter_mut().enumerate() {
         if i % 20 < changed {
@@ -96,7 +103,8 @@ fn paper_and_authors_differ_on_the_check() {
     let world = room(6.0, 6.0, 0.05);
     let robot = Pose2::new(3.0, 3.0, 0.1);
     let scan = scan_with_changes(&world, robot, 13, 0);
-    let verdict = |p: UpdaterParams| MapUpdater::new(world.clone(), p).unwrap().process(robot, robot, &[scan.clone()]).verdict;
+    let verdict =
+        |p: UpdaterParams| MapUpdater::new(world.clone(), p).unwrap().process(robot, robot, &[scan.clone()]).verdict;
     assert_eq!(verdict(UpdaterParams::paper()), Some(Verdict::Update));
     assert_eq!(verdict(UpdaterParams::mapkeeper()), Some(Verdict::Update));
     assert_eq!(verdict(UpdaterParams::authors()), Some(Verdict::Lost));

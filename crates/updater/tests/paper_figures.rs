@@ -63,7 +63,13 @@ fn fig10_final_chunk_is_skipped() {
     let flagged = |hit_x: f64, p: &UpdaterParams| {
         let hit = Point2::new(hit_x, origin.y);
         let mut votes = Vec::new();
-        evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, hit.x - origin.x), p, &HitIndex::new(), &mut votes);
+        evaluate_changed_beam(
+            &base,
+            &BeamGeometry::new(origin, hit, hit.x - origin.x),
+            p,
+            &HitIndex::new(),
+            &mut votes,
+        );
         decode(&votes, 60)
     };
     let p = UpdaterParams::paper();

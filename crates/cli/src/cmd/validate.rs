@@ -4,6 +4,7 @@
 use anyhow::{Context, bail};
 use mapkeeper_scenario::results::report::write_validation;
 use mapkeeper_scenario::{Clock, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
+use mapkeeper_updater::UpdaterParams;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -31,9 +32,13 @@ pub struct Args {
     /// Number of seeds (seed, seed+1, …), run in parallel.
     #[arg(long, default_value_t = 1)]
     pub seeds: u64,
-    /// Updater preset: paper, reference, always-update, no-update, log-odds.
+    /// Updater preset: paper, authors, mapkeeper, always-update, no-update, log-odds.
     #[arg(long, default_value = "paper")]
     pub preset: String,
+    /// TOML file overriding any field of the updater preset(s) (unknown keys are errors), e.g.
+    /// `removal_hit_clearance_m = 0.1`; recorded in summary.json with the preset's name.
+    #[arg(long, value_name = "FILE")]
+    pub updater_params: Option<PathBuf>,
     /// A sweep over several presets (comma-separated, e.g. paper,always-update): jobs are
     /// (preset × seed); each preset's results go to `OUT/<preset>/`.
     #[arg(long, value_name = "P1,P2,…", conflicts_with = "preset", value_delimiter = ',')]
@@ -95,7 +100,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         route_length_m: args.route_length,
         shard: args.shard,
     };
-    let plan = spec.plan()?;
+    let mut plan = spec.plan()?;
+    if let Some(file) = args.updater_params.as_deref() {
+        for p in &mut plan.params {
+            p.runner.updater = super::load_params(p.runner.updater.clone(), Some(file), UpdaterParams::validate)?;
+        }
+    }
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     let dirs = output_dirs(&out, &plan, sweep, args.force)?;
     let bar = super::progress_bar(plan.total_worlds(), "worlds");

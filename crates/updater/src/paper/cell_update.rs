@@ -14,8 +14,8 @@
 //! it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
-use crate::params::{FlagRule, RevertRule};
 use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
+use crate::params::{FlagRule, RevertRule};
 use crate::support::votes::Vote;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};

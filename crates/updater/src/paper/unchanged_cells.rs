@@ -14,9 +14,9 @@
 
 use crate::UpdaterParams;
 use crate::paper::cell_buffers::TileProbe;
+use crate::params::UnchangedHitRule;
 use crate::support::beam_walk::{BeamGeometry, buffered_cells_before_chunk};
 use crate::support::votes::{Vote, vote};
-use crate::params::UnchangedHitRule;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 
 /// Appends the unchanged evaluator's votes for one `beam` to `votes`. `first_buffer_m`: no cell
@@ -42,7 +42,13 @@ pub fn evaluate_unchanged_beam(
     });
     let Some(c) = g.world_to_cell(hit) else { return };
     if params.unchanged_hit == UnchangedHitRule::Cross4 {
-        for n in [c, CellCoord::new(c.ix + 1, c.iy), CellCoord::new(c.ix - 1, c.iy), CellCoord::new(c.ix, c.iy + 1), CellCoord::new(c.ix, c.iy - 1)] {
+        for n in [
+            c,
+            CellCoord::new(c.ix + 1, c.iy),
+            CellCoord::new(c.ix - 1, c.iy),
+            CellCoord::new(c.ix, c.iy + 1),
+            CellCoord::new(c.ix, c.iy - 1),
+        ] {
             if let Some(i) = g.index(n)
                 && base.cells()[i] != CellState::Free
                 && probe.contains(n)

@@ -55,7 +55,13 @@ pub const SCENARIOS: [Scenario; 5] = [
         pose_error: false,
     },
     Scenario { name: "paper, pose errors", preset: "paper", map_origin: Pose2::IDENTITY, steps: 320, pose_error: true },
-    Scenario { name: "authors, pose errors", preset: "authors", map_origin: Pose2::IDENTITY, steps: 320, pose_error: true },
+    Scenario {
+        name: "authors, pose errors",
+        preset: "authors",
+        map_origin: Pose2::IDENTITY,
+        steps: 320,
+        pose_error: true,
+    },
     Scenario {
         name: "mapkeeper, pose errors",
         preset: "mapkeeper",
