@@ -42,7 +42,7 @@ pub struct Args {
     /// Use the log's true poses as the robot pose estimate.
     #[arg(long)]
     pub true_poses: bool,
-    /// Parameter preset: paper (default), reference, always-update, no-update, log-odds.
+    /// Parameter preset: paper (default), authors, mapkeeper, always-update, no-update, log-odds.
     #[arg(long, value_name = "NAME", default_value = "paper")]
     pub preset: String,
     /// TOML file overriding any field of the preset (same names as UpdaterParams; tables for
