@@ -55,7 +55,7 @@ pub struct Args {
     pub params: Option<PathBuf>,
     /// Scans of different lidars within this many seconds of a step's first scan form one step
     /// (≥ 0; 0 = only scans with equal stamps).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.05)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.05, allow_negative_numbers = true)]
     pub sync_window_s: f64,
     /// Output folder.
     #[arg(long, value_name = "OUT")]
