@@ -442,6 +442,17 @@ impl Summary {
             self.routes_completed,
             self.rows
         );
+        let l = &self.lost_handling;
+        let _ = writeln!(
+            t,
+            "lost handling: {} episodes, {} attempts, recovered/cleared/gave up {}/{}/{}, stopped {:.1} s",
+            l.episodes,
+            l.attempts,
+            l.recoveries,
+            l.cleared,
+            l.give_ups,
+            l.stopped_s()
+        );
         t
     }
 }
