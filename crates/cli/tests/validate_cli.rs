@@ -389,6 +389,20 @@ fn preset_sweeps_shard_over_preset_and_seed_jobs() {
         assert!(r.status.success(), "{}", stderr(&r));
         assert_eq!(files(&out), files(&all.join(preset)), "{preset}: merged shards differ from the sweep");
     }
+    check_comparison(&all);
+    // The shards merged whole: preset by preset, then the comparison: the unsharded sweep.
+    let whole_merge = scratch().join("sweep-merged-whole");
+    let mut args = vec!["merge".to_string()];
+    args.extend(parts.iter().map(|d| d.to_str().unwrap().to_string()));
+    args.extend(["--out".to_string(), whole_merge.to_str().unwrap().to_string()]);
+    let r = mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(r.status.success(), "{}", stderr(&r));
+    assert_eq!(files(&whole_merge), files(&all), "the merged sweep differs from the unsharded one");
+    // Its top-level files are refused without --force, and a sweep over other presets is refused.
+    let r = mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!r.status.success() && stderr(&r).contains("--force"), "{}", stderr(&r));
+    let r = mapkeeper(&["validate", "--worlds", "2", "--presets", "paper,no-update", "--out", all.to_str().unwrap()]);
+    assert!(!r.status.success() && stderr(&r).contains("summary.json"), "{}", stderr(&r));
     let single = validate("sweep-single", &["--worlds", "2", "--seeds", "2", "--no-timing", "--preset", "no-update"]);
     assert_eq!(files(&single), files(&all.join("no-update")));
     for (list, want) in [("paper,paper", "twice"), ("paper,bogus", "bogus"), ("paper,", "preset names")] {
@@ -432,4 +446,38 @@ fn updater_params_file_overrides_the_preset() {
     assert!(e.contains("bad.toml") && e.contains("change_threshold"), "{e}");
     assert!(!out.exists());
     done();
+}
+
+/// The comparison of a sweep over paper and no-update with seeds 1 and 2: one row per preset
+/// and one per preset and seed, each with the figures of the preset's own summary.
+fn check_comparison(all: &Path) {
+    let json = |p: &Path| -> serde_json::Value { serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap() };
+    let c = json(&all.join("summary.json"));
+    assert_eq!(c["format"], "mapkeeper-validation-comparison");
+    assert_eq!(c["presets"], serde_json::json!(["paper", "no-update"]));
+    let rows = c["rows"].as_array().unwrap();
+    let keys: Vec<(String, serde_json::Value)> =
+        rows.iter().map(|r| (r["preset"].as_str().unwrap().to_owned(), r["seed"].clone())).collect();
+    let want: Vec<(String, serde_json::Value)> = ["paper", "no-update"]
+        .iter()
+        .flat_map(|p| [serde_json::Value::Null, 1.into(), 2.into()].map(|s| (p.to_string(), s)))
+        .collect();
+    assert_eq!(keys, want);
+    for r in rows.iter().filter(|r| r["seed"].is_null()) {
+        let s = json(&all.join(r["preset"].as_str().unwrap()).join("summary.json"));
+        assert_eq!(r["map_quality"], s["map_quality"]);
+        assert_eq!(r["localisation_error"]["on_m1_m"], s["localisation"]["static_map"]["mean_error_m"]);
+        assert_eq!(r["localisation_error"]["on_prev_m"], s["localisation"]["updated_map"]["mean_error_m"]);
+        for v in ["update", "suspend", "lost"] {
+            assert_eq!(r["verdicts"][v], s["updater"][v], "{v}");
+        }
+        assert_eq!(r["lost_handling"], s["lost_handling"]);
+        assert_eq!(r["worlds"], 2, "2 seeds × W_2");
+    }
+    // no-update never updates its map: M_i is M_1 in every world.
+    let nu = &rows[3]["map_quality"]["cc"];
+    assert_eq!(nu["static_mean"], nu["updated_mean"]);
+    let report = std::fs::read_to_string(all.join("report.md")).unwrap();
+    assert_eq!(report.lines().filter(|l| l.starts_with("| paper |") || l.starts_with("| no-update |")).count(), 6);
+    assert!(report.contains("Lost episodes") && report.contains("err on M_1"), "{report}");
 }

@@ -33,7 +33,7 @@ pub mod stats;
 pub use clock::{Clock, NoClock};
 pub use driver::{Control, Observer, run, step_once};
 pub use error::HarnessError;
-pub use replay::{LogSource, OdometryAt, ReplayOptions};
+pub use replay::{DEFAULT_SYNC_WINDOW_NS, LogSource, OdometryAt, ReplayOptions};
 pub use session::{Baseline, BaselineSample, PoseSource, Session, SessionOutput, Skip, StepReport};
 pub use source::{RobotControl, SensorFrame, SensorSource, SourceError, Step, Truth};
 pub use stats::{ErrorSample, LocAcc, LocScore, LocStats, Trajectories, UpdaterWork};

@@ -1,6 +1,7 @@
-//! Log replay: a recorded sensor log as a [`SensorSource`]. Scans with the same stamp (one per
-//! lidar) form one step; the odometry and the truth are associated with each step's stamp by
-//! the rules of [`ReplayOptions`].
+//! Log replay: a recorded sensor log as a [`SensorSource`]. Scans close in time (within
+//! [`ReplayOptions::sync_window_ns`] of the step's first scan, at most one per lidar) form one
+//! step stamped with its latest scan; the odometry and the truth are associated with each
+//! step's stamp by the rules of [`ReplayOptions`].
 
 use crate::source::{SensorFrame, SensorSource, SourceError, Step, Truth};
 use mapkeeper_grid::Pose2;
@@ -25,12 +26,40 @@ pub struct ReplayOptions {
     /// Truth records farther than this from a step's stamp are not used for it, nanoseconds
     /// (see [`interpolate_within`]); `u64::MAX`: interpolate, clamped at the ends.
     pub max_truth_gap_ns: u64,
+    /// Scans whose stamps lie within this of the first scan of a step join that step (at most
+    /// one scan per lidar: a second scan of a lidar starts a new step), nanoseconds; the step's
+    /// stamp is its latest scan's. 0: only scans with exactly the same stamp. Default 0 (`mapkeeper
+    /// update` uses [`DEFAULT_SYNC_WINDOW_NS`]).
+    pub sync_window_ns: u64,
 }
+
+/// The synchronisation window `mapkeeper update` groups the scans of unsynchronised lidars
+/// with by default: 0.05 s, nanoseconds.
+pub const DEFAULT_SYNC_WINDOW_NS: u64 = 50_000_000;
 
 impl Default for ReplayOptions {
     fn default() -> Self {
-        Self { odometry_at: OdometryAt::LatestAtOrBefore, max_truth_gap_ns: u64::MAX }
+        Self { odometry_at: OdometryAt::LatestAtOrBefore, max_truth_gap_ns: u64::MAX, sync_window_ns: 0 }
     }
+}
+
+/// Groups time-ordered scans into steps: a scan joins the open step if its stamp is within
+/// `window_ns` of the step's first scan and no scan of its lidar is in it yet; each step is
+/// stamped with its latest scan.
+fn group_scans(scans: Vec<LaserScan>, window_ns: u64) -> Vec<(u64, Vec<LaserScan>)> {
+    let mut steps: Vec<(u64, Vec<LaserScan>)> = Vec::new();
+    for s in scans {
+        match steps.last_mut() {
+            Some((latest, group))
+                if s.stamp_ns - group[0].stamp_ns <= window_ns && group.iter().all(|g| g.lidar_id != s.lidar_id) =>
+            {
+                *latest = s.stamp_ns;
+                group.push(s);
+            }
+            _ => steps.push((s.stamp_ns, vec![s])),
+        }
+    }
+    steps
 }
 
 /// A sensor log replayed step by step.
@@ -48,9 +77,8 @@ pub struct LogSource {
 
 impl LogSource {
     /// Replays `log` (named `name` in errors and reports). Records are ordered by stamp (stable
-    /// within one stamp).
+    /// within one stamp); scans are grouped into steps by [`ReplayOptions::sync_window_ns`].
     pub fn new(log: SensorLog, name: impl Into<String>, options: ReplayOptions) -> Self {
-        let mut steps: Vec<(u64, Vec<LaserScan>)> = Vec::new();
         let (mut odometry, mut truth, mut scans) = (Vec::new(), Vec::new(), Vec::new());
         for r in log.records {
             match r {
@@ -62,12 +90,7 @@ impl LogSource {
         scans.sort_by_key(|s| s.stamp_ns);
         odometry.sort_by_key(|o| o.stamp_ns);
         truth.sort_by_key(|t| t.stamp_ns);
-        for s in scans {
-            match steps.last_mut() {
-                Some((t, group)) if *t == s.stamp_ns => group.push(s),
-                _ => steps.push((s.stamp_ns, vec![s])),
-            }
-        }
+        let steps = group_scans(scans, options.sync_window_ns);
         Self { name: name.into(), steps, odometry, truth, options, next: 0, distance_m: 0.0, prev_truth: None }
     }
 

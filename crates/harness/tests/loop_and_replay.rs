@@ -194,3 +194,121 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
     .unwrap_err();
     assert!(e.to_string().contains("empty.jsonl"), "{e}");
 }
+
+#[test]
+fn scans_within_the_sync_window_form_one_step_with_at_most_one_scan_per_lidar() {
+    // Two unsynchronised lidars; lidar 0 twice within the window at 300 and 310.
+    let records = vec![
+        odom(0, 0.0),
+        scan_rec(100, 0),
+        scan_rec(120, 1),
+        odom(125, 1.0),
+        scan_rec(200, 0),
+        scan_rec(230, 1),
+        scan_rec(300, 0),
+        scan_rec(310, 0),
+        scan_rec(400, 1),
+        odom(500, 2.0),
+    ];
+    let steps = |sync_window_ns| {
+        let options = ReplayOptions { sync_window_ns, ..ReplayOptions::default() };
+        let mut s = LogSource::new(log(records.clone()), "t", options);
+        let mut out = Vec::new();
+        while let Some(step) = s.next_step().unwrap() {
+            let lidars: Vec<u32> = step.frame.scans.iter().map(|s| s.lidar_id).collect();
+            out.push((step.frame.stamp_ns, lidars, step.frame.odometry.map(|p| p.x)));
+        }
+        out
+    };
+    // Window 50 ns: pairs stamped with their latest scan (odometry looked up there: at 120 the
+    // reading at 0, at 230 the one at 125); the second scan of lidar 0 starts a new step.
+    assert_eq!(
+        steps(50),
+        [
+            (120, vec![0, 1], Some(0.0)),
+            (230, vec![0, 1], Some(1.0)),
+            (300, vec![0], Some(1.0)),
+            (310, vec![0], Some(1.0)),
+            (400, vec![1], Some(1.0)),
+        ]
+    );
+    // The window is measured from the step's first scan: 100 ns holds 300, 310 apart (same
+    // lidar) but joins 310 and 400.
+    assert_eq!(steps(100)[2..], [(300, vec![0], Some(1.0)), (400, vec![0, 1], Some(1.0))]);
+    // 0: exact stamps only, every scan its own step (the default).
+    assert_eq!(steps(0).len(), 7);
+    assert_eq!(ReplayOptions::default().sync_window_ns, 0);
+}
+
+/// Ranges of a scan from `robot` (lidar at the robot's centre) in `room()`: the inner faces of
+/// its walls are at ±4.9 m.
+fn room_ranges(robot: Pose2, s: &LaserScan) -> Vec<f32> {
+    (0..s.ranges_m.len())
+        .map(|k| {
+            let a = robot.yaw + s.angle_min_rad + k as f64 * s.angle_increment_rad;
+            let (dx, dy) = (a.cos(), a.sin());
+            let tx = if dx > 0.0 { (4.9 - robot.x) / dx } else { (-4.9 - robot.x) / dx };
+            let ty = if dy > 0.0 { (4.9 - robot.y) / dy } else { (-4.9 - robot.y) / dy };
+            tx.min(ty) as f32
+        })
+        .collect()
+}
+
+#[test]
+fn update_writes_every_pose_recovery_with_its_pose_or_refusal_reason() {
+    // Two lidars 10 ms apart (one step with the default window), a whole turn of beams. Step 1:
+    // the scans fit the room at the true pose, the given pose is about 1.6 m and 0.6 rad off → Lost,
+    // and pose updating finds the true pose. Step 2 (after 0.2 m of odometry): every beam hits
+    // something 2 m away, which nothing in the room explains → Lost, refused.
+    let truth_pose = Pose2::new(1.0, 0.5, 0.0);
+    let given = Pose2::new(2.2, -0.4, 0.6);
+    let turn = |stamp_ns, lidar_id, ranges: Option<Vec<f32>>| {
+        let mut s = scan(stamp_ns, lidar_id);
+        s.angle_min_rad = -std::f64::consts::PI;
+        s.angle_increment_rad = 2.0 * std::f64::consts::PI / 360.0;
+        s.ranges_m = vec![0.0; 360];
+        s.ranges_m = ranges.unwrap_or_else(|| room_ranges(truth_pose, &s));
+        LogRecord::Scan(s)
+    };
+    let (t1, t2) = (1_000_000_000u64, 2_000_000_000u64);
+    let records = vec![
+        odom(t1, 0.0),
+        turn(t1, 0, None),
+        turn(t1 + 10_000_000, 1, None),
+        odom(t2, 0.2),
+        turn(t2, 0, Some(vec![2.0; 360])),
+        turn(t2 + 10_000_000, 1, Some(vec![2.0; 360])),
+    ];
+    let track = vec![
+        mapkeeper_sensor::StampedPose { stamp_ns: t1, pose: given },
+        mapkeeper_sensor::StampedPose { stamp_ns: t2 + 10_000_000, pose: given },
+    ];
+    let options = ReplayOptions {
+        odometry_at: OdometryAt::Interpolated,
+        sync_window_ns: mapkeeper_harness::DEFAULT_SYNC_WINDOW_NS,
+        ..ReplayOptions::default()
+    };
+    let u = update_log(
+        LogSource::new(log(records), "t", options),
+        room(),
+        UpdaterParams::paper(),
+        PoseInput::Track(track),
+        &NoClock,
+    )
+    .unwrap();
+    assert_eq!((u.stats.steps, u.stats.processed, u.stats.losts), (2, 2, 2), "{}", u.steps_csv);
+    let rows: Vec<Vec<&str>> = u.recoveries_csv.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows[0], ["time_s", "verdict", "result", "x_m", "y_m", "yaw_rad", "reason"]);
+    assert_eq!(rows.len(), 3, "{}", u.recoveries_csv);
+    // Stamped with the step's latest scan.
+    assert_eq!(rows[1][..3], ["1.010000000", "lost", "recovered"]);
+    let xyz: Vec<f64> = rows[1][3..6].iter().map(|v| v.parse().unwrap()).collect();
+    assert!(
+        (xyz[0] - truth_pose.x).abs() < 0.05 && (xyz[1] - truth_pose.y).abs() < 0.05 && xyz[2].abs() < 0.02,
+        "{xyz:?}"
+    );
+    assert_eq!(rows[1][6], "");
+    assert_eq!(u.recovered_poses.len(), 1);
+    assert_eq!(rows[2][..6], ["2.010000000", "lost", "refused", "", "", ""]);
+    assert!(!rows[2][6].is_empty(), "a refusal names its reason: {:?}", rows[2]);
+}

@@ -27,7 +27,8 @@ pub use error::ScenarioError;
 pub use experiments::ExperimentError;
 pub use experiments::recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
 pub use experiments::run_events::{
-    Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample, TrackSample,
+    Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEnd, LostEpisode, LostPolicy, TimelineRecorder,
+    TimelineSample, TrackSample,
 };
 pub use experiments::runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,

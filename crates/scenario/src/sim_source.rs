@@ -1,6 +1,6 @@
 //! The simulator as a [`SensorSource`]: it advances physics ticks until a lidar fires and hands
 //! out that tick's scans and odometry, with the true pose (and the distance driven) apart. It
-//! is also the [`RobotControl`] of the experiments: stop (with a timed resume), resume, move.
+//! is also the [`RobotControl`] of the experiments: stop at once (with a timed resume), resume, move.
 
 use mapkeeper_grid::Pose2;
 use mapkeeper_harness::{RobotControl, SensorFrame, SensorSource, SourceError, Step, Truth};
@@ -119,9 +119,11 @@ impl SensorSource for SimSource {
 }
 
 impl RobotControl for SimSource {
+    /// Halts the robot where it is ([`Simulator::halt`]: it stands still from the next tick on,
+    /// rather than braking over up to 2 m), as the paper stops it while pose updating runs.
     fn stop(&mut self, resume_after_s: Option<f64>) {
         if self.stopped.is_none() {
-            self.sim.stop();
+            self.sim.halt();
             let tick_ns = self.sim.params().tick_ns as f64;
             self.stopped = Some((self.sim.tick(), resume_after_s.map(|s| (s * 1e9 / tick_ns).ceil() as u64)));
         }

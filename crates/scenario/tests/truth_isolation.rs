@@ -62,7 +62,7 @@ fn run(world: &World, route: &Route, map: &mapkeeper_grid::OccupancyGrid, garbag
     chain.init_pose(start_est, cov).unwrap();
     let updater = MapUpdater::new(map.clone(), UpdaterParams::paper()).unwrap();
     let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), Some(updater), None, &NoClock);
-    let mut lost = LostPolicy { stop_on_lost: true, lost_wait_s: 2.0, floor: cov };
+    let mut lost = LostPolicy::new(true, 2.0, cov);
     let mut est = Estimates::default();
     let controls: &mut [&mut dyn Control] = &mut [&mut lost];
     let sim_source = SimSource::new(sim, 60.0);

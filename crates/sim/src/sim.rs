@@ -302,7 +302,21 @@ impl Simulator {
         self.follower.stopped = true;
     }
 
-    /// Resume the route after [`Simulator::stop`].
+    /// Halt: an emergency stop. The robot stands still from the next tick on (commanded and
+    /// body velocities zeroed at once, not braked) and waits until [`Simulator::resume`]; only
+    /// contact with something moving can still push it.
+    pub fn halt(&mut self) {
+        self.follower.stopped = true;
+        if let Some(b) = self.physics.bodies.get_mut(self.robot_body) {
+            b.set_linvel(Vector::ZERO, true);
+            b.set_angvel(0.0, true);
+        }
+        self.cmd_vel = (0.0, 0.0);
+        self.cmd_fwd = 0.0;
+        self.cmd_omega = 0.0;
+    }
+
+    /// Resume the route after [`Simulator::stop`] or [`Simulator::halt`].
     pub fn resume(&mut self) {
         self.follower.stopped = false;
     }

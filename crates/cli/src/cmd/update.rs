@@ -15,8 +15,10 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Runs the safe and robust map updater (Stefanini et al. 2023) over recorded data.\n\n\
 Input: a ROS map_server map (M_{i-1}) and a sensor-log folder holding log.jsonl (scans with their \
-lidar mounting poses, odometry, optionally true poses). Scans from several lidars with the same \
-stamp_ns are processed together as one step.\n\n\
+lidar mounting poses, odometry, optionally true poses). Scans from several lidars are processed \
+together as one step when their stamps lie within --sync-window-s of the step's first scan (at most one \
+scan per lidar: a second scan of a lidar starts a new step; 0 = only equal stamps); the step's stamp is \
+its latest scan's.\n\n\
 Robot pose per step (the localiser's estimate), linearly interpolated at the scan stamp:\n  \
 --poses FILE.tum   a TUM trajectory (t x y z qx qy qz qw, '#' comments), e.g. from a localiser;\n  \
 --true-poses       the log's truth records;\n  \
@@ -27,8 +29,10 @@ without any, the chosen robot pose stands in for it.\n\n\
 Output in OUT (written atomically; an existing non-empty folder is refused without --force): \
 map.yaml + map.pgm (M_i), scans.csv with one row per step: time_s, outcome (processed, gated, \
 no_valid_beams), verdict (update, suspend, lost or empty), n, n_invalid, n_dc, cells_changed, recovery \
-(recovered, not_recovered or empty), microseconds of the updater call; and recovered.tum, the poses \
-pose updating returned (TUM, possibly empty).")]
+(recovered, not_recovered or empty), microseconds of the updater call; recovered.tum, the poses \
+pose updating returned (TUM, possibly empty); and recoveries.csv, one row per attempt of pose updating: \
+time_s, verdict (lost), result (recovered or refused), x_m, y_m, yaw_rad (the recovered pose; empty when \
+refused), reason (why it was refused; empty when recovered).")]
 pub struct Args {
     /// The map to update, ROS map_server YAML (with its PGM/PNG image).
     #[arg(long, value_name = "MAP.yaml")]
@@ -49,6 +53,10 @@ pub struct Args {
     /// pose_updating and log_odds).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
+    /// Scans of different lidars within this many seconds of a step's first scan form one step
+    /// (≥ 0; 0 = only scans with equal stamps).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.05, allow_negative_numbers = true)]
+    pub sync_window_s: f64,
     /// Output folder.
     #[arg(long, value_name = "OUT")]
     pub out: PathBuf,
@@ -64,12 +72,22 @@ pub fn load_updater_params(preset: &str, file: Option<&Path>) -> anyhow::Result<
     load_params(params, file, UpdaterParams::validate).with_context(|| format!("preset {preset}"))
 }
 
+/// The synchronisation window in nanoseconds, checked.
+pub fn sync_window_ns(seconds: f64) -> anyhow::Result<u64> {
+    anyhow::ensure!(
+        seconds.is_finite() && (0.0..=1e9).contains(&seconds),
+        "--sync-window-s: must be a finite number of seconds ≥ 0, got {seconds}"
+    );
+    Ok((seconds * 1e9).round() as u64)
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let sync_window_ns = sync_window_ns(args.sync_window_s)?;
     let params = load_updater_params(&args.preset, args.params.as_deref())?;
     let map = load_map(&args.map)?;
     let log_path = args.log.join("log.jsonl");
-    let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, ..ReplayOptions::default() };
+    let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, sync_window_ns, ..ReplayOptions::default() };
     let source = LogSource::new(SensorLog::read(&log_path)?, log_path.display().to_string(), options);
     let poses = match (&args.poses, args.true_poses) {
         (Some(p), _) => {
@@ -85,6 +103,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     save_map(&r.map, &dir.file("map.yaml")?)?;
     dir.write("scans.csv", r.steps_csv.as_bytes())?;
     write_tum(&dir.file("recovered.tum")?, &r.recovered_poses)?;
+    dir.write("recoveries.csv", r.recoveries_csv.as_bytes())?;
     let out = dir.finish()?;
     let s = r.stats;
     println!(

@@ -2,6 +2,7 @@
 //! seeds in parallel; the wall clock is read here (not in the libraries).
 
 use anyhow::{Context, bail};
+use mapkeeper_scenario::results::comparison::{Comparison, check_comparison_files, write_comparison};
 use mapkeeper_scenario::results::report::write_validation;
 use mapkeeper_scenario::{Clock, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
 use mapkeeper_updater::UpdaterParams;
@@ -20,8 +21,12 @@ wall_time_s and median_scan_us vary (not with --no-timing).\n\n\
 Sharding: --shard k/N runs the k-th of N contiguous slices of the seeds; `mapkeeper merge` combines the \
 shards' folders into the folder of the whole run.\n\n\
 Sweeps over presets: --presets a,b,… makes the job list (preset × seed), preset by preset; each preset's \
-results go to OUT/<preset>/ (a folder as above), and --shard slices that job list. Merge the shards \
-preset by preset: mapkeeper merge s1/paper s2/paper --out all/paper.")]
+results go to OUT/<preset>/ (a folder as above), and --shard slices that job list. OUT/summary.json and \
+OUT/report.md compare the presets side by side: one row per preset (and per preset and seed with several \
+seeds) with the map-quality means (M_1/G_i, M_i/G_i, M_N/G_N), the share of worlds where M_i beats M_1, the \
+localisation error means on M_1 and M_{i-1}, the verdict counts and the Lost handling (episodes, attempts, \
+recoveries, give-ups, time stopped). Merge sharded sweeps whole (mapkeeper merge s1 s2 s3 --out all: preset \
+by preset, then the comparison) or preset by preset (mapkeeper merge s1/paper s2/paper --out all/paper).")]
 pub struct Args {
     /// Number of worlds N.
     #[arg(long, default_value_t = 100)]
@@ -85,6 +90,7 @@ fn output_dirs(out: &Path, plan: &SweepPlan, sweep: bool, force: bool) -> anyhow
     if out.is_file() {
         bail!("{}: exists and is not a folder", out.display());
     }
+    check_comparison_files(out, force)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     plan.groups().iter().map(|&p| Ok(StagedDir::create(&out.join(&plan.presets[p]), force)?)).collect()
 }
@@ -116,6 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let elapsed_s = start.elapsed().as_secs_f64();
     let wall_time_s = if args.no_timing { 0.0 } else { elapsed_s };
+    let mut records = Vec::new();
     for (p, dir) in plan.groups().into_iter().zip(dirs) {
         let group = plan.runs_of(p, &runs);
         let record = ValidationRecord::new(&plan.params[p], &group, !args.no_timing, wall_time_s, args.shard);
@@ -128,6 +135,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("validate: {n} seed(s) × {} worlds, preset {preset}, {elapsed_s:.1} s wall{shard}", args.worlds);
         print!("{}", summary.table());
         println!("wrote {}", written.display());
+        records.push(record);
+    }
+    if sweep {
+        let c = Comparison::new(&plan.presets, &records.iter().collect::<Vec<_>>());
+        write_comparison(&out, &c)?;
+        println!(
+            "wrote {} and {} (presets side by side)",
+            out.join("summary.json").display(),
+            out.join("report.md").display()
+        );
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_sensor::StampedPose;
-use mapkeeper_updater::{MapUpdater, PoseRecovery, StepOutcome, UpdaterParams, UpdaterStats};
+use mapkeeper_updater::{MapUpdater, PoseRecovery, RecoveryFailure, StepOutcome, UpdaterParams, UpdaterStats};
 use std::fmt::Write as _;
 
 /// Where the robot pose given to the updater comes from.
@@ -35,12 +35,52 @@ pub struct UpdateRun {
     pub steps_csv: String,
     /// The poses pose updating returned, in order.
     pub recovered_poses: Vec<StampedPose>,
+    /// One row per attempt of pose updating: [`RECOVERIES_CSV_HEADER`].
+    pub recoveries_csv: String,
+}
+
+/// The columns of `recoveries.csv`: one row per step on which pose updating ran; `result` is
+/// `recovered` (with the pose in `x_m,y_m,yaw_rad`, `reason` empty) or `refused` (pose empty,
+/// `reason` says why).
+pub const RECOVERIES_CSV_HEADER: &str = "time_s,verdict,result,x_m,y_m,yaw_rad,reason\n";
+
+/// Why pose updating refused, in one CSV field (no commas).
+pub fn refusal_reason(f: &RecoveryFailure) -> String {
+    match f {
+        RecoveryFailure::TooFewPoints { source, expected } => {
+            format!("too_few_points: {source} scan points; {expected} expected points")
+        }
+        RecoveryFailure::PoorFit { best } => format!(
+            "poor_fit: best inlier ratio {:.3}; rmse {:.4} m ({} of {} points)",
+            best.inlier_ratio, best.rmse_m, best.inliers, best.source_points
+        ),
+        RecoveryFailure::Ambiguous { first, second } => format!(
+            "ambiguous: ({:.3} {:.3} {:.4}) and ({:.3} {:.3} {:.4}) fit alike",
+            first.x, first.y, first.yaw, second.x, second.y, second.yaw
+        ),
+        RecoveryFailure::Degenerate => "degenerate: the fit does not constrain x; y and yaw".into(),
+    }
 }
 
 /// Writes one row per step.
 struct Rows {
     csv: String,
     recovered: Vec<StampedPose>,
+    recoveries: String,
+}
+
+impl Rows {
+    fn recovery_row(&mut self, stamp_ns: u64, verdict: &str, r: &PoseRecovery) {
+        let t = super::seconds(stamp_ns);
+        let _ = match r {
+            PoseRecovery::Recovered { pose_in_map: p, .. } => {
+                writeln!(self.recoveries, "{t},{verdict},recovered,{:.6},{:.6},{:.6},", p.x, p.y, p.yaw)
+            }
+            PoseRecovery::NotRecovered { reason } => {
+                writeln!(self.recoveries, "{t},{verdict},refused,,,,{}", refusal_reason(reason))
+            }
+        };
+    }
 }
 
 impl Observer for Rows {
@@ -52,6 +92,10 @@ impl Observer for Rows {
             StepOutcome::NoValidBeams => "no_valid_beams",
             StepOutcome::TooFewBeams => "too_few_beams",
         };
+        let verdict = r.verdict.map_or("", |v| v.name());
+        if let Some(rec) = &r.pose_recovery {
+            self.recovery_row(report.stamp_ns, verdict, rec);
+        }
         let recovery = match &r.pose_recovery {
             Some(PoseRecovery::Recovered { pose_in_map, .. }) => {
                 self.recovered.push(StampedPose { stamp_ns: report.stamp_ns, pose: *pose_in_map });
@@ -66,7 +110,7 @@ impl Observer for Rows {
             "{},{},{},{},{},{},{},{},{:.1}",
             super::seconds(report.stamp_ns),
             outcome,
-            r.verdict.map_or("", |v| v.name()),
+            verdict,
             r.n_valid,
             r.n_invalid,
             r.n_dc,
@@ -122,9 +166,16 @@ pub fn update_log(
     let mut rows = Rows {
         csv: "time_s,outcome,verdict,n,n_invalid,n_dc,cells_changed,recovery,microseconds\n".into(),
         recovered: Vec::new(),
+        recoveries: RECOVERIES_CSV_HEADER.into(),
     };
     crate::run(&mut source, &mut session, &mut [], &mut [&mut rows])?;
     let out = session.finish()?;
     let Some(u) = out.updater else { return Err(HarnessError::Invalid("the session lost its updater".into())) };
-    Ok(UpdateRun { stats: u.stats(), map: u.map().clone(), steps_csv: rows.csv, recovered_poses: rows.recovered })
+    Ok(UpdateRun {
+        stats: u.stats(),
+        map: u.map().clone(),
+        steps_csv: rows.csv,
+        recovered_poses: rows.recovered,
+        recoveries_csv: rows.recoveries,
+    })
 }

@@ -1,8 +1,9 @@
 //! The closed loop in one world W_i: the simulator drives the route; a chain localiser on
 //! M_{i-1} and a baseline localiser on M_1 run on the same scans and odometry; the updater,
 //! fed with the chain localiser's pose, turns M_{i-1} into M_i. When the updater says Lost the
-//! robot stops, pose updating runs, the chain localiser is re-initialised at the recovered pose
-//! and the robot resumes.
+//! robot stops at once and stays stopped while the updater retries pose updating on the scans it
+//! keeps receiving; on a recovered pose the chain localiser is re-initialised there and the
+//! robot resumes, and after `lost_wait_s` without one it resumes anyway ([`LostPolicy`]).
 //!
 //! The loop itself is `mapkeeper_harness::run`: this module builds the simulated source, the
 //! session and the experiment's controls and observers ([`crate::experiments::run_events`]), and assembles
@@ -12,7 +13,7 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{
-    Kidnap, KidnapControl, KidnapRecord, LostPolicy, TimelineRecorder, TimelineSample,
+    Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEpisode, LostPolicy, TimelineRecorder, TimelineSample,
 };
 use crate::sim_source::SimSource;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
@@ -48,9 +49,12 @@ pub struct RunnerParams {
     pub run_updater: bool,
     /// Run the baseline localiser on M_1. Default true.
     pub run_baseline: bool,
-    /// Stop the robot when the updater says Lost and resume after pose updating. Default true.
+    /// Stop the robot (at once) when the updater says Lost, and keep it stopped until pose
+    /// updating returns a pose, a processed step says Update or Suspend, or `lost_wait_s` has
+    /// passed. Default true.
     pub stop_on_lost: bool,
-    /// If pose updating fails, resume anyway after this long stopped, seconds. Default 2.
+    /// The longest a Lost episode waits for a recovered pose before the robot resumes without
+    /// one (a give-up), seconds of simulated time. Default 2.
     pub lost_wait_s: f64,
     /// The run ends after this much simulated time even if the route is not done, seconds.
     /// Default 300.
@@ -182,6 +186,10 @@ pub struct WorldRun {
     pub kidnap: Option<KidnapRecord>,
     /// Every processed step, if asked for.
     pub timeline: Vec<TimelineSample>,
+    /// The reaction to Lost: episodes, attempts, recoveries, give-ups, time stopped.
+    pub lost: LostCounts,
+    /// The Lost episodes, in order.
+    pub lost_episodes: Vec<LostEpisode>,
 }
 
 /// The initial estimate: the true start displaced by `start_error_m` in a seeded direction and
@@ -249,7 +257,7 @@ pub fn run_world(
     let mut work = UpdaterWork::default();
     let mut timeline = TimelineRecorder::default();
     let mut kidnap = params.kidnap.map(KidnapControl::new);
-    let mut lost = LostPolicy { stop_on_lost: params.stop_on_lost, lost_wait_s: params.lost_wait_s, floor: cov };
+    let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
     let result = {
         let mut observers: Vec<&mut dyn Observer> = vec![&mut score, &mut work];
         if params.record_timeline {
@@ -271,6 +279,7 @@ pub fn run_world(
         None => (prev_map.clone(), UpdaterCounts::default()),
     };
     let cells_changed = map.cells().iter().zip(prev_map.cells()).filter(|(a, b)| a != b).count() as u64;
+    let (lost_counts, lost_episodes) = lost.finish();
     Ok(WorldRun {
         map,
         chain: score.chain.stats(),
@@ -286,6 +295,8 @@ pub fn run_world(
         chain_errors: score.chain_errors,
         kidnap: kidnap.and_then(KidnapControl::into_record),
         timeline: timeline.samples,
+        lost: lost_counts,
+        lost_episodes,
     })
 }
 

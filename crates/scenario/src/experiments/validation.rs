@@ -7,6 +7,7 @@
 //! run them in parallel and merge them in seed order ([`summarise`]).
 
 use crate::experiments::ExperimentError;
+use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
 pub use crate::stats::histogram_median;
 use crate::stats::{frac, mean, median};
@@ -169,6 +170,9 @@ pub struct WorldRow {
     pub route_done: bool,
     /// Median updater time per processed scan, microseconds (0 without a clock).
     pub median_scan_us: f64,
+    /// The reaction to Lost (episodes, attempts, recoveries, give-ups, time stopped).
+    #[serde(default)]
+    pub lost: LostCounts,
 }
 
 /// Maps and trajectories of a saved world.
@@ -428,6 +432,7 @@ pub fn run_seed_in(
             distance_m: run.distance_m,
             route_done: run.route_done,
             median_scan_us,
+            lost: run.lost,
         });
         if keep {
             saved.push(SavedWorld {
@@ -566,6 +571,9 @@ pub struct Summary {
     pub rows: usize,
     /// Simulated time over all worlds and seeds, seconds.
     pub sim_time_s: f64,
+    /// The reaction to Lost, summed over all worlds and seeds.
+    #[serde(default)]
+    pub lost_handling: LostCounts,
     /// The parameters.
     pub params: ValidationParams,
 }
@@ -644,6 +652,7 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         routes_completed: rows().filter(|w| w.route_done).count(),
         rows: rows().count(),
         sim_time_s: rows().map(|w| w.sim_time_s).sum(),
+        lost_handling: rows().fold(LostCounts::default(), |a, w| a.add(&w.lost)),
         params: params.clone(),
     }
 }

@@ -59,6 +59,12 @@ pub const WORLDS_CSV_COLUMNS: &[&str] = &[
     "sim_time_s",
     "distance_m",
     "route_done",
+    "lost_episodes",
+    "recovery_attempts",
+    "lost_recoveries",
+    "lost_cleared",
+    "lost_give_ups",
+    "lost_stopped_s",
 ];
 
 fn csv_row(w: &WorldRow) -> String {
@@ -102,6 +108,12 @@ fn csv_row(w: &WorldRow) -> String {
         format!("{:.3}", w.sim_time_s),
         format!("{:.3}", w.distance_m),
         w.route_done.to_string(),
+        w.lost.episodes.to_string(),
+        w.lost.attempts.to_string(),
+        w.lost.recoveries.to_string(),
+        w.lost.cleared.to_string(),
+        w.lost.give_ups.to_string(),
+        format!("{:.3}", w.lost.stopped_s()),
     ];
     cols.join(",")
 }
@@ -269,6 +281,20 @@ fn updater_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
         summary.routes_completed,
         summary.rows
     );
+    let l = &summary.lost_handling;
+    let _ = writeln!(
+        s,
+        "Lost handling (the robot stops on Lost until pose updating returns a pose, a processed step says \
+         Update or Suspend, or {:.1} s pass): {} episodes, {} attempts of pose updating, {} ended by a recovered \
+         pose, {} by Update/Suspend, {} given up; robot stopped {:.1} s in all.\n",
+        summary.params.runner.lost_wait_s,
+        l.episodes,
+        l.attempts,
+        l.recoveries,
+        l.cleared,
+        l.give_ups,
+        l.stopped_s()
+    );
     figure_lines(s, figures, &["fig27a_updater_time", "fig27b_updater_memory"]);
     let _ = writeln!(s, "## The paper's figures\n");
     s.push_str(PAPER_CLAIMS);
@@ -415,6 +441,17 @@ impl Summary {
             self.collisions,
             self.routes_completed,
             self.rows
+        );
+        let l = &self.lost_handling;
+        let _ = writeln!(
+            t,
+            "lost handling: {} episodes, {} attempts, recovered/cleared/gave up {}/{}/{}, stopped {:.1} s",
+            l.episodes,
+            l.attempts,
+            l.recoveries,
+            l.cleared,
+            l.give_ups,
+            l.stopped_s()
         );
         t
     }

@@ -1,0 +1,274 @@
+//! The side-by-side comparison of a sweep over presets (`validate --presets a,b,…`): one table
+//! beside the presets' own folders, `OUT/summary.json` and `OUT/report.md`, with one row per
+//! preset (over all its seeds) and, when there are several seeds, one per preset and seed.
+//! Everything is recomputed from the presets' records, so the comparison of merged shards is
+//! that of the unsharded sweep.
+
+use crate::experiments::run_events::LostCounts;
+use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
+use crate::results::ResultsError;
+use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
+use mapkeeper_grid::{check_output_file, write_atomic};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Value of the comparison's `format` field (what tells a sweep folder from a preset's).
+pub const COMPARISON_FORMAT: &str = "mapkeeper-validation-comparison";
+
+/// Localisation error means of one row, metres.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LocMeans {
+    /// The baseline localiser on M_1: mean over worlds of the per-world mean error.
+    pub on_m1_m: f64,
+    /// The chain localiser on M_{i-1}.
+    pub on_prev_m: f64,
+}
+
+/// Verdicts of the updater, summed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VerdictCounts {
+    /// Update.
+    pub update: u64,
+    /// Suspend.
+    pub suspend: u64,
+    /// Lost.
+    pub lost: u64,
+}
+
+/// One row of the comparison: a preset over all its seeds (`seed` = `None`) or over one seed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ComparisonRow {
+    /// The updater preset.
+    pub preset: String,
+    /// The seed of this row, `None` for all the preset's seeds.
+    pub seed: Option<u64>,
+    /// The seeds this row covers.
+    pub seeds: Vec<u64>,
+    /// World rows (W_2 … W_N of each seed).
+    pub worlds: usize,
+    /// Map quality: per metric, the means of M_1/G_i and M_i/G_i, the last world's (M_1/G_N
+    /// and M_N/G_N) and the share of worlds where M_i beats M_1.
+    pub map_quality: MapQuality,
+    /// Localisation error means on M_1 and on M_{i-1}.
+    pub localisation_error: LocMeans,
+    /// Share of worlds where the chain localiser's mean error is below the baseline's.
+    pub localisation_better_fraction: f64,
+    /// Verdict counts.
+    pub verdicts: VerdictCounts,
+    /// The reaction to Lost.
+    pub lost_handling: LostCounts,
+}
+
+/// `summary.json` of a sweep folder.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Comparison {
+    /// Always [`COMPARISON_FORMAT`].
+    pub format: String,
+    /// Producer and version.
+    pub tool: String,
+    /// Worlds N per seed.
+    pub worlds: usize,
+    /// Every preset of the sweep, in sweep order (also those with no job in this folder's shard).
+    pub presets: Vec<String>,
+    /// The rows, preset by preset in sweep order: the preset over all its seeds, then (with
+    /// several seeds) one row per seed in seed order.
+    pub rows: Vec<ComparisonRow>,
+}
+
+fn row(preset: &str, seed: Option<u64>, record: &ValidationRecord, seeds: &[SeedRecord]) -> ComparisonRow {
+    let s = summarise_records(&record.params, seeds, 0.0);
+    ComparisonRow {
+        preset: preset.to_owned(),
+        seed,
+        seeds: s.seeds.clone(),
+        worlds: s.rows,
+        map_quality: s.map_quality,
+        localisation_error: LocMeans {
+            on_m1_m: s.localisation.static_map.mean_error_m,
+            on_prev_m: s.localisation.updated_map.mean_error_m,
+        },
+        localisation_better_fraction: s.localisation.updated_better_fraction,
+        verdicts: VerdictCounts { update: s.updater.update, suspend: s.updater.suspend, lost: s.updater.lost },
+        lost_handling: s.lost_handling,
+    }
+}
+
+impl Comparison {
+    /// The comparison of `records` (one per preset that has runs here, in sweep order; each
+    /// named by its preset) of a sweep over `presets`.
+    pub fn new(presets: &[String], records: &[&ValidationRecord]) -> Self {
+        let mut rows = Vec::new();
+        for r in records {
+            let preset = &r.params.preset;
+            rows.push(row(preset, None, r, &r.seeds));
+            if r.seeds.len() > 1 {
+                for s in &r.seeds {
+                    rows.push(row(preset, Some(s.seed), r, std::slice::from_ref(s)));
+                }
+            }
+        }
+        Comparison {
+            format: COMPARISON_FORMAT.into(),
+            tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+            worlds: records.first().map_or(0, |r| r.params.worlds),
+            presets: presets.to_vec(),
+            rows,
+        }
+    }
+
+    /// `summary.json` text.
+    pub fn json(&self) -> Result<String, ResultsError> {
+        serde_json::to_string_pretty(self)
+            .map(|mut s| {
+                s.push('\n');
+                s
+            })
+            .map_err(|e| ResultsError::Serialise { what: "summary.json".into(), message: e.to_string() })
+    }
+
+    /// `report.md`: the comparison table.
+    pub fn report_md(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Validation sweep: presets side by side\n");
+        let _ = writeln!(
+            s,
+            "{} worlds per seed; presets {}. Each preset's own folder (`<preset>/report.md`) has its full report. \
+             Map quality: mean over worlds of M_1/G_i → M_i/G_i, the last world's M_N/G_N, and the share of worlds \
+             where M_i beats M_1. Localisation: mean error (m) on M_1 and on M_{{i-1}}. Lost handling: episodes, \
+             attempts of pose updating, recoveries / cleared / give-ups, time stopped.\n",
+            self.worlds,
+            self.presets.iter().map(|p| format!("`{p}`")).collect::<Vec<_>>().join(", ")
+        );
+        let _ = writeln!(
+            s,
+            "| preset | seed | worlds | CC M_1 → M_i (M_N) | CC better | MS M_1 → M_i (M_N) | MS better | OPDF M_1 → M_i (M_N) | \
+             OPDF better | err on M_1 (m) | err on M_i-1 (m) | Update / Suspend / Lost | Lost episodes | attempts | \
+             recovered / cleared / gave up | stopped (s) |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        for r in &self.rows {
+            let q = &r.map_quality;
+            let m = |m: &crate::experiments::validation::MetricSummary| {
+                format!(
+                    "{:.2} → {:.2} ({:.2}) | {:.0} %",
+                    m.static_mean,
+                    m.updated_mean,
+                    m.updated_last,
+                    100.0 * m.updated_better_fraction
+                )
+            };
+            let (v, l) = (&r.verdicts, &r.lost_handling);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {} / {} / {} | {} | {} | {} / {} / {} | {:.1} |",
+                r.preset,
+                r.seed.map_or_else(|| "all".to_owned(), |x| x.to_string()),
+                r.worlds,
+                m(&q.cc),
+                m(&q.ms),
+                m(&q.opdf),
+                r.localisation_error.on_m1_m,
+                r.localisation_error.on_prev_m,
+                v.update,
+                v.suspend,
+                v.lost,
+                l.episodes,
+                l.attempts,
+                l.recoveries,
+                l.cleared,
+                l.give_ups,
+                l.stopped_s()
+            );
+        }
+        s
+    }
+}
+
+/// The top-level files of a sweep folder.
+pub const COMPARISON_FILES: [&str; 2] = ["summary.json", "report.md"];
+
+/// Refuses existing top-level files of a sweep folder `out` unless `force` (checked before any
+/// work).
+pub fn check_comparison_files(out: &Path, force: bool) -> Result<(), ResultsError> {
+    for f in COMPARISON_FILES {
+        check_output_file(&out.join(f), force)?;
+    }
+    Ok(())
+}
+
+/// Writes `out/summary.json` and `out/report.md` (each atomically).
+pub fn write_comparison(out: &Path, c: &Comparison) -> Result<(), ResultsError> {
+    for (f, text) in [("summary.json", c.json()?), ("report.md", c.report_md())] {
+        let p = out.join(f);
+        write_atomic(&p, text.as_bytes()).map_err(|source| ResultsError::Io { path: p, source })?;
+    }
+    Ok(())
+}
+
+/// Whether `dir` is a sweep folder (its `summary.json` is a [`Comparison`]).
+pub fn is_sweep_dir(dir: &Path) -> bool {
+    std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .is_some_and(|v| v.get("format").and_then(serde_json::Value::as_str) == Some(COMPARISON_FORMAT))
+}
+
+fn read_comparison(dir: &Path) -> Result<Comparison, ResultsError> {
+    let bad = |problem| ResultsError::Merge { dir: dir.to_path_buf(), problem };
+    let p = dir.join("summary.json");
+    let text = std::fs::read_to_string(&p).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => bad(MergeProblem::MissingFile("summary.json".into())),
+        _ => ResultsError::Io { path: p.clone(), source: e },
+    })?;
+    serde_json::from_str(&text)
+        .map_err(|e| bad(MergeProblem::BadJson { file: "summary.json".into(), message: e.to_string() }))
+}
+
+/// Merges sweep folders (`validate --presets … --shard k/N`, or sweeps of other seeds) into the
+/// sweep folder `out`: each preset's folders are merged into `out/<preset>` as by
+/// [`merge_dirs`], then the comparison is recomputed over the merged presets. The sweeps must
+/// list the same presets in the same order. Returns the comparison.
+pub fn merge_sweeps(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Comparison, ResultsError> {
+    let Some(first) = dirs.first() else {
+        return Err(ResultsError::Merge { dir: PathBuf::new(), problem: MergeProblem::NoInput });
+    };
+    let presets = read_comparison(first)?.presets;
+    for d in &dirs[1..] {
+        let other = read_comparison(d)?.presets;
+        if other != presets {
+            let problem =
+                MergeProblem::Inconsistent(format!("a sweep over presets {other:?}, the first folder {presets:?}"));
+            return Err(ResultsError::Merge { dir: d.clone(), problem });
+        }
+    }
+    let has = |d: &PathBuf, p: &String| d.join(p).join("runs.json").is_file();
+    let groups: Vec<(&String, Vec<PathBuf>)> = presets
+        .iter()
+        .map(|p| (p, dirs.iter().filter(|d| has(d, p)).cloned().collect::<Vec<_>>()))
+        .filter(|(_, ds)| !ds.is_empty())
+        .collect();
+    // Check every input before writing anything.
+    for (p, ds) in &groups {
+        for d in ds {
+            load_result_dir(&d.join(p))?;
+        }
+    }
+    check_comparison_files(out, force)?;
+    for (p, _) in &groups {
+        let o = out.join(p);
+        let non_empty = std::fs::read_dir(&o).is_ok_and(|mut e| e.next().is_some());
+        if (non_empty || o.is_file()) && !force {
+            return Err(mapkeeper_grid::OutputError::Exists(o).into());
+        }
+    }
+    let mut records = Vec::with_capacity(groups.len());
+    for (p, ds) in &groups {
+        let ds: Vec<PathBuf> = ds.iter().map(|d| d.join(p)).collect();
+        records.push(merge_dirs(&ds, &out.join(p), force)?.0);
+    }
+    let c = Comparison::new(&presets, &records.iter().collect::<Vec<_>>());
+    write_comparison(out, &c)?;
+    Ok(c)
+}
