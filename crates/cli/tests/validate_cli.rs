@@ -285,9 +285,9 @@ fn merge_refuses_folders_that_do_not_belong_together() {
         b,
         "preset",
         &["runs.json", "summary.json"],
-        &edit_all("\"preset\": \"paper\"", "\"preset\": \"reference\""),
+        &edit_all("\"preset\": \"paper\"", "\"preset\": \"authors\""),
     );
-    mention(&merge_error(&[a, &preset], "m-preset"), &preset, "updater preset 'reference', the first folder 'paper'");
+    mention(&merge_error(&[a, &preset], "m-preset"), &preset, "updater preset 'authors', the first folder 'paper'");
 
     // Another value of a parameter deep inside.
     let text = std::fs::read_to_string(b.join("runs.json")).unwrap();
