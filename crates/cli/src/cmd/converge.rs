@@ -1,7 +1,8 @@
 //! `mapkeeper converge`: how long the localiser presets take to correct a start error on the
 //! default warehouse W_1 with its true map (docs/localiser.md, "Convergence").
 
-use anyhow::bail;
+use anyhow::{Context, bail};
+use mapkeeper_localiser::FilterParams;
 use mapkeeper_scenario::StagedDir;
 use mapkeeper_scenario::experiments::convergence::{
     ConvergenceParams, run_convergence, runs_csv, samples_csv, summary_markdown,
@@ -39,6 +40,10 @@ pub struct Args {
     /// Drive only the first this-many metres of the route.
     #[arg(long, value_name = "METRES", value_parser = super::positive)]
     pub route_length: Option<f64>,
+    /// TOML file overriding FilterParams fields of every localiser preset given (for
+    /// diagnostics; the file is named in summary.md).
+    #[arg(long, value_name = "FILE.toml")]
+    pub params: Option<PathBuf>,
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -85,6 +90,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     if let Some(len) = args.route_length {
         params.route = mapkeeper_scenario::ValidationParams::short_route(len);
+    }
+    if let Some(file) = args.params.as_deref() {
+        for l in &params.localisers {
+            let preset = FilterParams::preset(l).with_context(|| format!("--localisers: '{l}'"))?;
+            params.filters.push(super::load_params(preset, Some(file), FilterParams::validate)?);
+        }
     }
     if let Err(e) = params.validate() {
         bail!("--localisers / --seeds / --errors: {e}");

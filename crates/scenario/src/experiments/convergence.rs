@@ -14,6 +14,7 @@ use crate::experiments::runner::{RunInputs, RunnerParams, run_world};
 use crate::stats::median;
 use mapkeeper_grid::OccupancyGrid;
 use mapkeeper_harness::NoClock;
+use mapkeeper_localiser::FilterParams;
 use mapkeeper_sim::{Route, World, ground_truth_map};
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -23,6 +24,9 @@ use std::fmt::Write as _;
 pub struct ConvergenceParams {
     /// Localiser presets (`mapkeeper_localiser::LOCALISER_PRESETS`), in order.
     pub localisers: Vec<String>,
+    /// The filter parameters of each localiser, if not its preset's (e.g. a parameter file's
+    /// overrides): empty, or one per entry of `localisers`.
+    pub filters: Vec<FilterParams>,
     /// Run seeds (the error direction and all noise derive from the seed only, so every
     /// preset and error sees the same direction and the same sensor noise for a seed).
     pub seeds: Vec<u64>,
@@ -44,6 +48,7 @@ impl Default for ConvergenceParams {
     fn default() -> Self {
         Self {
             localisers: vec!["amcl".into(), "mapkeeper".into()],
+            filters: Vec::new(),
             seeds: (1..=10).collect(),
             errors_m: vec![0.5, 0.7, 1.5],
             threshold_m: 0.1,
@@ -67,6 +72,15 @@ impl ConvergenceParams {
         }
         for l in &self.localisers {
             RunnerParams::default().set_localiser(l)?;
+        }
+        if !(self.filters.is_empty() || self.filters.len() == self.localisers.len()) {
+            return Err(invalid(
+                "filters",
+                format!("{} given for {} localisers", self.filters.len(), self.localisers.len()),
+            ));
+        }
+        for f in &self.filters {
+            f.validate()?;
         }
         if let Some(e) = self.errors_m.iter().find(|e| !(e.is_finite() && **e >= 0.0)) {
             return Err(invalid("errors", format!("must be finite distances ≥ 0 m, got {e}")));
@@ -166,6 +180,9 @@ pub fn run_job(
         ..RunnerParams::default()
     };
     rp.set_localiser(&params.localisers[l])?;
+    if let Some(f) = params.filters.get(l) {
+        rp.filter = *f;
+    }
     rp.init_sigma_xy_m = rp.filter.initial_cov_xx_m2.max(rp.filter.initial_cov_yy_m2).sqrt();
     rp.init_sigma_yaw_rad = rp.filter.initial_cov_aa_rad2.sqrt();
     let inputs = RunInputs { world: w1, route: &params.route, prev_map: map, baseline_map: map };
