@@ -83,3 +83,24 @@ fn converge_writes_a_table_and_one_csv_per_run_and_refuses_an_existing_folder() 
     let bad = mapkeeper(&["converge", "--errors", "0.5,x", "--out", s(&dir.join("bad"))]);
     assert!(!bad.status.success() && stderr(&bad).contains("--errors"), "{}", stderr(&bad));
 }
+
+#[test]
+fn localise_records_the_preset_and_a_parameter_file_overrides_it() {
+    let dir = scratch("localiser-cli", "localise");
+    let sim = dir.join("sim");
+    let o = mapkeeper(&["simulate", "--seconds", "4", "--seed", "2", "--out", s(&sim)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let file = dir.join("f.toml");
+    std::fs::write(&file, "max_particles = 800\n").unwrap();
+    let (map, loc) = (sim.join("ground_truth.yaml"), dir.join("loc"));
+    let args = ["localise", "--localiser", "amcl", "--params", s(&file), "--log", s(&sim), "--map", s(&map)];
+    let o = mapkeeper(&[&args[..], &["--out", s(&loc)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rec: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(loc.join("params.json")).unwrap()).unwrap();
+    assert_eq!(rec["localiser"], "amcl");
+    assert_eq!(rec["filter"]["beam_combination"], "amcl_cube_sum");
+    assert_eq!(rec["filter"]["max_particles"], 800);
+    let tum = std::fs::read_to_string(loc.join("estimate.tum")).unwrap();
+    assert!(tum.lines().next().unwrap().contains("localiser amcl"), "{tum}");
+}
