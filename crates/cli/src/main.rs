@@ -21,6 +21,8 @@ enum Command {
     Validate(cmd::validate::Args),
     /// The robustness experiments: localisation-check demo, Table 1, lost robot, kidnap suite.
     Recover(cmd::recover::Args),
+    /// How long the localiser presets take to correct a start error (time and distance).
+    Converge(cmd::converge::Args),
     /// Write a seeded scenario set (worlds, ground-truth maps, route, manifest).
     Generate(cmd::generate::Args),
     /// One world end to end: simulate, localise, update; write the updated map and trajectories.
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Validate(a) => cmd::validate::run(a),
         Command::Recover(a) => cmd::recover::run(a),
+        Command::Converge(a) => cmd::converge::run(a),
         Command::Generate(a) => cmd::generate::run(a),
         Command::Run(a) => cmd::run::run(a),
         Command::Merge(a) => cmd::merge::run(a),

@@ -90,7 +90,7 @@ fn beam_evaluations(c: &mut Criterion) {
     let robot = Pose2::new(-5.45, 0.3, 0.4);
     let mut beams = BeamSet::new();
     for s in scans(&map, &robot) {
-        beams.add_scan(&s, params.max_beams, params.laser_max_range_m);
+        beams.add_scan(&s, params.max_beams, params.laser_max_range_m, params.beam_selection);
     }
     let particles = poses(1000);
     let mut g = c.benchmark_group("likelihood_field");

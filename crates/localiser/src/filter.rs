@@ -380,7 +380,8 @@ impl Localiser {
         let mut skipped = 0;
         for scan in scans {
             let added = if scan.validate().is_ok() {
-                self.beams.add_scan(scan, self.params.max_beams, self.params.laser_max_range_m)
+                let p = &self.params;
+                self.beams.add_scan(scan, p.max_beams, p.laser_max_range_m, p.beam_selection)
             } else {
                 0
             };
@@ -400,7 +401,8 @@ impl Localiser {
         self.odom_at_filter = Some(robot_in_odom);
         self.force_update = false;
 
-        // Correction, in the log domain: ln wᵢ ← ln wᵢ + e·Σ ln p(z | xᵢ).
+        // Correction, in the log domain: ln wᵢ ← ln wᵢ + e·Σ ln p(z | xᵢ) (product) or
+        // + Σ_lidars ln(1 + Σ p³) (AMCL cube sum).
         self.log_w.clear();
         for (p, &w) in self.particles.iter().zip(&self.weights) {
             self.log_w.push(w.ln() + self.field.log_likelihood(p, &self.beams));

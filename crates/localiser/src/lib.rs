@@ -64,8 +64,11 @@ mod resample;
 pub use cluster::{ClusterScratch, ClusterStats, best_cluster};
 pub use filter::{Covariance3, Degeneracy, Estimate, Localiser, Recovery, UpdateOutcome, UpdateReport};
 pub use kld::{BinKey, Bins, count_bins, kld_bound};
-pub use likelihood_field::{BeamSet, LikelihoodField, beam_log_likelihood};
-pub use params::{FilterParams, Kinematics, MAX_PARTICLES_LIMIT, MotionParams, UnknownCells};
+pub use likelihood_field::{BeamSet, LikelihoodField, beam_likelihood, beam_log_likelihood, beam_term};
+pub use params::{
+    BeamCombination, BeamSelection, FilterParams, Kinematics, LOCALISER_PRESETS, MAX_PARTICLES_LIMIT, MotionParams,
+    UnknownCells,
+};
 pub use resample::systematic_resample;
 
 use mapkeeper_grid::Pose2;
@@ -105,6 +108,14 @@ pub enum LocaliserError {
     /// An initial covariance that cannot be sampled from.
     #[error("initial covariance {0}")]
     BadCovariance(&'static str),
+    /// A localiser preset name that does not exist.
+    #[error("unknown localiser preset '{name}' (known: {known})")]
+    UnknownPreset {
+        /// The name given.
+        name: String,
+        /// The known names, comma-separated.
+        known: String,
+    },
     /// Global initialisation on a map without free cells.
     #[error("the map has no free cell to spread particles over")]
     NoFreeSpace,

@@ -1,5 +1,8 @@
 //! The filter's parameters: one struct, [`FilterParams`], with the odometry noise model nested in
-//! it as [`MotionParams`]. Defaults are Robotnik's Summit-XL AMCL configuration.
+//! it as [`MotionParams`]. Two named presets ([`LOCALISER_PRESETS`], [`FilterParams::preset`]):
+//! `mapkeeper` (the default: Robotnik's Summit-XL AMCL values plus this project's extras) and
+//! `amcl` (the same values with ROS1 `amcl`'s own beam selection and weighting, none of the
+//! extras).
 
 use crate::LocaliserError;
 use serde::{Deserialize, Serialize};
@@ -66,6 +69,38 @@ pub enum UnknownCells {
     MaxDistance,
 }
 
+/// How the beams' likelihoods `p(z)` combine into a particle's weight factor.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BeamCombination {
+    /// The tempered product `Π p(z)^e` (`e = likelihood_exponent`), computed as
+    /// `e · Σ ln p(z)`. The `mapkeeper` preset's choice.
+    #[default]
+    Product,
+    /// ROS amcl's ad-hoc combination (`amcl_laser.cpp`, likelihood-field model): per lidar
+    /// `1 + Σ p(z)³`, and the lidars' factors multiplied. Not a likelihood; it makes the weights
+    /// very flat, so a filter corrects an initial error slowly. `likelihood_exponent` is not used.
+    AmclCubeSum,
+}
+
+/// Which beams of a scan the sensor update uses (at most about `max_beams` per lidar).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BeamSelection {
+    /// `max_beams` beams evenly spaced over the scan's *usable* readings (first and last
+    /// included), so a scan with invalid readings still gives `max_beams` beams. The `mapkeeper`
+    /// preset's choice.
+    #[default]
+    EvenlyOverValid,
+    /// ROS amcl's: every `step`-th reading over *all* readings, `step = (n − 1) / (max_beams − 1)`
+    /// (integer division, at least 1), skipping unusable ones (NaN, below `range_min`, at or beyond
+    /// the range limit). A 541-beam scan with `max_beams` 30 gives step 18 and up to 31 beams.
+    AmclStride,
+}
+
+/// The names [`FilterParams::preset`] accepts, the default first.
+pub const LOCALISER_PRESETS: [&str; 2] = ["mapkeeper", "amcl"];
+
 /// Every parameter of the filter. Units are in the names; each field's doc gives its default.
 ///
 /// ```
@@ -100,8 +135,14 @@ pub struct FilterParams {
     pub kld_bin_xy_m: f64,
     /// KLD histogram (and clustering) bin width in yaw, radians. Default 10° (0.1745 rad).
     pub kld_bin_yaw_rad: f64,
-    /// Beams used per lidar and update, evenly spaced over its valid beams. Default 30.
+    /// Beams used per lidar and update, chosen as `beam_selection` says. Default 30.
     pub max_beams: usize,
+    /// How the beams are chosen. Default [`BeamSelection::EvenlyOverValid`] (`amcl`:
+    /// [`BeamSelection::AmclStride`]).
+    pub beam_selection: BeamSelection,
+    /// How the beams' likelihoods combine. Default [`BeamCombination::Product`] (`amcl`:
+    /// [`BeamCombination::AmclCubeSum`]).
+    pub beam_combination: BeamCombination,
     /// Weight of the Gaussian "hit" term of the likelihood field. Default 0.5.
     pub z_hit: f64,
     /// Weight of the uniform "random" term (spread over `laser_max_range_m`). Default 0.5.
@@ -117,7 +158,8 @@ pub struct FilterParams {
     /// Exponent applied to each beam's likelihood, i.e. the factor on `Σ ln p(z)` (1 treats the
     /// beams as independent). Neighbouring beams are strongly correlated, and the plain product
     /// of 60 beams makes the weights so peaked that one particle takes everything (effective
-    /// sample size 1) and global localisation locks onto the first plausible pose. Default 0.1.
+    /// sample size 1) and global localisation locks onto the first plausible pose. Used only
+    /// with [`BeamCombination::Product`]. Default 0.1 (`amcl`: 1, unused).
     pub likelihood_exponent: f64,
     /// How endpoints in unknown cells are scored. Default [`UnknownCells::NearestOccupied`].
     pub unknown_cells: UnknownCells,
@@ -134,17 +176,63 @@ pub struct FilterParams {
     /// Augmented MCL: decay rate of the fast average likelihood (0 disables recovery).
     /// Default 0.
     pub recovery_alpha_fast: f64,
+    /// Variance in x of the particle cloud when the filter is started at a pose without a
+    /// covariance of its own (`mapkeeper localise`, `mapkeeper converge`), m². Default 0.25
+    /// (AMCL's `initial_cov_xx`, σ 0.5 m).
+    pub initial_cov_xx_m2: f64,
+    /// ... in y, m². Default 0.25 (`initial_cov_yy`).
+    pub initial_cov_yy_m2: f64,
+    /// ... in yaw, rad². Default (π/12)² = 0.0685 (`initial_cov_aa`).
+    pub initial_cov_aa_rad2: f64,
 }
 
 impl Default for FilterParams {
     fn default() -> Self {
-        Self::summit_xl()
+        Self::mapkeeper()
     }
 }
 
 impl FilterParams {
-    /// Robotnik's Summit-XL AMCL configuration (the default), with an omnidirectional base.
+    /// The preset called `name` (one of [`LOCALISER_PRESETS`]).
+    ///
+    /// ```
+    /// use mapkeeper_localiser::{BeamCombination, FilterParams};
+    /// assert_eq!(FilterParams::preset("mapkeeper").unwrap(), FilterParams::default());
+    /// assert_eq!(FilterParams::preset("amcl").unwrap().beam_combination, BeamCombination::AmclCubeSum);
+    /// let e = FilterParams::preset("nope").unwrap_err().to_string();
+    /// assert!(e.contains("nope") && e.contains("mapkeeper, amcl"), "{e}");
+    /// ```
+    pub fn preset(name: &str) -> Result<Self, LocaliserError> {
+        match name {
+            "mapkeeper" => Ok(Self::mapkeeper()),
+            "amcl" => Ok(Self::amcl()),
+            _ => Err(LocaliserError::UnknownPreset { name: name.to_string(), known: LOCALISER_PRESETS.join(", ") }),
+        }
+    }
+
+    /// ROS1 `amcl` with Robotnik's Summit-XL configuration: the [`FilterParams::mapkeeper`]
+    /// values, but AMCL's beam selection ([`BeamSelection::AmclStride`]) and its cube-sum
+    /// weighting ([`BeamCombination::AmclCubeSum`]) instead of the tempered product. What still
+    /// differs from ROS amcl (resampler, corrected motion model, ...) is listed in
+    /// `docs/localiser.md`.
+    pub fn amcl() -> Self {
+        Self {
+            beam_selection: BeamSelection::AmclStride,
+            beam_combination: BeamCombination::AmclCubeSum,
+            likelihood_exponent: 1.0,
+            ..Self::mapkeeper()
+        }
+    }
+
+    /// Robotnik's Summit-XL AMCL configuration, as [`FilterParams::mapkeeper`].
     pub fn summit_xl() -> Self {
+        Self::mapkeeper()
+    }
+
+    /// The default: Robotnik's Summit-XL AMCL values with an omnidirectional base, plus this
+    /// project's extras (tempered product of the beams with exponent 0.1, beams evenly spaced
+    /// over the valid readings).
+    pub fn mapkeeper() -> Self {
         Self {
             kinematics: Kinematics::Omni,
             motion: MotionParams::default(),
@@ -155,6 +243,8 @@ impl FilterParams {
             kld_bin_xy_m: 0.5,
             kld_bin_yaw_rad: 10f64.to_radians(),
             max_beams: 30,
+            beam_selection: BeamSelection::EvenlyOverValid,
+            beam_combination: BeamCombination::Product,
             z_hit: 0.5,
             z_rand: 0.5,
             sigma_hit_m: 0.2,
@@ -167,7 +257,19 @@ impl FilterParams {
             resample_interval: 1,
             recovery_alpha_slow: 0.0,
             recovery_alpha_fast: 0.0,
+            initial_cov_xx_m2: 0.25,
+            initial_cov_yy_m2: 0.25,
+            initial_cov_aa_rad2: (std::f64::consts::PI / 12.0).powi(2),
         }
+    }
+
+    /// The initial covariance (x, y, yaw) from `initial_cov_*`.
+    pub fn initial_covariance(&self) -> [[f64; 3]; 3] {
+        let mut c = [[0.0; 3]; 3];
+        c[0][0] = self.initial_cov_xx_m2;
+        c[1][1] = self.initial_cov_yy_m2;
+        c[2][2] = self.initial_cov_aa_rad2;
+        c
     }
 
     /// Whether augmented-MCL recovery is enabled (both alphas non-zero).
@@ -224,6 +326,13 @@ impl FilterParams {
         let (slow, fast) = (self.recovery_alpha_slow, self.recovery_alpha_fast);
         check("recovery_alpha_slow", slow, (0.0..=1.0).contains(&slow), "in [0, 1]")?;
         check("recovery_alpha_fast", fast, (0.0..=1.0).contains(&fast), "in [0, 1]")?;
+        for (name, v) in [
+            ("initial_cov_xx_m2", self.initial_cov_xx_m2),
+            ("initial_cov_yy_m2", self.initial_cov_yy_m2),
+            ("initial_cov_aa_rad2", self.initial_cov_aa_rad2),
+        ] {
+            check(name, v, v >= 0.0, "finite and >= 0")?;
+        }
         let both_off = slow == 0.0 && fast == 0.0;
         if !(both_off || (slow > 0.0 && slow < fast)) {
             return Err(LocaliserError::RecoveryAlphas { slow, fast });
@@ -245,6 +354,39 @@ mod tests {
         assert_eq!((p.z_hit, p.z_rand, p.sigma_hit_m, p.likelihood_max_dist_m), (0.5, 0.5, 0.2, 2.0));
         assert_eq!((p.update_min_d_m, p.update_min_a_rad, p.resample_interval), (0.2, 0.5, 1));
         assert!(!p.recovery_enabled());
+    }
+
+    #[test]
+    fn presets_validate_round_trip_and_differ_only_in_the_weighting() {
+        for name in LOCALISER_PRESETS {
+            let p = FilterParams::preset(name).unwrap();
+            p.validate().unwrap();
+            let text = toml::to_string(&p).unwrap();
+            assert_eq!(toml::from_str::<FilterParams>(&text).unwrap(), p, "{name}");
+        }
+        let (m, a) = (FilterParams::mapkeeper(), FilterParams::amcl());
+        assert_eq!(m, FilterParams::default());
+        assert_eq!(
+            (m.beam_combination, m.beam_selection, m.likelihood_exponent),
+            (BeamCombination::Product, BeamSelection::EvenlyOverValid, 0.1)
+        );
+        assert_eq!(
+            (a.beam_combination, a.beam_selection, a.likelihood_exponent),
+            (BeamCombination::AmclCubeSum, BeamSelection::AmclStride, 1.0)
+        );
+        let same = FilterParams {
+            beam_combination: m.beam_combination,
+            beam_selection: m.beam_selection,
+            likelihood_exponent: 0.1,
+            ..a
+        };
+        assert_eq!(same, m);
+        let text = toml::to_string(&a).unwrap();
+        assert!(text.contains("\"amcl_cube_sum\"") && text.contains("\"amcl_stride\""), "{text}");
+        let e = FilterParams::preset("nope").unwrap_err();
+        assert!(matches!(e, LocaliserError::UnknownPreset { .. }));
+        let e = refused(|p| p.initial_cov_aa_rad2 = -1.0);
+        assert!(matches!(e, LocaliserError::InvalidParameter { name: "initial_cov_aa_rad2", .. }), "{e}");
     }
 
     fn refused(f: impl FnOnce(&mut FilterParams)) -> LocaliserError {

@@ -16,13 +16,14 @@ use std::path::PathBuf;
 docs/localiser.md) over a recorded sensor log and a map.\n\n\
 Scans with the same stamp_ns (one per lidar) form one filter update, driven by the latest odometry \
 reading at or before that time; updates before the first odometry reading are skipped. The filter \
-starts at --init with AMCL's default covariance (σ 0.5 m, 0.5 m, π/12 rad); without --init, at the \
-log's true pose at the first scan's time (same covariance) if the log has truth records, otherwise \
+starts at --init with the preset's initial covariance (initial_cov_*: AMCL's default, σ 0.5 m, 0.5 m, \
+π/12 rad, in both presets); without --init, at the log's true pose at the first scan's time (same covariance) if the log has truth records, otherwise \
 globally (particles uniform over the map's free space).\n\n\
 Writes OUT/estimate.tum (one line per update: `t x y z qx qy qz qw`, t in seconds with 9 decimals \
 on the log's clock, z = 0, yaw as a quaternion about z; a first `#` line records the seed and \
 inputs) and OUT/covariance.csv (time_s, trace of the 3×3 (x, y, yaw) covariance, its largest \
-eigenvalue lambda_max, particles, ess), each written atomically. With truth records it prints the \
+eigenvalue lambda_max, particles, ess) and OUT/params.json (the localiser preset, the seed and every \
+filter parameter used), each written atomically. With truth records it prints the \
 position and yaw RMSE of the estimates against the truth interpolated at their times.",
     after_help = "Examples:\n  mapkeeper localise --log run1 --map run1/map.yaml --out run1/loc\n  \
 mapkeeper localise --log run1 --map m0.yaml --out loc --init 0.5,-2.0,1.57 --params amcl.toml --seed 3"
@@ -40,7 +41,10 @@ pub struct Args {
     /// Initial pose in the map frame: x (m), y (m), yaw (rad), comma-separated.
     #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
     pub init: Option<Pose2>,
-    /// TOML file overriding any FilterParams field (unknown keys are errors), e.g.
+    /// Localiser preset: mapkeeper or amcl (docs/localiser.md). --params overrides its fields.
+    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
+    pub localiser: String,
+    /// TOML file overriding any FilterParams field of the preset (unknown keys are errors), e.g.
     /// `max_particles = 2000` or `[motion]` `alpha3 = 0.1`.
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
@@ -54,7 +58,8 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let params = load_params(FilterParams::default(), args.params.as_deref(), FilterParams::validate)?;
+    let preset = FilterParams::preset(&args.localiser).context("--localiser")?;
+    let params = load_params(preset, args.params.as_deref(), FilterParams::validate)?;
     let log_path = args.log.join("log.jsonl");
     let source = LogSource::new(SensorLog::read(&log_path)?, log_path.display().to_string(), ReplayOptions::default());
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
@@ -62,23 +67,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let (r, init) = localise_log(source, &map, params, args.init, args.seed).context("localisation")?;
     let comment = format!(
-        "mapkeeper localise: seed {}, log {}, map {}, init {init}",
+        "mapkeeper localise: localiser {}, seed {}, log {}, map {}, init {init}",
+        args.localiser,
         args.seed,
         log_path.display(),
         args.map.display()
     );
     write_tum_with_comment(&dir.file("estimate.tum")?, &comment, &r.estimates)?;
     dir.write("covariance.csv", r.covariance_csv.as_bytes())?;
+    let record = serde_json::json!({ "localiser": args.localiser, "seed": args.seed, "filter": params });
+    dir.write("params.json", format!("{}\n", serde_json::to_string_pretty(&record)?).as_bytes())?;
     let out = dir.finish()?;
     println!(
         "{} updates ({} sensor updates, {} degenerate and recovered, {} without usable beams); \
-{} scan times before the first odometry skipped; init {init}; seed {}",
-        r.updates, r.sensor_updates, r.degenerate, r.no_beams, r.no_odometry, args.seed
+{} scan times before the first odometry skipped; init {init}; localiser {}; seed {}",
+        r.updates, r.sensor_updates, r.degenerate, r.no_beams, r.no_odometry, args.localiser, args.seed
     );
     if let Some((pos, yaw, n)) = r.rmse {
         println!("position RMSE {pos:.4} m, yaw RMSE {:.3} deg over {n} estimates", yaw.to_degrees());
     }
-    println!("wrote {}/estimate.tum and {}/covariance.csv", out.display(), out.display());
+    println!("wrote {0}/estimate.tum, {0}/covariance.csv and {0}/params.json", out.display());
     Ok(())
 }
 

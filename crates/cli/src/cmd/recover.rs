@@ -36,6 +36,11 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
+    /// Localiser preset of the chain localiser: mapkeeper or amcl (docs/localiser.md); a
+    /// --params file's `[runner.filter]` fields override it. Recorded in summary.json
+    /// (`params.runner.localiser`, `params.runner.filter`) and report.md.
+    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
+    pub localiser: String,
     /// Parameter file (TOML, any field of the recovery parameters; see docs/recovery.md).
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
@@ -76,7 +81,9 @@ fn print_kidnap(name: &str, k: &KidnapSummary) {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut params = load_params(RecoveryParams::default(), args.params.as_deref(), RecoveryParams::validate)?;
+    let mut base = RecoveryParams::default();
+    base.runner.set_localiser(&args.localiser).context("--localiser")?;
+    let mut params = load_params(base, args.params.as_deref(), RecoveryParams::validate)?;
     params.kidnap.trials = args.trials;
     if args.no_best_case {
         params.kidnap.best_case = false;
@@ -97,7 +104,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     write_recovery(&dir, &results)?;
     let out = dir.finish()?;
     let s = &results.summary;
-    println!("recover: seed {}, {} kidnap trials per case, {:.1} s wall", args.seed, args.trials, wall_time_s);
+    println!(
+        "recover: seed {}, {} kidnap trials per case, localiser {}, {:.1} s wall",
+        args.seed, args.trials, params.runner.localiser, wall_time_s
+    );
     let d = &s.demo;
     println!(
         "loc-check demo: first Suspend {:?} s, first Update {:?} s, verdicts U{} S{} L{}: suspended then updated: {}",

@@ -35,6 +35,10 @@ pub struct Args {
     /// TOML file overriding any field of the updater preset (as `mapkeeper update --params`).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
+    /// Localiser preset of both localisers: mapkeeper or amcl (docs/localiser.md); recorded
+    /// in run.json with its parameters.
+    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
+    pub localiser: String,
     /// Run seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -51,6 +55,7 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let world = World::load(&args.world)?;
     let map = load_map(&args.map)?;
     let baseline = match &args.baseline_map {
@@ -61,12 +66,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => Route::load(p)?,
         None => Route::default_warehouse(),
     };
-    let params = RunnerParams {
+    let mut params = RunnerParams {
         updater: super::update::load_updater_params(&args.preset, args.params.as_deref())?,
         start_error_m: args.start_error,
         record_trajectories: true,
         ..RunnerParams::default()
     };
+    params.set_localiser(&args.localiser).context("--localiser")?;
     let dir = StagedDir::create(&args.out, args.force)?;
     let start = Instant::now();
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline };
@@ -82,6 +88,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let json = serde_json::json!({
         "seed": args.seed,
         "preset": args.preset,
+        "localiser": params.localiser,
+        "filter": params.filter,
         "world": args.world.display().to_string(),
         "map": args.map.display().to_string(),
         "chain": r.chain,

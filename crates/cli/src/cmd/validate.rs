@@ -48,6 +48,10 @@ pub struct Args {
     /// (preset × seed); each preset's results go to `OUT/<preset>/`.
     #[arg(long, value_name = "P1,P2,…", conflicts_with = "preset", value_delimiter = ',')]
     pub presets: Option<Vec<String>>,
+    /// Localiser preset of the chain and baseline localisers: mapkeeper or amcl
+    /// (docs/localiser.md); recorded in summary.json and report.md.
+    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
+    pub localiser: String,
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -105,7 +109,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seeds: args.seeds,
         route_length_m: args.route_length,
         shard: args.shard,
+        localiser: args.localiser.clone(),
     };
+    mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let mut plan = spec.plan()?;
     if let Some(file) = args.updater_params.as_deref() {
         for p in &mut plan.params {
@@ -132,7 +138,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let shard =
             args.shard.map(|s| format!(" (shard {}/{}: seeds {:?})", s.index, s.count, seeds)).unwrap_or_default();
         let (n, preset) = (seeds.len(), &plan.presets[p]);
-        println!("validate: {n} seed(s) × {} worlds, preset {preset}, {elapsed_s:.1} s wall{shard}", args.worlds);
+        println!(
+            "validate: {n} seed(s) × {} worlds, preset {preset}, localiser {}, {elapsed_s:.1} s wall{shard}",
+            args.worlds, args.localiser
+        );
         print!("{}", summary.table());
         println!("wrote {}", written.display());
         records.push(record);

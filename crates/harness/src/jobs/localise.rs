@@ -11,8 +11,9 @@ use mapkeeper_localiser::{Covariance3, FilterParams, Localiser, UpdateOutcome};
 use mapkeeper_sensor::{StampedPose, interpolate};
 use std::fmt::Write as _;
 
-/// Initial covariance for an explicit or logged initial pose: AMCL's defaults, σ = 0.5 m in x
-/// and y and π/12 rad in yaw.
+/// AMCL's default initial covariance, σ = 0.5 m in x and y and π/12 rad in yaw: the default of
+/// `FilterParams::initial_cov_*`, which [`localise_log`] uses for an explicit or logged initial
+/// pose.
 pub const INIT_COVARIANCE: Covariance3 =
     [[0.25, 0.0, 0.0], [0.0, 0.25, 0.0], [0.0, 0.0, (std::f64::consts::PI / 12.0) * (std::f64::consts::PI / 12.0)]];
 
@@ -125,7 +126,7 @@ pub fn localise_log(
         (None, None) => InitFrom::Global,
     };
     if let InitFrom::Given(p) | InitFrom::LoggedTruth(p) = init {
-        filter.init_pose(p, INIT_COVARIANCE)?;
+        filter.init_pose(p, params.initial_covariance())?;
     }
     let mut session = Session::new(PoseSource::Localiser(Box::new(filter)), None, None, &NoClock);
     let mut rec = Recorder::default();

@@ -1,8 +1,10 @@
 //! The experiments: the closed loop of one world through the harness ([`runner`], with the
 //! simulator as a source, [`crate::sim_source`], and the experiments' controls and observers,
 //! [`run_events`]), the hundred-world validation ([`validation`]) and the robustness
-//! experiments and kidnap suite ([`recovery`]).
+//! experiments and kidnap suite ([`recovery`]), and the localisers' convergence from a start
+//! error ([`convergence`]).
 
+pub mod convergence;
 pub mod recovery;
 pub mod run_events;
 pub mod runner;

@@ -32,7 +32,11 @@ use serde::{Deserialize, Serialize};
 pub struct RunnerParams {
     /// The simulator (robot, lidars, odometry, agents). Default [`SimParams::default`].
     pub sim: SimParams,
-    /// Both localisers. Default [`FilterParams::default`].
+    /// Name of the localiser preset (`mapkeeper_localiser::LOCALISER_PRESETS`) `filter` was
+    /// made from, recorded in the reports (a parameter file may have changed fields of it
+    /// since). Default "mapkeeper".
+    pub localiser: String,
+    /// Both localisers. Default [`FilterParams::default`] (the `mapkeeper` preset).
     pub filter: FilterParams,
     /// The updater. Default the `paper` preset.
     pub updater: UpdaterParams,
@@ -76,6 +80,7 @@ impl Default for RunnerParams {
     fn default() -> Self {
         Self {
             sim: SimParams::default(),
+            localiser: "mapkeeper".into(),
             filter: FilterParams::default(),
             updater: UpdaterParams::paper(),
             start_error_m: 0.05,
@@ -96,8 +101,25 @@ impl Default for RunnerParams {
 }
 
 impl RunnerParams {
+    /// Both localisers from the preset `name` (`filter` and `localiser` set).
+    pub fn set_localiser(&mut self, name: &str) -> Result<(), ExperimentError> {
+        self.filter = FilterParams::preset(name)?;
+        self.localiser = name.to_string();
+        Ok(())
+    }
+
     /// Checks every field (and the components' own parameters).
     pub fn validate(&self) -> Result<(), ExperimentError> {
+        if !mapkeeper_localiser::LOCALISER_PRESETS.contains(&self.localiser.as_str()) {
+            return Err(ExperimentError::InvalidParam {
+                name: "localiser",
+                problem: format!(
+                    "unknown localiser preset '{}' (known: {})",
+                    self.localiser,
+                    mapkeeper_localiser::LOCALISER_PRESETS.join(", ")
+                ),
+            });
+        }
         self.sim.validate()?;
         self.filter.validate()?;
         self.updater.validate()?;

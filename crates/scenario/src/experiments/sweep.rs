@@ -22,6 +22,8 @@ pub struct SweepSpec {
     pub route_length_m: Option<f64>,
     /// Run only this shard of the job list.
     pub shard: Option<Shard>,
+    /// Localiser preset of both localisers (`mapkeeper_localiser::LOCALISER_PRESETS`).
+    pub localiser: String,
 }
 
 /// A checked sweep.
@@ -55,6 +57,7 @@ impl SweepSpec {
         let mut params = Vec::with_capacity(presets.len());
         for preset in presets {
             let mut p = ValidationParams::new(self.worlds, preset)?;
+            p.runner.set_localiser(&self.localiser)?;
             if let Some(len) = self.route_length_m {
                 if !(len.is_finite() && len > 0.0) {
                     return Err(invalid("route_length", format!("must be a positive number of metres, got {len}")));

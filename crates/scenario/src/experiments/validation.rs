@@ -553,6 +553,9 @@ pub struct Summary {
     pub worlds: usize,
     /// The updater preset.
     pub preset: String,
+    /// The localiser preset both localisers were made from (its parameters: `params.runner.filter`).
+    #[serde(default = "default_localiser")]
+    pub localiser: String,
     /// Wall time of the whole run, seconds (0 when not measured).
     pub wall_time_s: f64,
     /// M_1/G_1, mean over seeds.
@@ -576,6 +579,10 @@ pub struct Summary {
     pub lost_handling: LostCounts,
     /// The parameters.
     pub params: ValidationParams,
+}
+
+fn default_localiser() -> String {
+    "mapkeeper".into()
 }
 
 fn metric_summary(runs: &[SeedRecord], f: impl Fn(&Scores) -> f64) -> MetricSummary {
@@ -619,6 +626,7 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         seeds: runs.iter().map(|r| r.seed).collect(),
         worlds: params.worlds,
         preset: params.preset.clone(),
+        localiser: params.runner.localiser.clone(),
         wall_time_s,
         initial_map: Scores {
             cc: mean(runs.iter().map(|r| r.initial_scores.cc)),

@@ -239,11 +239,12 @@ pub fn report_md(r: &RecoveryResults) -> String {
     let _ = writeln!(s, "# Robustness experiments and pose-recovery stress suite\n");
     let _ = writeln!(
         s,
-        "Seed {}, {} kidnap trials per map case, wall time {:.1} s ({}). Definitions: `docs/recovery.md`. \
-         Recovered = the chain localiser's error below {:.2} m and {:.1}° from some time on, held to the end of \
+        "Seed {}, {} kidnap trials per map case, localiser `{}`, wall time {:.1} s ({}). Definitions: \
+         `docs/recovery.md`. Recovered = the chain localiser's error below {:.2} m and {:.1}° from some time on, held to the end of \
          the run ({:.1} s at least).\n",
         sm.seed,
         p.kidnap.trials,
+        p.runner.localiser,
         sm.wall_time_s,
         sm.tool,
         p.success.max_error_m,

@@ -192,10 +192,12 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     let _ = writeln!(s, "# Hundred-world validation: results beside the paper\n");
     let _ = writeln!(
         s,
-        "Seeds {:?}, {} worlds, updater preset `{}`, {} world runs, {:.0} s simulated, wall time {:.1} s ({}).\n",
+        "Seeds {:?}, {} worlds, updater preset `{}`, localiser `{}`, {} world runs, {:.0} s simulated, wall time \
+         {:.1} s ({}).\n",
         summary.seeds,
         summary.worlds,
         summary.preset,
+        summary.localiser,
         summary.rows,
         summary.sim_time_s,
         summary.wall_time_s,

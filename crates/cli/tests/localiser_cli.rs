@@ -1,0 +1,106 @@
+//! End-to-end tests of the localiser presets on the command line (`--localiser`) and of
+//! `mapkeeper converge`, as the real binary in a temporary folder.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{mapkeeper, s, scratch};
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn an_unknown_localiser_is_refused_naming_the_flag_and_the_known_presets() {
+    let dir = scratch("localiser-cli", "nope");
+    let out = s(&dir);
+    let cases: [&[&str]; 5] = [
+        &["validate", "--localiser", "nope", "--worlds", "2", "--out", out],
+        &["recover", "--localiser", "nope", "--out", out],
+        &["run", "--localiser", "nope", "--world", "w.toml", "--map", "m.yaml", "--out", out],
+        &["localise", "--localiser", "nope", "--log", "l", "--map", "m.yaml", "--out", out],
+        &["converge", "--localisers", "amcl,nope", "--seeds", "1", "--out", out],
+    ];
+    for args in cases {
+        let o = mapkeeper(args);
+        assert!(!o.status.success(), "{args:?}");
+        let e = stderr(&o);
+        assert!(e.contains("--localiser") && e.contains("'nope'") && e.contains("mapkeeper, amcl"), "{args:?}: {e}");
+    }
+}
+
+#[test]
+fn validate_records_the_amcl_localiser_and_its_parameters() {
+    let dir = scratch("localiser-cli", "validate");
+    let out = dir.join("v");
+    let args =
+        ["validate", "--localiser", "amcl", "--worlds", "2", "--route-length", "5", "--no-timing", "--out", s(&out)];
+    let o = mapkeeper(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["localiser"], "amcl");
+    assert_eq!(summary["params"]["runner"]["localiser"], "amcl");
+    assert_eq!(summary["params"]["runner"]["filter"]["beam_combination"], "amcl_cube_sum");
+    assert_eq!(summary["params"]["runner"]["filter"]["beam_selection"], "amcl_stride");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("localiser `amcl`"), "{report}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("localiser amcl"));
+}
+
+#[test]
+fn converge_writes_a_table_and_one_csv_per_run_and_refuses_an_existing_folder() {
+    let dir = scratch("localiser-cli", "converge");
+    let out = dir.join("c");
+    let args = [
+        "converge",
+        "--localisers",
+        "amcl,mapkeeper",
+        "--seeds",
+        "1",
+        "--errors",
+        "0.5",
+        "--max-time",
+        "8",
+        "--out",
+        s(&out),
+    ];
+    let o = mapkeeper(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.contains("| amcl | 0.5 | 1 |") && md.contains("| mapkeeper | 0.5 | 1 |"), "{md}");
+    let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(runs.lines().count(), 3, "{runs}");
+    for l in ["amcl", "mapkeeper"] {
+        let csv = std::fs::read_to_string(out.join(format!("runs/{l}-e0.5-s1.csv"))).unwrap();
+        assert!(csv.starts_with("t_s,distance_m,error_m,yaw_error_rad\n") && csv.lines().count() > 50);
+    }
+    let again = mapkeeper(&args);
+    assert!(!again.status.success());
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    assert!(mapkeeper(&forced).status.success());
+    let bad = mapkeeper(&["converge", "--errors", "0.5,x", "--out", s(&dir.join("bad"))]);
+    assert!(!bad.status.success() && stderr(&bad).contains("--errors"), "{}", stderr(&bad));
+}
+
+#[test]
+fn localise_records_the_preset_and_a_parameter_file_overrides_it() {
+    let dir = scratch("localiser-cli", "localise");
+    let sim = dir.join("sim");
+    let o = mapkeeper(&["simulate", "--seconds", "4", "--seed", "2", "--out", s(&sim)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let file = dir.join("f.toml");
+    std::fs::write(&file, "max_particles = 800\n").unwrap();
+    let (map, loc) = (sim.join("ground_truth.yaml"), dir.join("loc"));
+    let args = ["localise", "--localiser", "amcl", "--params", s(&file), "--log", s(&sim), "--map", s(&map)];
+    let o = mapkeeper(&[&args[..], &["--out", s(&loc)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rec: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(loc.join("params.json")).unwrap()).unwrap();
+    assert_eq!(rec["localiser"], "amcl");
+    assert_eq!(rec["filter"]["beam_combination"], "amcl_cube_sum");
+    assert_eq!(rec["filter"]["max_particles"], 800);
+    let tum = std::fs::read_to_string(loc.join("estimate.tum")).unwrap();
+    assert!(tum.lines().next().unwrap().contains("localiser amcl"), "{tum}");
+}
