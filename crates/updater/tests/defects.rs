@@ -103,8 +103,9 @@ fn paper_and_authors_differ_on_the_check() {
     let world = room(6.0, 6.0, 0.05);
     let robot = Pose2::new(3.0, 3.0, 0.1);
     let scan = scan_with_changes(&world, robot, 13, 0);
-    let verdict =
-        |p: UpdaterParams| MapUpdater::new(world.clone(), p).unwrap().process(robot, robot, &[scan.clone()]).verdict;
+    let verdict = |p: UpdaterParams| {
+        MapUpdater::new(world.clone(), p).unwrap().process(robot, robot, std::slice::from_ref(&scan)).verdict
+    };
     assert_eq!(verdict(UpdaterParams::paper()), Some(Verdict::Update));
     assert_eq!(verdict(UpdaterParams::mapkeeper()), Some(Verdict::Update));
     assert_eq!(verdict(UpdaterParams::authors()), Some(Verdict::Lost));
