@@ -2,10 +2,11 @@
 //!
 //! Votes of one step become flags by `flags` ([`FlagRule`]: in `paper` a cell crossed by many
 //! beams of one scan gets one flag per time instant, not one per beam: "changed" if it got at
-//! least as many "changed" as "unchanged" votes). Each flag is pushed into the cell's rolling buffer. A cell flips from its `M_{i-1}` state to the other
-//! one (occupied or unknown → free, free → occupied) when its buffer holds at least
-//! `change_threshold` "changed" flags (with the `authors` neighbour-support rule if enabled),
-//! and flips back by `revert` ([`RevertRule`]; never in `paper`). When a cell becomes free, its unknown 8-neighbours in
+//! least as many "changed" as "unchanged" votes). Each flag is pushed into the cell's rolling
+//! buffer. A cell flips from its `M_{i-1}` state to the other one (occupied or unknown → free,
+//! free → occupied) when its buffer holds at least `change_threshold` "changed" flags (with the
+//! `authors` neighbour-support rule if enabled), and flips back by `revert` ([`RevertRule`];
+//! never in `paper`). When a cell becomes free, its unknown 8-neighbours in
 //! `M_i` are set occupied so that a partly removed obstacle keeps a closed border (Fig. 14).
 //! With `border_interior_only` (a `mapkeeper` addition) only unknown cells that are an
 //! obstacle's interior in `M_{i-1}` are: an unknown region enclosed by occupied cells (no free
