@@ -4,22 +4,12 @@
 
 mod common;
 
+use common::digest::moved as placed;
 use common::{fill_rect, room, scan360};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_updater::paper::cell_buffers::CellBuffers;
 use mapkeeper_updater::support::beam_walk::BeamGeometry;
 use mapkeeper_updater::{MapUpdater, PoseRecovery, StepOutcome, UpdaterParams, Verdict};
-
-/// `m` with its origin moved to `origin` (same cells: the map turned and shifted in the world).
-fn placed(m: &OccupancyGrid, origin: Pose2) -> OccupancyGrid {
-    let g = m.geometry();
-    let mut out = OccupancyGrid::filled(
-        GridGeometry::new(g.width(), g.height(), g.resolution_m(), origin).unwrap(),
-        CellState::Free,
-    );
-    out.cells_mut().copy_from_slice(m.cells());
-    out
-}
 
 fn changed(a: &OccupancyGrid, b: &OccupancyGrid) -> usize {
     a.cells().iter().zip(b.cells()).filter(|(x, y)| x != y).count()

@@ -78,7 +78,8 @@ pub const SCENARIOS: [Scenario; 5] = [
     },
 ];
 
-fn moved(m: &OccupancyGrid, origin: Pose2) -> OccupancyGrid {
+/// `m` with its origin moved to `origin` (same cells: the map turned and shifted in the world).
+pub fn moved(m: &OccupancyGrid, origin: Pose2) -> OccupancyGrid {
     let g = m.geometry();
     let mut out = OccupancyGrid::filled(
         GridGeometry::new(g.width(), g.height(), g.resolution_m(), origin).unwrap(),
