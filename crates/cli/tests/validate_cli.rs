@@ -402,7 +402,7 @@ fn preset_sweeps_shard_over_preset_and_seed_jobs() {
     let r = mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(!r.status.success() && stderr(&r).contains("--force"), "{}", stderr(&r));
     let r = mapkeeper(&["validate", "--worlds", "2", "--presets", "paper,no-update", "--out", all.to_str().unwrap()]);
-    assert!(!r.status.success() && stderr(&r).contains("summary.json"), "{}", stderr(&r));
+    assert!(!r.status.success() && stderr(&r).contains("exists and is not empty"), "{}", stderr(&r));
     let single = validate("sweep-single", &["--worlds", "2", "--seeds", "2", "--no-timing", "--preset", "no-update"]);
     assert_eq!(files(&single), files(&all.join("no-update")));
     for (list, want) in [("paper,paper", "twice"), ("paper,bogus", "bogus"), ("paper,", "preset names")] {

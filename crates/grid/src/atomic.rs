@@ -13,6 +13,19 @@ pub enum OutputError {
     /// The output folder (or file) exists and is not empty, and replacing it was not asked for.
     #[error("{0}: exists and is not empty (use --force to replace it)")]
     Exists(PathBuf),
+    /// The output is an existing file where a folder is to be written.
+    #[error("{0}: exists and is not a folder")]
+    NotAFolder(PathBuf),
+    /// Another running process is writing this output folder.
+    #[error("{}: another run{} is writing this folder (lock {}); wait for it to end, or remove the lock if no run is", target.display(), pid.map(|p| format!(" (pid {p})")).unwrap_or_default(), lock.display())]
+    InUse {
+        /// The output folder.
+        target: PathBuf,
+        /// Its lock file.
+        lock: PathBuf,
+        /// The writer's process id, when readable.
+        pid: Option<u32>,
+    },
     /// A file or folder could not be created, written or renamed.
     #[error("{path}: {source}")]
     Io {
@@ -102,24 +115,129 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     f.commit()
 }
 
-/// A result folder being written.
+/// A result folder being written: files go to a hidden staging folder beside the target,
+/// `.NAME.partial`, which [`StagedDir::finish`] renames into place; so a killed run never leaves
+/// a folder under the target's name that looks complete.
+///
+/// A lock file beside it, `.NAME.partial.lock` (created exclusively, holding the writer's process
+/// id and, on Linux, its start time), keeps two runs from writing the same folder. When a new run
+/// finds a staging folder or lock whose writer is no longer running, it removes them and says so
+/// ([`StagedDir::leftover`]); a writer still running is an error ([`OutputError::InUse`]).
+/// Dropped without [`StagedDir::finish`] (an error or a panic), the staging folder and the lock
+/// are removed.
+///
+/// [`StagedDir::sub`] gives a folder inside this one (a sweep's per-preset folders), moved into
+/// place with it.
 #[derive(Debug)]
 pub struct StagedDir {
     target: PathBuf,
     staging: PathBuf,
+    /// The lock file; `None` for a folder inside another staged folder.
+    lock: Option<PathBuf>,
     force: bool,
+    finished: bool,
+    leftover: Option<Leftover>,
+}
+
+/// What an interrupted earlier run left behind, found and removed by [`StagedDir::create`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Leftover {
+    /// The staging folder (it may be gone already when only the lock was left).
+    pub staging: PathBuf,
+    /// Files that were in it.
+    pub files: usize,
+    /// The process id of the run that left it, when its lock file was readable.
+    pub pid: Option<u32>,
+}
+
+impl std::fmt::Display for Leftover {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let who =
+            self.pid.map_or_else(|| "an interrupted run".to_string(), |p| format!("an interrupted run (pid {p})"));
+        if self.files == 0 {
+            write!(f, "{}: removed what {who} left (an incomplete folder, no file in it)", self.staging.display())
+        } else {
+            write!(f, "{}: removed the incomplete folder {who} left ({} files)", self.staging.display(), self.files)
+        }
+    }
 }
 
 fn is_empty_dir(p: &Path) -> bool {
     std::fs::read_dir(p).map(|mut d| d.next().is_none()).unwrap_or(false)
 }
 
+fn count_files(p: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(p) else { return 0 };
+    entries
+        .flatten()
+        .map(|e| match e.file_type() {
+            Ok(t) if t.is_dir() => count_files(&e.path()),
+            Ok(_) => 1,
+            Err(_) => 0,
+        })
+        .sum()
+}
+
+/// This process's start time in clock ticks since boot (Linux; `None` elsewhere).
+fn start_ticks(pid: u32) -> Option<u64> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // Field 22 (starttime); the command name in field 2 may hold spaces and ')'.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    rest.split_whitespace().nth(19)?.parse().ok()
+}
+
+/// The lock's text: `pid [start ticks]`.
+fn lock_text() -> String {
+    let pid = std::process::id();
+    match start_ticks(pid) {
+        Some(t) => format!("{pid} {t}\n"),
+        None => format!("{pid}\n"),
+    }
+}
+
+/// Whether the process that wrote `text` (as [`lock_text`]) is still running: same pid and the
+/// same start time (so a reused pid is not taken for the writer). Without `/proc` the writer is
+/// taken to have ended.
+fn lock_owner_alive(text: &str) -> (Option<u32>, bool) {
+    let mut it = text.split_whitespace();
+    let Some(pid) = it.next().and_then(|p| p.parse::<u32>().ok()) else { return (None, false) };
+    let started: Option<u64> = it.next().and_then(|t| t.parse().ok());
+    let alive = match (started, start_ticks(pid)) {
+        (Some(a), Some(b)) => a == b,
+        (None, Some(_)) => true,
+        (_, None) => false,
+    };
+    (Some(pid), alive)
+}
+
+/// Creates the lock file `lock` holding [`lock_text`], exclusively and whole: the text is
+/// written to a temporary first and hard-linked to `lock` (which fails if `lock` exists), so
+/// another process never reads a lock without its pid. Where hard links are not supported,
+/// falls back to an exclusive create and a write.
+fn take_lock(lock: &Path) -> std::io::Result<()> {
+    let tmp = lock.with_extension(format!("lock.tmp-{}", std::process::id()));
+    std::fs::write(&tmp, lock_text())?;
+    let linked = std::fs::hard_link(&tmp, lock);
+    let _ = std::fs::remove_file(&tmp);
+    match linked {
+        Err(e) if e.kind() != std::io::ErrorKind::AlreadyExists => {
+            let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(lock)?;
+            f.write_all(lock_text().as_bytes())
+        }
+        other => other,
+    }
+}
+
 impl StagedDir {
     /// Starts writing `target`. Fails if `target` exists, is not an empty folder and `force` is
-    /// false.
+    /// false, or if another running process is writing it. Removes what an interrupted run left
+    /// (see [`StagedDir::leftover`]).
     pub fn create(target: &Path, force: bool) -> Result<StagedDir, OutputError> {
         if target.exists() && !force && !is_empty_dir(target) {
             return Err(OutputError::Exists(target.to_path_buf()));
+        }
+        if target.is_file() {
+            return Err(OutputError::NotAFolder(target.to_path_buf()));
         }
         let name = target.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
         let parent = match target.parent() {
@@ -128,16 +246,73 @@ impl StagedDir {
         };
         std::fs::create_dir_all(&parent).map_err(OutputError::io(&parent))?;
         let staging = parent.join(format!(".{name}.partial"));
+        let lock = parent.join(format!(".{name}.partial.lock"));
+        let mut leftover = None;
+        let mut stale_pid = None;
+        // Take the lock; a lock whose writer has ended is removed once and taken again.
+        for attempt in 0..2 {
+            match take_lock(&lock) {
+                Ok(()) => break,
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt == 0 => {
+                    let text = std::fs::read_to_string(&lock).unwrap_or_default();
+                    let (pid, alive) = lock_owner_alive(&text);
+                    // A lock that names no process is not ours to remove.
+                    if alive || pid.is_none() {
+                        return Err(OutputError::InUse { target: target.to_path_buf(), lock, pid });
+                    }
+                    stale_pid = pid;
+                    leftover = Some(Leftover { staging: staging.clone(), files: 0, pid });
+                    std::fs::remove_file(&lock).map_err(OutputError::io(&lock))?;
+                }
+                Err(e) => return Err(OutputError::Io { path: lock, source: e }),
+            }
+        }
         if staging.exists() {
-            std::fs::remove_dir_all(&staging).map_err(OutputError::io(&staging))?;
+            let files = count_files(&staging);
+            leftover = Some(Leftover { staging: staging.clone(), files, pid: stale_pid });
+            if let Err(e) = std::fs::remove_dir_all(&staging) {
+                let _ = std::fs::remove_file(&lock);
+                return Err(OutputError::Io { path: staging, source: e });
+            }
+        }
+        let dir =
+            StagedDir { target: target.to_path_buf(), staging, lock: Some(lock), force, finished: false, leftover };
+        std::fs::create_dir_all(&dir.staging).map_err(OutputError::io(&dir.staging))?;
+        Ok(dir)
+    }
+
+    /// What an interrupted earlier run had left in this place, now removed (for the caller to
+    /// report).
+    pub fn leftover(&self) -> Option<&Leftover> {
+        self.leftover.as_ref()
+    }
+
+    /// A folder `name` inside this one, written in its staging folder and moved into place with
+    /// it; its [`StagedDir::finish`] only returns where it will be.
+    pub fn sub(&self, name: &str) -> Result<StagedDir, OutputError> {
+        let staging = self.staging.join(name);
+        if staging.exists() {
+            return Err(OutputError::Exists(self.target.join(name)));
         }
         std::fs::create_dir_all(&staging).map_err(OutputError::io(&staging))?;
-        Ok(StagedDir { target: target.to_path_buf(), staging, force })
+        Ok(StagedDir {
+            target: self.target.join(name),
+            staging,
+            lock: None,
+            force: self.force,
+            finished: false,
+            leftover: None,
+        })
     }
 
     /// Where files go while writing.
     pub fn path(&self) -> &Path {
         &self.staging
+    }
+
+    /// Where the folder will be once finished.
+    pub fn target(&self) -> &Path {
+        &self.target
     }
 
     /// A path inside the staging folder, its parent folders created.
@@ -156,16 +331,40 @@ impl StagedDir {
         Ok(())
     }
 
-    /// Moves the finished folder into place (replacing an existing one only if allowed).
-    pub fn finish(self) -> Result<PathBuf, OutputError> {
+    /// Moves the finished folder into place (replacing an existing one only if allowed) and
+    /// releases the lock. For a folder made by [`StagedDir::sub`], only returns where it will be
+    /// once its parent is finished.
+    pub fn finish(mut self) -> Result<PathBuf, OutputError> {
+        self.finished = true;
+        let Some(lock) = self.lock.clone() else { return Ok(self.target.clone()) };
         if self.target.exists() {
             if !self.force && !is_empty_dir(&self.target) {
+                self.finished = false;
                 return Err(OutputError::Exists(self.target.clone()));
             }
-            std::fs::remove_dir_all(&self.target).map_err(OutputError::io(&self.target))?;
+            if let Err(e) = std::fs::remove_dir_all(&self.target) {
+                self.finished = false;
+                return Err(OutputError::Io { path: self.target.clone(), source: e });
+            }
         }
-        std::fs::rename(&self.staging, &self.target).map_err(OutputError::io(&self.target))?;
-        Ok(self.target)
+        if let Err(e) = std::fs::rename(&self.staging, &self.target) {
+            self.finished = false;
+            return Err(OutputError::Io { path: self.target.clone(), source: e });
+        }
+        std::fs::remove_file(&lock).map_err(OutputError::io(&lock))?;
+        Ok(self.target.clone())
+    }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if self.finished {
+            return;
+        }
+        if let Some(lock) = &self.lock {
+            let _ = std::fs::remove_dir_all(&self.staging);
+            let _ = std::fs::remove_file(lock);
+        }
     }
 }
 
@@ -213,5 +412,101 @@ mod staged_tests {
         assert!(!target.join("a/b.txt").exists());
         assert_eq!(std::fs::read(target.join("c.txt")).unwrap(), b"two");
         std::fs::remove_dir_all(&base).unwrap();
+    }
+}
+
+#[cfg(test)]
+mod leftover_tests {
+    use super::*;
+
+    fn base(tag: &str) -> PathBuf {
+        let b = std::env::temp_dir().join(format!("mapkeeper-leftover-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&b);
+        std::fs::create_dir_all(&b).unwrap();
+        b
+    }
+
+    #[test]
+    fn a_killed_runs_folder_is_reported_and_removed() {
+        let b = base("killed");
+        let target = b.join("out");
+        // What a run killed mid-way leaves: the staging folder with some files, and its lock
+        // naming a process that no longer runs (no pid reaches 2^31 on Linux).
+        std::fs::create_dir_all(b.join(".out.partial/seed-1")).unwrap();
+        std::fs::write(b.join(".out.partial/seed-1/a.csv"), "x").unwrap();
+        std::fs::write(b.join(".out.partial/runs.json"), "{").unwrap();
+        std::fs::write(b.join(".out.partial.lock"), "2147483000 12345\n").unwrap();
+        let s = StagedDir::create(&target, false).unwrap();
+        let left = s.leftover().expect("the leftover is reported").clone();
+        assert_eq!(left, Leftover { staging: b.join(".out.partial"), files: 2, pid: Some(2147483000) });
+        assert!(left.to_string().contains("pid 2147483000") && left.to_string().contains("2 files"), "{left}");
+        assert!(!s.path().join("runs.json").exists(), "the old files are gone");
+        s.write("summary.json", b"{}").unwrap();
+        s.finish().unwrap();
+        let names: Vec<_> = std::fs::read_dir(&b).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("out")], "no staging folder or lock left");
+        // A lock alone (killed between the rename and the lock's removal) is reported too.
+        std::fs::write(b.join(".again.partial.lock"), "2147483000\n").unwrap();
+        let s = StagedDir::create(&b.join("again"), false).unwrap();
+        assert_eq!(s.leftover().map(|l| l.files), Some(0));
+        drop(s);
+        let _ = std::fs::remove_dir_all(&b);
+    }
+
+    #[test]
+    fn a_folder_being_written_by_a_running_process_is_refused() {
+        let b = base("inuse");
+        let target = b.join("out");
+        let first = StagedDir::create(&target, false).unwrap();
+        first.write("a.txt", b"1").unwrap();
+        match StagedDir::create(&target, true) {
+            Err(OutputError::InUse { pid, .. }) => assert_eq!(pid, Some(std::process::id())),
+            other => panic!("expected InUse, got {other:?}"),
+        }
+        assert!(first.path().join("a.txt").exists(), "the writer's files are untouched");
+        first.finish().unwrap();
+        assert!(target.join("a.txt").exists());
+        let _ = std::fs::remove_dir_all(&b);
+    }
+
+    #[test]
+    fn an_unfinished_folder_is_removed_when_dropped_and_sub_folders_move_with_their_parent() {
+        let b = base("drop");
+        let target = b.join("out");
+        let s = StagedDir::create(&target, false).unwrap();
+        s.write("half.txt", b"1").unwrap();
+        drop(s);
+        assert_eq!(std::fs::read_dir(&b).unwrap().count(), 0, "no staging folder, no lock");
+        let s = StagedDir::create(&target, false).unwrap();
+        assert!(s.leftover().is_none());
+        let sub = s.sub("paper").unwrap();
+        sub.write("runs.json", b"[]").unwrap();
+        assert!(matches!(s.sub("paper"), Err(OutputError::Exists(_))));
+        assert_eq!(sub.finish().unwrap(), target.join("paper"));
+        assert!(!target.exists(), "a sub-folder's finish moves nothing");
+        s.write("summary.json", b"{}").unwrap();
+        s.finish().unwrap();
+        assert!(target.join("paper/runs.json").is_file() && target.join("summary.json").is_file());
+        assert!(matches!(StagedDir::create(&target.join("summary.json"), true), Err(OutputError::NotAFolder(_))));
+        let _ = std::fs::remove_dir_all(&b);
+    }
+
+    #[test]
+    fn the_lock_names_this_process_and_its_start() {
+        let text = lock_text();
+        let (pid, alive) = lock_owner_alive(&text);
+        assert_eq!(pid, Some(std::process::id()));
+        assert_eq!(alive, start_ticks(std::process::id()).is_some(), "alive where /proc can tell");
+        assert_eq!(lock_owner_alive("garbage"), (None, false));
+        // A lock that names no process is refused, not removed.
+        let b = base("garbage");
+        std::fs::write(b.join(".out.partial.lock"), "garbage").unwrap();
+        assert!(matches!(StagedDir::create(&b.join("out"), false), Err(OutputError::InUse { pid: None, .. })));
+        assert!(b.join(".out.partial.lock").exists());
+        let _ = std::fs::remove_dir_all(&b);
+        if let Some(t) = start_ticks(std::process::id()) {
+            let other_start = format!("{} {}", std::process::id(), t + 1);
+            assert_eq!(lock_owner_alive(&other_start), (Some(std::process::id()), false), "a reused pid");
+        }
     }
 }

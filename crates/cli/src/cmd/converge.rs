@@ -3,7 +3,6 @@
 
 use anyhow::{Context, bail};
 use mapkeeper_localiser::FilterParams;
-use mapkeeper_scenario::StagedDir;
 use mapkeeper_scenario::experiments::convergence::{
     ConvergenceParams, run_convergence, runs_csv, samples_csv, summary_markdown,
 };
@@ -100,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Err(e) = params.validate() {
         bail!("--localisers / --seeds / --errors: {e}");
     }
-    let dir = StagedDir::create(&args.out, args.force)?;
+    let dir = super::output_dir(&args.out, args.force)?;
     let bar = super::progress_bar(params.jobs().len() as u64, "runs");
     let w1 = World::default_warehouse();
     let runs = super::thread_pool(args.jobs)?.install(|| run_convergence(&w1, &params, &|| bar.inc(1)))?;

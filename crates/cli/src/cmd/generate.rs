@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use mapkeeper_scenario::results::report::write_scenario_set;
-use mapkeeper_scenario::{GeneratorParams, StagedDir, generate_worlds};
+use mapkeeper_scenario::{GeneratorParams, generate_worlds};
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;
 
@@ -38,7 +38,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let route = Route::default_warehouse();
     let geometry = w1.default_map_geometry(args.resolution).context("map geometry")?;
     let chain = generate_worlds(&w1, &route, args.worlds, args.seed, &GeneratorParams::default())?;
-    let dir = StagedDir::create(&args.out, args.force)?;
+    let dir = super::output_dir(&args.out, args.force)?;
     let manifest = write_scenario_set(&dir, &chain, &route, args.seed, &geometry)?;
     let out = dir.finish()?;
     let edits: usize = chain.edits.iter().map(Vec::len).sum();

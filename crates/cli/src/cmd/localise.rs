@@ -2,7 +2,7 @@
 
 use super::{load_params, parse_pose};
 use anyhow::Context;
-use mapkeeper_grid::{Pose2, StagedDir, map_io};
+use mapkeeper_grid::{Pose2, map_io};
 use mapkeeper_harness::jobs::localise::localise_log;
 use mapkeeper_harness::{LogSource, ReplayOptions};
 use mapkeeper_localiser::FilterParams;
@@ -63,7 +63,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let log_path = args.log.join("log.jsonl");
     let source = LogSource::new(SensorLog::read(&log_path)?, log_path.display().to_string(), ReplayOptions::default());
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
-    let dir = StagedDir::create(&args.out, args.force)?;
+    let dir = super::output_dir(&args.out, args.force)?;
 
     let (r, init) = localise_log(source, &map, params, args.init, args.seed).context("localisation")?;
     let comment = format!(

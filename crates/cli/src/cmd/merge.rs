@@ -31,13 +31,17 @@ pub struct Args {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if args.dirs.first().is_some_and(|d| is_sweep_dir(d)) {
-        let c = merge_sweeps(&args.dirs, &args.out, args.force)?;
+        let out = super::output_dir(&args.out, args.force)?;
+        let c = merge_sweeps(&args.dirs, &out)?;
+        out.finish()?;
         let merged: Vec<&str> = c.rows.iter().filter(|r| r.seed.is_none()).map(|r| r.preset.as_str()).collect();
         println!("merge: {} sweep folder(s), presets {merged:?}, {} worlds", args.dirs.len(), c.worlds);
         println!("wrote {}", args.out.display());
         return Ok(());
     }
-    let (_, summary) = merge_dirs(&args.dirs, &args.out, args.force)?;
+    let out = super::output_dir(&args.out, args.force)?;
+    let (_, summary) = merge_dirs(&args.dirs, &out)?;
+    out.finish()?;
     println!(
         "merge: {} folder(s), seeds {:?}, {} worlds, preset {}",
         args.dirs.len(),

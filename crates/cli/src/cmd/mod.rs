@@ -15,7 +15,7 @@ pub mod validate;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use mapkeeper_grid::Pose2;
+use mapkeeper_grid::{Pose2, StagedDir};
 use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
@@ -28,6 +28,17 @@ where
     E: std::fmt::Display,
 {
     Ok(mapkeeper_harness::config::load_params(base, file, validate)?)
+}
+
+/// Starts writing the output folder `out` (a hidden staging folder renamed into place at the
+/// end, see [`StagedDir`]), saying on stderr what an interrupted earlier run had left there and
+/// was removed.
+pub fn output_dir(out: &Path, force: bool) -> anyhow::Result<StagedDir> {
+    let dir = StagedDir::create(out, force)?;
+    if let Some(left) = dir.leftover() {
+        eprintln!("mapkeeper: note: {left}");
+    }
+    Ok(dir)
 }
 
 /// Parses `x,y,yaw` (three finite numbers).

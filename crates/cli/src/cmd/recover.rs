@@ -5,7 +5,7 @@ use super::load_params;
 use anyhow::Context;
 use mapkeeper_scenario::experiments::recovery::{KidnapSummary, Progress};
 use mapkeeper_scenario::results::recovery_report::write_recovery;
-use mapkeeper_scenario::{RecoveryParams, StagedDir, run_recovery};
+use mapkeeper_scenario::{RecoveryParams, run_recovery};
 use mapkeeper_sim::World;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     params.validate().context("--trials / --no-best-case")?;
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
-    let dir = StagedDir::create(&out, args.force)?;
+    let dir = super::output_dir(&out, args.force)?;
     let cases = if params.kidnap.best_case { 2 } else { 1 };
     let bar = super::progress_bar(4 + (cases * args.trials) as u64, "steps");
     let pool = super::thread_pool(args.jobs)?;

@@ -4,7 +4,7 @@
 use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
 use mapkeeper_scenario::stats::median;
-use mapkeeper_scenario::{RunInputs, RunnerParams, StagedDir, run_world};
+use mapkeeper_scenario::{RunInputs, RunnerParams, run_world};
 use mapkeeper_sensor::tum::format_tum;
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;
@@ -73,7 +73,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..RunnerParams::default()
     };
     params.set_localiser(&args.localiser).context("--localiser")?;
-    let dir = StagedDir::create(&args.out, args.force)?;
+    let dir = super::output_dir(&args.out, args.force)?;
     let start = Instant::now();
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline };
     let r = run_world(&inputs, &params, args.seed, "run", &super::Wall::start()).context("closed-loop run")?;

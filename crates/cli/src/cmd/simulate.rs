@@ -2,7 +2,7 @@
 //! trajectory and the ground-truth map.
 
 use super::{load_params, positive};
-use mapkeeper_grid::{StagedDir, map_io};
+use mapkeeper_grid::map_io;
 use mapkeeper_scenario::recording::{DriveSpec, record_drive};
 use mapkeeper_sensor::write_tum;
 use mapkeeper_sim::{Route, SimParams, World, ground_truth_map};
@@ -59,7 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let params = load_params(SimParams::default(), args.params.as_deref(), SimParams::validate)?;
     let seconds = args.seconds.unwrap_or(if route.is_some() { 900.0 } else { 60.0 });
-    let dir = StagedDir::create(&args.out, args.force)?;
+    let dir = super::output_dir(&args.out, args.force)?;
     let spec = DriveSpec {
         world: &world,
         route: route.as_ref(),

@@ -3,7 +3,6 @@
 
 use super::load_params;
 use anyhow::Context;
-use mapkeeper_grid::StagedDir;
 use mapkeeper_grid::map_io::{load_map, save_map};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
 use mapkeeper_harness::{LogSource, OdometryAt, ReplayOptions};
@@ -98,7 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, true) => PoseInput::LoggedTruth,
         (None, false) => PoseInput::AlignedOdometry,
     };
-    let dir = StagedDir::create(&args.out, args.force)?;
+    let dir = super::output_dir(&args.out, args.force)?;
     let r = update_log(source, map, params, poses, &super::Wall::start()).context("map update")?;
     save_map(&r.map, &dir.file("map.yaml")?)?;
     dir.write("scans.csv", r.steps_csv.as_bytes())?;

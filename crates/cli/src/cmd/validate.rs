@@ -1,8 +1,8 @@
 //! `mapkeeper validate`: the hundred-world validation of the paper (§5.3.2), over one or more
 //! seeds in parallel; the wall clock is read here (not in the libraries).
 
-use anyhow::{Context, bail};
-use mapkeeper_scenario::results::comparison::{Comparison, check_comparison_files, write_comparison};
+use anyhow::Context;
+use mapkeeper_scenario::results::comparison::{Comparison, write_comparison};
 use mapkeeper_scenario::results::report::write_validation;
 use mapkeeper_scenario::{Clock, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
 use mapkeeper_updater::UpdaterParams;
@@ -85,18 +85,20 @@ fn default_out(seed: u64, worlds: usize, shard: Option<Shard>) -> PathBuf {
     }
 }
 
-/// The output folders, checked before anything runs: OUT itself, or `OUT/<preset>` per preset
-/// of a sweep.
-fn output_dirs(out: &Path, plan: &SweepPlan, sweep: bool, force: bool) -> anyhow::Result<Vec<StagedDir>> {
+/// The output folders, made before anything runs: OUT itself, or for a sweep OUT (holding the
+/// comparison) and `OUT/<preset>` inside it per preset, moved into place with OUT.
+fn output_dirs(
+    out: &Path,
+    plan: &SweepPlan,
+    sweep: bool,
+    force: bool,
+) -> anyhow::Result<(Option<StagedDir>, Vec<StagedDir>)> {
+    let top = super::output_dir(out, force)?;
     if !sweep {
-        return Ok(vec![StagedDir::create(out, force)?]);
+        return Ok((None, vec![top]));
     }
-    if out.is_file() {
-        bail!("{}: exists and is not a folder", out.display());
-    }
-    check_comparison_files(out, force)?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    plan.groups().iter().map(|&p| Ok(StagedDir::create(&out.join(&plan.presets[p]), force)?)).collect()
+    let subs = plan.groups().iter().map(|&p| top.sub(&plan.presets[p])).collect::<Result<Vec<_>, _>>()?;
+    Ok((Some(top), subs))
 }
 
 /// Runs the subcommand.
@@ -119,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
-    let dirs = output_dirs(&out, &plan, sweep, args.force)?;
+    let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
     let bar = super::progress_bar(plan.total_worlds(), "worlds");
     let start = Instant::now();
     let wall = super::Wall::start();
@@ -146,9 +148,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("wrote {}", written.display());
         records.push(record);
     }
-    if sweep {
+    if let Some(top) = top {
         let c = Comparison::new(&plan.presets, &records.iter().collect::<Vec<_>>());
-        write_comparison(&out, &c)?;
+        write_comparison(&top, &c)?;
+        top.finish()?;
         println!(
             "wrote {} and {} (presets side by side)",
             out.join("summary.json").display(),

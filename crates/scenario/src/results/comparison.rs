@@ -8,7 +8,7 @@ use crate::experiments::run_events::LostCounts;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
-use mapkeeper_grid::{check_output_file, write_atomic};
+use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -189,20 +189,11 @@ impl Comparison {
 /// The top-level files of a sweep folder.
 pub const COMPARISON_FILES: [&str; 2] = ["summary.json", "report.md"];
 
-/// Refuses existing top-level files of a sweep folder `out` unless `force` (checked before any
-/// work).
-pub fn check_comparison_files(out: &Path, force: bool) -> Result<(), ResultsError> {
-    for f in COMPARISON_FILES {
-        check_output_file(&out.join(f), force)?;
-    }
-    Ok(())
-}
-
-/// Writes `out/summary.json` and `out/report.md` (each atomically).
-pub fn write_comparison(out: &Path, c: &Comparison) -> Result<(), ResultsError> {
-    for (f, text) in [("summary.json", c.json()?), ("report.md", c.report_md())] {
-        let p = out.join(f);
-        write_atomic(&p, text.as_bytes()).map_err(|source| ResultsError::Io { path: p, source })?;
+/// Writes `summary.json` and `report.md` of a sweep folder `out` (being written; its per-preset
+/// folders are [`StagedDir::sub`] folders of it, so the sweep appears whole or not at all).
+pub fn write_comparison(out: &StagedDir, c: &Comparison) -> Result<(), ResultsError> {
+    for (f, text) in [(COMPARISON_FILES[0], c.json()?), (COMPARISON_FILES[1], c.report_md())] {
+        out.write(f, text.as_bytes())?;
     }
     Ok(())
 }
@@ -227,10 +218,10 @@ fn read_comparison(dir: &Path) -> Result<Comparison, ResultsError> {
 }
 
 /// Merges sweep folders (`validate --presets … --shard k/N`, or sweeps of other seeds) into the
-/// sweep folder `out`: each preset's folders are merged into `out/<preset>` as by
-/// [`merge_dirs`], then the comparison is recomputed over the merged presets. The sweeps must
-/// list the same presets in the same order. Returns the comparison.
-pub fn merge_sweeps(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Comparison, ResultsError> {
+/// sweep folder `out` (being written; the caller finishes it): each preset's folders are merged
+/// into `out/<preset>` as by [`merge_dirs`], then the comparison is recomputed over the merged
+/// presets. The sweeps must list the same presets in the same order. Returns the comparison.
+pub fn merge_sweeps(dirs: &[PathBuf], out: &StagedDir) -> Result<Comparison, ResultsError> {
     let Some(first) = dirs.first() else {
         return Err(ResultsError::Merge { dir: PathBuf::new(), problem: MergeProblem::NoInput });
     };
@@ -255,18 +246,12 @@ pub fn merge_sweeps(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Compari
             load_result_dir(&d.join(p))?;
         }
     }
-    check_comparison_files(out, force)?;
-    for (p, _) in &groups {
-        let o = out.join(p);
-        let non_empty = std::fs::read_dir(&o).is_ok_and(|mut e| e.next().is_some());
-        if (non_empty || o.is_file()) && !force {
-            return Err(mapkeeper_grid::OutputError::Exists(o).into());
-        }
-    }
     let mut records = Vec::with_capacity(groups.len());
     for (p, ds) in &groups {
         let ds: Vec<PathBuf> = ds.iter().map(|d| d.join(p)).collect();
-        records.push(merge_dirs(&ds, &out.join(p), force)?.0);
+        let sub = out.sub(p)?;
+        records.push(merge_dirs(&ds, &sub)?.0);
+        sub.finish()?;
     }
     let c = Comparison::new(&presets, &records.iter().collect::<Vec<_>>());
     write_comparison(out, &c)?;

@@ -303,23 +303,21 @@ fn copy_tree(from: &Path, out: &StagedDir, rel: &str) -> Result<(), ResultsError
     Ok(())
 }
 
-/// Reads, checks and merges the folders `dirs` into the folder `out` (refused if it exists and
-/// is not empty, unless `force`; written atomically, and only once every input passed its
-/// checks): `runs.json`, `summary.json`, `worlds.csv`, `edits.json`, `report.md` and the
-/// figures recomputed from the merged record, and every seed's `seed-S/` folder copied.
-/// Returns the merged record and its summary.
-pub fn merge_dirs(dirs: &[PathBuf], out: &Path, force: bool) -> Result<(ValidationRecord, Summary), ResultsError> {
+/// Reads, checks and merges the folders `dirs` into the folder `out` (being written; the caller
+/// finishes it, so nothing appears unless every input passed its checks): `runs.json`,
+/// `summary.json`, `worlds.csv`, `edits.json`, `report.md` and the figures recomputed from the
+/// merged record, and every seed's `seed-S/` folder copied. Returns the merged record and its
+/// summary.
+pub fn merge_dirs(dirs: &[PathBuf], staged: &StagedDir) -> Result<(ValidationRecord, Summary), ResultsError> {
     let inputs = dirs.iter().map(|d| Ok((d.clone(), load_result_dir(d)?))).collect::<Result<Vec<_>, ResultsError>>()?;
     let merged = merge_records(&inputs)?;
-    let staged = StagedDir::create(out, force)?;
-    let summary = write_results(&staged, &merged)?;
+    let summary = write_results(staged, &merged)?;
     for (dir, r) in &inputs {
         for s in &r.seeds {
             let sub = format!("seed-{}", s.seed);
-            copy_tree(&dir.join(&sub), &staged, &sub)?;
+            copy_tree(&dir.join(&sub), staged, &sub)?;
         }
     }
-    staged.finish()?;
     Ok((merged, summary))
 }
 
