@@ -1,7 +1,8 @@
 //! The `mapkeeper` command line: argument parsing and glue only. Each subcommand lives in its
 //! own module under `cmd/`; the work is done by the library crates.
 
-use clap::{Parser, Subcommand};
+use clap::error::ErrorKind;
+use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod cmd;
@@ -44,7 +45,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return clap_error(&e),
+    };
     let result = match cli.command {
         Command::Validate(a) => cmd::validate::run(a),
         Command::Recover(a) => cmd::recover::run(a),
@@ -68,6 +72,46 @@ fn main() -> ExitCode {
     }
 }
 
+/// A command-line error: help and version as clap prints them (exit 0; help for a missing
+/// subcommand exit 2, as clap does), anything else as one line naming the flag, exit 2.
+fn clap_error(e: &clap::Error) -> ExitCode {
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            // Printing help can fail only on a closed stdout/stderr; nothing is left to report then.
+            let _ = e.print();
+            ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2))
+        }
+        _ => {
+            let cmd = subcommand_name(std::env::args_os().skip(1));
+            let see = cmd.map_or_else(|| "mapkeeper --help".to_string(), |c| format!("mapkeeper {c} --help"));
+            eprintln!("mapkeeper: error: {} (see {see})", clap_message(&e.to_string()));
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// The subcommand named on the command line, if any (the first argument that is one).
+fn subcommand_name(args: impl Iterator<Item = std::ffi::OsString>) -> Option<String> {
+    let cli = Cli::command();
+    let arg = args.map(|a| a.to_string_lossy().into_owned()).find(|a| !a.starts_with('-'))?;
+    cli.get_subcommands().any(|c| c.get_name() == arg).then_some(arg)
+}
+
+/// Clap's rendered error on one line: its message (the first paragraph, e.g. `invalid value
+/// 'NaN' for '--resolution <METRES>': …` or `the following required arguments were not
+/// provided: --out <DIR>`) and its tips, without the `error: ` prefix, the usage and the help
+/// hint.
+fn clap_message(rendered: &str) -> String {
+    let mut paragraphs = rendered.split("\n\n").map(|p| p.split_whitespace().collect::<Vec<_>>().join(" "));
+    let first = paragraphs.next().unwrap_or_default();
+    let mut line = first.strip_prefix("error: ").unwrap_or(&first).to_string();
+    for tip in paragraphs.filter(|p| p.starts_with("tip: ")) {
+        line.push_str("; ");
+        line.push_str(&tip);
+    }
+    line
+}
+
 /// The error and its causes on one line, leaving out a cause whose text the line already holds
 /// (library errors name their file and include their cause in their own message).
 fn one_line(e: &anyhow::Error) -> String {
@@ -88,6 +132,24 @@ fn one_line(e: &anyhow::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clap_errors_become_one_line() {
+        let e = Cli::try_parse_from(["mapkeeper", "generate", "--resolution", "NaN", "--out", "x"]).unwrap_err();
+        assert_eq!(
+            clap_message(&e.to_string()),
+            "invalid value 'NaN' for '--resolution <METRES>': must be a finite number from 0.005 m to 10 m, got NaN"
+        );
+        let e = Cli::try_parse_from(["mapkeeper", "generate"]).unwrap_err();
+        assert_eq!(clap_message(&e.to_string()), "the following required arguments were not provided: --out <DIR>");
+        let e = Cli::try_parse_from(["mapkeeper", "generate", "--forc"]).unwrap_err();
+        let m = clap_message(&e.to_string());
+        assert!(m.starts_with("unexpected argument '--forc' found; tip: ") && m.contains("'--force'"), "{m}");
+        let args = ["generate", "--out", "x"].map(std::ffi::OsString::from);
+        assert_eq!(subcommand_name(args.into_iter()), Some("generate".to_string()));
+        assert_eq!(subcommand_name(["--nope"].map(std::ffi::OsString::from).into_iter()), None);
+        assert_eq!(subcommand_name(["bogus"].map(std::ffi::OsString::from).into_iter()), None);
+    }
 
     #[test]
     fn causes_already_in_the_message_are_not_repeated() {

@@ -77,9 +77,10 @@ fn mismatched_maps_fail_naming_both_unless_resampled() {
     assert_eq!(v["cc"].as_f64(), Some(100.0), "{v}");
     assert_eq!(v["opdf"].as_f64(), Some(100.0), "{v}");
 
-    // Bad parameters are refused.
+    // Bad parameters are refused as the command line is parsed (exit 2), naming the flag.
     let out = mapkeeper(&["metrics", s(&a), s(&a), "--unknown-value", "2"]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--unknown-value"));
     // A missing file is named.
     let out = mapkeeper(&["metrics", s(&a), s(&dir.join("nope.yaml"))]);
     assert_eq!(out.status.code(), Some(1));

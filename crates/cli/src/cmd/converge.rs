@@ -9,6 +9,11 @@ use mapkeeper_scenario::experiments::convergence::{
 use mapkeeper_sim::World;
 use std::path::PathBuf;
 
+/// Largest `--hold` and `--max-time`, simulated seconds.
+const MAX_RUN_S: f64 = 3600.0;
+/// Most `--errors` entries.
+const MAX_ERRORS: usize = 1000;
+
 /// Arguments of `mapkeeper converge`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "For each localiser preset, seed and start error: drive the default route in the \
@@ -21,23 +26,24 @@ pub struct Args {
     /// Localiser presets, comma-separated (mapkeeper, amcl).
     #[arg(long, value_name = "L1,L2,…", value_delimiter = ',', default_value = "amcl,mapkeeper")]
     pub localisers: Vec<String>,
-    /// Seeds: a range `A-B` or a comma-separated list.
-    #[arg(long, value_name = "A-B|S1,S2,…", default_value = "1-10", value_parser = parse_seeds)]
+    /// Seeds: a range `A-B` or a comma-separated list (at most 100000 seeds, no repeats).
+    #[arg(long, value_name = "A-B|S1,S2,…", default_value = "1-10", value_parser = parse_seeds, allow_hyphen_values = true)]
     pub seeds: SeedList,
-    /// Start errors, metres, comma-separated.
-    #[arg(long, value_name = "M1,M2,…", value_delimiter = ',', default_value = "0.5,0.7,1.5", value_parser = super::non_negative)]
+    /// Start errors, metres, comma-separated; each 0 to 100 m (the warehouse is 15 m × 22 m),
+    /// at most 1000 of them.
+    #[arg(long, value_name = "M1,M2,…", value_delimiter = ',', default_value = "0.5,0.7,1.5", value_parser = super::real_in(0.0, super::MAX_START_ERROR_M, "m"), allow_hyphen_values = true)]
     pub errors: Vec<f64>,
-    /// Converged: position error below this, metres.
-    #[arg(long, value_name = "METRES", default_value_t = 0.1, value_parser = super::positive)]
+    /// Converged: position error below this, metres (> 0 and ≤ 100 m).
+    #[arg(long, value_name = "METRES", default_value_t = 0.1, value_parser = super::positive_up_to(super::MAX_START_ERROR_M, "m"), allow_hyphen_values = true)]
     pub threshold: f64,
-    /// ... staying below it this long, seconds.
-    #[arg(long, value_name = "SECONDS", default_value_t = 2.0, value_parser = super::non_negative)]
+    /// ... staying below it this long, seconds (0 to 3600 s).
+    #[arg(long, value_name = "SECONDS", default_value_t = 2.0, value_parser = super::real_in(0.0, MAX_RUN_S, "s"), allow_hyphen_values = true)]
     pub hold: f64,
-    /// Cap of each run, simulated seconds.
-    #[arg(long, value_name = "SECONDS", default_value_t = 120.0, value_parser = super::positive)]
+    /// Cap of each run, simulated seconds (> 0 and ≤ 3600 s, 30 × the default).
+    #[arg(long, value_name = "SECONDS", default_value_t = 120.0, value_parser = super::positive_up_to(MAX_RUN_S, "s"), allow_hyphen_values = true)]
     pub max_time: f64,
-    /// Drive only the first this-many metres of the route.
-    #[arg(long, value_name = "METRES", value_parser = super::positive)]
+    /// Drive only the first this-many metres of the route (> 0 and ≤ 10000 m).
+    #[arg(long, value_name = "METRES", value_parser = super::route_length, allow_hyphen_values = true)]
     pub route_length: Option<f64>,
     /// TOML file overriding FilterParams fields of every localiser preset given (for
     /// diagnostics; the file is named in summary.md).
@@ -49,8 +55,8 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 1024 (default: all cores; more threads than runs gain nothing).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
     pub jobs: Option<usize>,
 }
 
@@ -58,19 +64,26 @@ pub struct Args {
 #[derive(Clone, Debug)]
 pub struct SeedList(pub Vec<u64>);
 
-/// Parses `A-B` (inclusive, A ≤ B, at most 100000 seeds) or `S1,S2,…` (no repeats).
+/// Parses `A-B` (inclusive, A ≤ B) or `S1,S2,…` (no repeats), at most [`super::MAX_SEEDS`]
+/// seeds, each a whole number from 0 to 2^64 − 1.
 pub fn parse_seeds(s: &str) -> Result<SeedList, String> {
-    let num = |p: &str| p.trim().parse::<u64>().map_err(|e| format!("'{p}' is not a seed: {e}"));
+    let num = |p: &str| super::seed(p).map_err(|e| format!("'{p}': {e}"));
+    let max = super::MAX_SEEDS;
     let seeds: Vec<u64> = if let Some((a, b)) = s.split_once('-') {
         let (a, b) = (num(a)?, num(b)?);
-        if a > b || b - a >= 100_000 {
-            return Err(format!("range '{s}' must be A-B with A ≤ B and at most 100000 seeds"));
+        if a > b || b - a >= max as u64 {
+            return Err(format!("range '{s}' must be A-B with A ≤ B and at most {max} seeds"));
         }
         (a..=b).collect()
     } else {
-        s.split(',').map(num).collect::<Result<_, _>>()?
+        let parts: Vec<&str> = s.split(',').collect();
+        if parts.len() > max {
+            return Err(format!("at most {max} seeds, got {}", parts.len()));
+        }
+        parts.into_iter().map(num).collect::<Result<_, _>>()?
     };
-    if let Some((i, d)) = seeds.iter().enumerate().find(|(i, d)| seeds[..*i].contains(d)) {
+    let mut seen = std::collections::HashSet::with_capacity(seeds.len());
+    if let Some((i, d)) = seeds.iter().enumerate().find(|&(_, d)| !seen.insert(*d)) {
         return Err(format!("seed {d} given twice (entry {})", i + 1));
     }
     Ok(SeedList(seeds))
@@ -78,6 +91,9 @@ pub fn parse_seeds(s: &str) -> Result<SeedList, String> {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.errors.len() > MAX_ERRORS {
+        bail!("--errors: at most {MAX_ERRORS} start errors, got {}", args.errors.len());
+    }
     let mut params = ConvergenceParams {
         localisers: args.localisers.iter().map(|l| l.trim().to_string()).collect(),
         seeds: args.seeds.0.clone(),
@@ -128,7 +144,8 @@ mod tests {
         assert_eq!(parse_seeds("1-3").unwrap().0, vec![1, 2, 3]);
         assert_eq!(parse_seeds("4,2").unwrap().0, vec![4, 2]);
         assert_eq!(parse_seeds("7").unwrap().0, vec![7]);
-        for bad in ["3-1", "x", "1,1", "1-", ""] {
+        assert_eq!(parse_seeds("0-99999").unwrap().0.len(), 100_000);
+        for bad in ["3-1", "x", "1,1", "1-", "", "-1", "0-100000", "1e3", "18446744073709551616", "1,,2"] {
             assert!(parse_seeds(bad).is_err(), "{bad}");
         }
     }

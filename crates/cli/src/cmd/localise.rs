@@ -38,7 +38,8 @@ pub struct Args {
     /// Output folder (written atomically; an existing non-empty folder is refused without --force).
     #[arg(long, value_name = "OUT")]
     pub out: PathBuf,
-    /// Initial pose in the map frame: x (m), y (m), yaw (rad), comma-separated.
+    /// Initial pose in the map frame: x (m), y (m), yaw (rad), comma-separated; |x|, |y| ≤ 1e6 m,
+    /// |yaw| ≤ 6.3 rad (a turn: a larger yaw is most likely in degrees).
     #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
     pub init: Option<Pose2>,
     /// Localiser preset: mapkeeper or amcl (docs/localiser.md). --params overrides its fields.
@@ -48,8 +49,9 @@ pub struct Args {
     /// `max_particles = 2000` or `[motion]` `alpha3 = 0.1`.
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
-    /// Seed of the filter's random stream (same seed ⇒ identical output).
-    #[arg(long, value_name = "S", default_value_t = 0)]
+    /// Seed of the filter's random stream (same seed ⇒ identical output; any whole number from
+    /// 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
     /// Replace an existing non-empty output folder.
     #[arg(long)]

@@ -2,7 +2,7 @@
 //! log-odds mapper of `mapkeeper_grid::mapper`.
 
 use super::metrics::load;
-use super::{load_params, non_negative, positive};
+use super::{load_params, real_in};
 use anyhow::Context;
 use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::{CellState, map_io};
@@ -37,8 +37,8 @@ pub struct Args {
     /// Output map (ROS map_server YAML; the PGM is written beside it).
     #[arg(long, value_name = "MAP.yaml")]
     pub out: PathBuf,
-    /// Cell side, metres (ignored with --like).
-    #[arg(long, value_name = "R", default_value_t = 0.05, value_parser = positive)]
+    /// Cell side, metres, 0.005 to 10 (ignored with --like).
+    #[arg(long, value_name = "R", default_value_t = 0.05, value_parser = super::resolution, allow_hyphen_values = true)]
     pub resolution: f64,
     /// Reuse this map's geometry (size, resolution, origin) instead of fitting the observed area.
     #[arg(long, value_name = "MAP.yaml")]
@@ -46,14 +46,17 @@ pub struct Args {
     /// Mapper parameters (TOML; any subset of the fields of MapperParams).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
-    /// Beams with no return clear free space up to this range, metres (0 disables).
-    #[arg(long, value_name = "M", default_value_t = 8.0, value_parser = non_negative)]
+    /// Beams with no return clear free space up to this range, metres, 0 (disables) to 1000
+    /// (no lidar reaches further; the lidar's range_max caps it anyway).
+    #[arg(long, value_name = "M", default_value_t = 8.0, value_parser = real_in(0.0, 1000.0, "m"), allow_hyphen_values = true)]
     pub no_return_clear_m: f64,
-    /// Border added around the observed area when fitting the geometry, metres.
-    #[arg(long, value_name = "M", default_value_t = 1.0, value_parser = non_negative)]
+    /// Border added around the observed area when fitting the geometry, metres, 0 to 100 (a
+    /// wider border only adds unknown cells).
+    #[arg(long, value_name = "M", default_value_t = 1.0, value_parser = real_in(0.0, 100.0, "m"), allow_hyphen_values = true)]
     pub margin_m: f64,
-    /// Largest time from a scan to a usable true pose, seconds.
-    #[arg(long, value_name = "S", default_value_t = 0.1, value_parser = non_negative)]
+    /// Largest time from a scan to a usable true pose, seconds, 0 to 3600 (an hour: poses
+    /// further apart say nothing about the scan).
+    #[arg(long, value_name = "S", default_value_t = 0.1, value_parser = real_in(0.0, 3600.0, "s"), allow_hyphen_values = true)]
     pub max_pose_gap_s: f64,
     /// Overwrite an existing output map.
     #[arg(long)]

@@ -30,10 +30,11 @@ pub struct Args {
     #[arg(long)]
     pub resample: bool,
     /// Occupancy value of unknown cells in CC and MS, in [0, 1].
-    #[arg(long, value_name = "V", default_value_t = MetricParams::default().unknown_value)]
+    #[arg(long, value_name = "V", default_value_t = MetricParams::default().unknown_value, value_parser = super::real_in(0.0, 1.0, ""), allow_hyphen_values = true)]
     pub unknown_value: f64,
-    /// Side of the square OPDF search window, metres (r = √2·W / resolution cells).
-    #[arg(long, value_name = "W", default_value_t = MetricParams::default().opdf_window_m.0)]
+    /// Side of the square OPDF search window, metres (r = √2·W / resolution cells), > 0 and ≤
+    /// 1000 m (wider than any map here: the cap then never binds).
+    #[arg(long, value_name = "W", default_value_t = MetricParams::default().opdf_window_m.0, value_parser = super::positive_up_to(1000.0, "m"), allow_hyphen_values = true)]
     pub opdf_window_m: f64,
     /// Print exactly one JSON object {"cc": …, "ms": …, "opdf": …} (percent) on stdout.
     #[arg(long)]

@@ -10,6 +10,9 @@ use mapkeeper_sim::World;
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// Largest `--trials`.
+const MAX_TRIALS: usize = 10_000;
+
 /// Arguments of `mapkeeper recover`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Experiments: the localisation-check demo (0.5 m start error: updates suspended, then \
@@ -21,17 +24,18 @@ Output in OUT (default results/recover-s<SEED>-<N>t-<counter>): summary.json, ki
 lost_robot.csv, demo_timeline.csv, report.md. Same seed => identical files whatever --jobs, except wall_time_s. \
 Definitions: docs/recovery.md.")]
 pub struct Args {
-    /// Kidnap trials per map case (stale and best).
-    #[arg(long, default_value_t = 200)]
+    /// Kidnap trials per map case (stale and best), 0 to 10000 (0 runs the other
+    /// experiments only; 10000 is 50 × the default, hours of work).
+    #[arg(long, value_name = "N", default_value_t = 200, value_parser = super::count_in(0, MAX_TRIALS), allow_hyphen_values = true)]
     pub trials: usize,
-    /// Run seed.
-    #[arg(long, default_value_t = 1)]
+    /// Run seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 1024 (default: all cores; more threads than runs gain nothing).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
     pub jobs: Option<usize>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]

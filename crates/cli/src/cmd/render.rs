@@ -25,9 +25,10 @@ pub struct Args {
     /// Render the difference from MAP to this map instead of MAP alone.
     #[arg(long, value_name = "OTHER.yaml")]
     pub diff: Option<PathBuf>,
-    /// Integer enlargement: each cell becomes K × K pixels (K ≥ 1).
-    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
-    pub scale: u32,
+    /// Integer enlargement: each cell becomes K × K pixels, 1 to 64 (the image is also limited
+    /// to 2^28 pixels).
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = super::count_in(1, 64), allow_hyphen_values = true)]
+    pub scale: usize,
     /// Overwrite an existing output file.
     #[arg(long)]
     pub force: bool,
@@ -52,7 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             render_diff(&map, &other)?
         }
     };
-    let image = if args.scale > 1 { image.scaled(args.scale as usize)? } else { image };
+    let image = if args.scale > 1 { image.scaled(args.scale)? } else { image };
     mapkeeper_grid::check_output_file(&args.out, args.force)?;
     image.write_png(&args.out)?;
     println!("wrote {} ({} × {} pixels)", args.out.display(), image.width(), image.height());

@@ -39,11 +39,11 @@ pub struct Args {
     /// in run.json with its parameters.
     #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
     pub localiser: String,
-    /// Run seed.
-    #[arg(long, default_value_t = 1)]
+    /// Run seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Start error of the localisers, metres.
-    #[arg(long, default_value_t = 0.05)]
+    /// Start error of the localisers, metres, 0 to 100 (the warehouse is 15 m × 22 m).
+    #[arg(long, value_name = "METRES", default_value_t = 0.05, value_parser = super::real_in(0.0, super::MAX_START_ERROR_M, "m"), allow_hyphen_values = true)]
     pub start_error: f64,
     /// Output folder.
     #[arg(long, value_name = "DIR")]

@@ -1,12 +1,15 @@
 //! `mapkeeper simulate`: run the simulator on a world and write a sensor log, the true
 //! trajectory and the ground-truth map.
 
-use super::{load_params, positive};
+use super::load_params;
 use mapkeeper_grid::map_io;
 use mapkeeper_scenario::recording::{DriveSpec, record_drive};
 use mapkeeper_sensor::write_tum;
 use mapkeeper_sim::{Route, SimParams, World, ground_truth_map};
 use std::path::PathBuf;
+
+/// Largest `--seconds`: one simulated day.
+const MAX_SECONDS: f64 = 86_400.0;
 
 /// Arguments of `mapkeeper simulate`.
 #[derive(clap::Args, Debug)]
@@ -29,11 +32,12 @@ pub struct Args {
     /// Route file (default: the default warehouse tour when no --world is given, else none).
     #[arg(long, value_name = "FILE")]
     pub route: Option<PathBuf>,
-    /// Simulated duration, seconds.
-    #[arg(long, value_name = "T", value_parser = positive)]
+    /// Simulated duration, seconds: > 0 and ≤ 86400 (a day; the log grows by about 0.1 MB
+    /// per simulated second).
+    #[arg(long, value_name = "T", value_parser = super::positive_up_to(MAX_SECONDS, "s"), allow_hyphen_values = true)]
     pub seconds: Option<f64>,
-    /// Run seed; every random stream derives from it.
-    #[arg(long, value_name = "S", default_value_t = 0)]
+    /// Run seed; every random stream derives from it (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
     /// Simulator parameters (TOML overriding any field of SimParams).
     #[arg(long, value_name = "FILE")]

@@ -53,8 +53,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
     /// Scans of different lidars within this many seconds of a step's first scan form one step
-    /// (≥ 0; 0 = only scans with equal stamps).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.05, allow_negative_numbers = true)]
+    /// (0 to 10 s, far longer than any lidar's scan period; 0 = only scans with equal stamps).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.05, value_parser = super::real_in(0.0, MAX_SYNC_WINDOW_S, "s"), allow_hyphen_values = true)]
     pub sync_window_s: f64,
     /// Output folder.
     #[arg(long, value_name = "OUT")]
@@ -71,11 +71,14 @@ pub fn load_updater_params(preset: &str, file: Option<&Path>) -> anyhow::Result<
     load_params(params, file, UpdaterParams::validate).with_context(|| format!("preset {preset}"))
 }
 
+/// Largest `--sync-window-s`, seconds.
+const MAX_SYNC_WINDOW_S: f64 = 10.0;
+
 /// The synchronisation window in nanoseconds, checked.
 pub fn sync_window_ns(seconds: f64) -> anyhow::Result<u64> {
     anyhow::ensure!(
-        seconds.is_finite() && (0.0..=1e9).contains(&seconds),
-        "--sync-window-s: must be a finite number of seconds ≥ 0, got {seconds}"
+        seconds.is_finite() && (0.0..=MAX_SYNC_WINDOW_S).contains(&seconds),
+        "--sync-window-s: must be a finite number from 0 s to {MAX_SYNC_WINDOW_S} s, got {seconds}"
     );
     Ok((seconds * 1e9).round() as u64)
 }

@@ -28,15 +28,16 @@ localisation error means on M_1 and M_{i-1}, the verdict counts and the Lost han
 recoveries, give-ups, time stopped). Merge sharded sweeps whole (mapkeeper merge s1 s2 s3 --out all: preset \
 by preset, then the comparison) or preset by preset (mapkeeper merge s1/paper s2/paper --out all/paper).")]
 pub struct Args {
-    /// Number of worlds N.
-    #[arg(long, default_value_t = 100)]
+    /// Number of worlds N, 2 to 10000 (100 × the paper's hundred worlds: many hours per seed).
+    #[arg(long, value_name = "N", default_value_t = 100, value_parser = super::count_in(2, super::MAX_WORLDS), allow_hyphen_values = true)]
     pub worlds: usize,
-    /// First run seed.
-    #[arg(long, default_value_t = 1)]
+    /// First run seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Number of seeds (seed, seed+1, …), run in parallel.
-    #[arg(long, default_value_t = 1)]
-    pub seeds: u64,
+    /// Number of seeds (seed, seed+1, …), run in parallel; 1 to 100000 (each seed is a whole
+    /// validation).
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = super::count_in(1, super::MAX_SEEDS), allow_hyphen_values = true)]
+    pub seeds: usize,
     /// Updater preset: paper, authors, mapkeeper, always-update, no-update, log-odds.
     #[arg(long, default_value = "paper")]
     pub preset: String,
@@ -55,21 +56,22 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 1024 (default: all cores; more threads than runs gain nothing).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
     pub jobs: Option<usize>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
-    /// Drive only the first this-many metres of the route (quick checks).
-    #[arg(long, value_name = "METRES")]
+    /// Drive only the first this-many metres of the route (quick checks); > 0 and ≤ 10000 m
+    /// (the default tour is 72 m: longer values drive all of it).
+    #[arg(long, value_name = "METRES", value_parser = super::route_length, allow_hyphen_values = true)]
     pub route_length: Option<f64>,
     /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
     #[arg(long)]
     pub no_timing: bool,
     /// Run only the k-th of N slices of the seeds (1 ≤ k ≤ N ≤ --seeds); merge the shards'
     /// folders with `mapkeeper merge`.
-    #[arg(long, value_name = "k/N", value_parser = str::parse::<Shard>)]
+    #[arg(long, value_name = "k/N", value_parser = str::parse::<Shard>, allow_hyphen_values = true)]
     pub shard: Option<Shard>,
 }
 
@@ -108,7 +110,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         presets: args.presets.clone().unwrap_or_else(|| vec![args.preset.clone()]),
         worlds: args.worlds,
         first_seed: args.seed,
-        seeds: args.seeds,
+        seeds: args.seeds as u64,
         route_length_m: args.route_length,
         shard: args.shard,
         localiser: args.localiser.clone(),
