@@ -480,4 +480,70 @@ fn check_comparison(all: &Path) {
     let report = std::fs::read_to_string(all.join("report.md")).unwrap();
     assert_eq!(report.lines().filter(|l| l.starts_with("| paper |") || l.starts_with("| no-update |")).count(), 6);
     assert!(report.contains("Lost episodes") && report.contains("err on M_1"), "{report}");
+    check_intervals(all);
+}
+
+/// The paired intervals of summary.json, recomputed here from the presets' runs.json: per seed
+/// the mean over its worlds, then mean ± t(0.975, n−1)·s/√n over the seeds (n = 2: t = 12.7062).
+fn check_intervals(all: &Path) {
+    let json = |p: &Path| -> serde_json::Value { serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap() };
+    let per_seed = |preset: &str, f: &dyn Fn(&serde_json::Value) -> f64| -> Vec<f64> {
+        let runs = json(&all.join(preset).join("runs.json"));
+        runs["seeds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| {
+                let rows = s["rows"].as_array().unwrap();
+                rows.iter().map(f).sum::<f64>() / rows.len() as f64
+            })
+            .collect()
+    };
+    let interval = |d: &[f64]| -> (f64, [f64; 2]) {
+        assert_eq!(d.len(), 2);
+        let m = (d[0] + d[1]) / 2.0;
+        let sd = (((d[0] - m).powi(2) + (d[1] - m).powi(2)) / 1.0).sqrt();
+        let half = 12.7062 * sd / 2f64.sqrt();
+        (m, [m - half, m + half])
+    };
+    let close = |got: &serde_json::Value, want: f64, what: &str| {
+        let g = got.as_f64().unwrap_or_else(|| panic!("{what}: {got}"));
+        assert!((g - want).abs() < 1e-9 * (1.0 + want.abs()), "{what}: {g} vs {want}");
+    };
+    let ci = |got: &serde_json::Value, want: [f64; 2], what: &str| {
+        close(&got[0], want[0], what);
+        close(&got[1], want[1], what);
+    };
+    let metric = |m: &'static str, updated: bool| {
+        move |w: &serde_json::Value| w[if updated { "updated_map" } else { "static_map" }][m].as_f64().unwrap()
+    };
+    for preset in ["paper", "no-update"] {
+        let s = json(&all.join(preset).join("summary.json"));
+        for m in ["cc", "ms", "opdf"] {
+            let (u, st) = (per_seed(preset, &metric(m, true)), per_seed(preset, &metric(m, false)));
+            let (mean, bounds) = interval(&[u[0] - st[0], u[1] - st[1]]);
+            close(&s["map_quality"][m]["diff_mean"], mean, &format!("{preset} {m} diff_mean"));
+            ci(&s["map_quality"][m]["diff_ci95"], bounds, &format!("{preset} {m} diff_ci95"));
+        }
+        let err = |key: &'static str| move |w: &serde_json::Value| w[key]["mean_error_m"].as_f64().unwrap();
+        let (u, st) = (per_seed(preset, &err("loc_updated")), per_seed(preset, &err("loc_static")));
+        let (mean, bounds) = interval(&[u[0] - st[0], u[1] - st[1]]);
+        close(&s["localisation"]["error_diff_mean_m"], mean, "error_diff_mean_m");
+        ci(&s["localisation"]["error_diff_ci95_m"], bounds, "error_diff_ci95_m");
+        let report = std::fs::read_to_string(all.join(preset).join("report.md")).unwrap();
+        assert!(report.contains("(95 % CI, 2 seeds)"), "the report states the seed count");
+    }
+    // One pair: no-update − paper, on the updated maps and the chain's error.
+    let c = json(&all.join("summary.json"));
+    let pairs = c["preset_diffs"].as_array().unwrap();
+    assert_eq!(pairs.len(), 1);
+    let d = &pairs[0];
+    assert_eq!((d["a"].as_str(), d["b"].as_str()), (Some("no-update"), Some("paper")));
+    assert_eq!(d["seeds"], serde_json::json!([1, 2]));
+    for m in ["cc", "ms", "opdf"] {
+        let (a, b) = (per_seed("no-update", &metric(m, true)), per_seed("paper", &metric(m, true)));
+        let (mean, bounds) = interval(&[a[0] - b[0], a[1] - b[1]]);
+        close(&d[m]["mean"], mean, m);
+        ci(&d[m]["ci95"], bounds, m);
+    }
 }

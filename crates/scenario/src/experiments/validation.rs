@@ -10,7 +10,7 @@ use crate::experiments::ExperimentError;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
 pub use crate::stats::histogram_median;
-use crate::stats::{frac, mean, median};
+use crate::stats::{PairedDiff, frac, mean, median, paired_diff};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
 use crate::worlds::mapping::{MappingParams, build_initial_map};
 use mapkeeper_grid::metrics::{MapMetrics, MetricParams, map_metrics};
@@ -470,6 +470,14 @@ pub struct MetricSummary {
     pub updated_last: f64,
     /// Mean M_1/G_i over the last world of each seed, percent.
     pub static_last: f64,
+    /// Mean over seeds of each seed's mean of M_i/G_i − M_1/G_i over its worlds, percentage
+    /// points (equal to `updated_mean − static_mean` when every seed has as many worlds).
+    #[serde(default)]
+    pub diff_mean: f64,
+    /// Paired 95 % interval of `diff_mean` with the seeds as units (Student t; the worlds of a
+    /// seed are not independent), `[lo, hi]`; `null` with one seed.
+    #[serde(default)]
+    pub diff_ci95: Option<[f64; 2]>,
 }
 
 /// Map-quality section of the summary.
@@ -511,6 +519,13 @@ pub struct Localisation {
     pub updated_better_fraction: f64,
     /// Share of world rows where the chain's mean covariance trace is below the baseline's.
     pub updated_lower_trace_fraction: f64,
+    /// Mean over seeds of each seed's mean (over worlds) of the chain's mean position error
+    /// minus the baseline's, metres (negative: the chain on M_{i-1} is better).
+    #[serde(default)]
+    pub error_diff_mean_m: f64,
+    /// Paired 95 % interval of `error_diff_mean_m` over seeds, `[lo, hi]`; `null` with one seed.
+    #[serde(default)]
+    pub error_diff_ci95_m: Option<[f64; 2]>,
 }
 
 /// Updater section of the summary.
@@ -585,10 +600,19 @@ fn default_localiser() -> String {
     "mapkeeper".into()
 }
 
+/// Per seed, the mean over its worlds of `f(row)`; their mean and paired 95 % interval.
+fn per_seed_diff(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> f64) -> PairedDiff {
+    let per_seed: Vec<f64> = runs.iter().filter(|r| !r.rows.is_empty()).map(|r| mean(r.rows.iter().map(&f))).collect();
+    paired_diff(&per_seed)
+}
+
 fn metric_summary(runs: &[SeedRecord], f: impl Fn(&Scores) -> f64) -> MetricSummary {
     let rows = || runs.iter().flat_map(|r| r.rows.iter());
     let last = || runs.iter().filter_map(|r| r.rows.last());
+    let diff = per_seed_diff(runs, |w| f(&w.updated_map) - f(&w.static_map));
     MetricSummary {
+        diff_mean: diff.mean,
+        diff_ci95: diff.ci95,
         static_mean: mean(rows().map(|w| f(&w.static_map))),
         updated_mean: mean(rows().map(|w| f(&w.updated_map))),
         updated_better_fraction: frac(rows().map(|w| f(&w.updated_map) > f(&w.static_map))),
@@ -621,6 +645,7 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
     let rows = || runs.iter().flat_map(|r| r.rows.iter());
     let times = merge_histograms(runs.iter().map(|r| r.scan_time_histogram_us.as_slice()));
     let sum_u = |f: fn(&UpdaterCounts) -> u64| rows().map(|w| f(&w.updater)).sum::<u64>();
+    let loc_diff = per_seed_diff(runs, |w| w.loc_updated.mean_error_m - w.loc_static.mean_error_m);
     Summary {
         tool: tool_name(),
         seeds: runs.iter().map(|r| r.seed).collect(),
@@ -643,6 +668,8 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
             updated_map: loc_summary(runs, |w| &w.loc_updated),
             updated_better_fraction: frac(rows().map(|w| w.loc_updated.mean_error_m < w.loc_static.mean_error_m)),
             updated_lower_trace_fraction: frac(rows().map(|w| w.loc_updated.mean_trace < w.loc_static.mean_trace)),
+            error_diff_mean_m: loc_diff.mean,
+            error_diff_ci95_m: loc_diff.ci95,
         },
         updater: UpdaterSummary {
             median_scan_us: histogram_median(&times),

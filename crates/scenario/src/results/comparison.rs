@@ -8,6 +8,8 @@ use crate::experiments::run_events::LostCounts;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
+use crate::results::report::with_ci;
+use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -60,6 +62,65 @@ pub struct ComparisonRow {
     pub lost_handling: LostCounts,
 }
 
+/// A mean difference over seeds with its paired 95 % interval (`null` with one seed).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DiffCi {
+    /// Mean over the common seeds of the per-seed difference.
+    pub mean: f64,
+    /// Paired 95 % Student-t interval over the seeds, `[lo, hi]`.
+    pub ci95: Option<[f64; 2]>,
+}
+
+impl From<PairedDiff> for DiffCi {
+    fn from(d: PairedDiff) -> Self {
+        DiffCi { mean: d.mean, ci95: d.ci95 }
+    }
+}
+
+/// Preset `a` against preset `b` over the seeds both ran: per seed, the mean over worlds of
+/// `a`'s M_i/G_i minus `b`'s (percentage points; positive: `a`'s updated maps are better), and
+/// of the chain localiser's mean error (metres; negative: `a` localises better).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PresetDiff {
+    /// The first preset.
+    pub a: String,
+    /// The preset it is compared with.
+    pub b: String,
+    /// The seeds both ran (the paired units).
+    pub seeds: Vec<u64>,
+    /// CC of M_i/G_i, a − b.
+    pub cc: DiffCi,
+    /// MS of M_i/G_i, a − b.
+    pub ms: DiffCi,
+    /// OPDF of M_i/G_i, a − b.
+    pub opdf: DiffCi,
+    /// Chain localiser mean error on M_{i-1}, a − b, metres.
+    pub error_m: DiffCi,
+}
+
+fn preset_diff(a: &ValidationRecord, b: &ValidationRecord) -> PresetDiff {
+    let common: Vec<(&SeedRecord, &SeedRecord)> = a
+        .seeds
+        .iter()
+        .filter_map(|sa| b.seeds.iter().find(|sb| sb.seed == sa.seed).map(|sb| (sa, sb)))
+        .filter(|(sa, sb)| !sa.rows.is_empty() && !sb.rows.is_empty())
+        .collect();
+    let per_seed = |f: &dyn Fn(&crate::experiments::validation::WorldRow) -> f64| -> DiffCi {
+        let d: Vec<f64> =
+            common.iter().map(|(sa, sb)| mean(sa.rows.iter().map(f)) - mean(sb.rows.iter().map(f))).collect();
+        paired_diff(&d).into()
+    };
+    PresetDiff {
+        a: a.params.preset.clone(),
+        b: b.params.preset.clone(),
+        seeds: common.iter().map(|(sa, _)| sa.seed).collect(),
+        cc: per_seed(&|w| w.updated_map.cc),
+        ms: per_seed(&|w| w.updated_map.ms),
+        opdf: per_seed(&|w| w.updated_map.opdf),
+        error_m: per_seed(&|w| w.loc_updated.mean_error_m),
+    }
+}
+
 /// `summary.json` of a sweep folder.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -75,6 +136,10 @@ pub struct Comparison {
     /// The rows, preset by preset in sweep order: the preset over all its seeds, then (with
     /// several seeds) one row per seed in seed order.
     pub rows: Vec<ComparisonRow>,
+    /// Every pair of presets (in sweep order, each against the ones before it), paired over
+    /// their common seeds: e.g. `paper` − `always-update` is what the localisation check adds.
+    #[serde(default)]
+    pub preset_diffs: Vec<PresetDiff>,
 }
 
 fn row(preset: &str, seed: Option<u64>, record: &ValidationRecord, seeds: &[SeedRecord]) -> ComparisonRow {
@@ -109,12 +174,19 @@ impl Comparison {
                 }
             }
         }
+        let mut preset_diffs = Vec::new();
+        for (j, b) in records.iter().enumerate() {
+            for a in &records[j + 1..] {
+                preset_diffs.push(preset_diff(a, b));
+            }
+        }
         Comparison {
             format: COMPARISON_FORMAT.into(),
             tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
             worlds: records.first().map_or(0, |r| r.params.worlds),
             presets: presets.to_vec(),
             rows,
+            preset_diffs,
         }
     }
 
@@ -181,6 +253,30 @@ impl Comparison {
                 l.give_ups,
                 l.stopped_s()
             );
+        }
+        if !self.preset_diffs.is_empty() {
+            let _ = writeln!(
+                s,
+                "\n## Presets against each other\n\nPer seed, the mean over worlds of preset a's M_i/G_i minus preset b's \
+                 (points; positive: a's maps are better) and of the chain localiser's mean error (m; negative: a \
+                 localises better), averaged over the seeds both ran, with the paired 95 % Student-t interval over \
+                 those seeds (none with one seed).\n"
+            );
+            let _ = writeln!(s, "| a − b | seeds | CC | MS | OPDF | error on M_i-1 (m) |");
+            let _ = writeln!(s, "|---|---|---|---|---|---|");
+            for d in &self.preset_diffs {
+                let _ = writeln!(
+                    s,
+                    "| {} − {} | {} | {} | {} | {} | {} |",
+                    d.a,
+                    d.b,
+                    d.seeds.len(),
+                    with_ci(d.cc.mean, d.cc.ci95, 2),
+                    with_ci(d.ms.mean, d.ms.ci95, 2),
+                    with_ci(d.opdf.mean, d.opdf.ci95, 2),
+                    with_ci(d.error_m.mean, d.error_m.ci95, 4)
+                );
+            }
         }
         s
     }

@@ -185,6 +185,14 @@ pub fn report_md(summary: &Summary) -> String {
     report_md_with_figures(summary, &[])
 }
 
+/// `mean [lo, hi]` with `digits` decimals, or `mean (no interval)` without one.
+pub fn with_ci(mean: f64, ci: Option<[f64; 2]>, digits: usize) -> String {
+    match ci {
+        Some([lo, hi]) => format!("{mean:+.digits$} [{lo:+.digits$}, {hi:+.digits$}]"),
+        None => format!("{mean:+.digits$} (no interval)"),
+    }
+}
+
 /// `report.md`: the results beside the paper's claims, showing `figures` (in `plots/`).
 pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     let mut s = String::new();
@@ -210,23 +218,32 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
          CC {:.2}, MS {:.2}, OPDF {:.2}.\n",
         summary.initial_map.cc, summary.initial_map.ms, summary.initial_map.opdf
     );
+    let n = summary.seeds.len();
     let _ = writeln!(
         s,
-        "| metric | M_1/G_i mean | M_i/G_i mean | M_1/G_N | M_N/G_N | worlds with M_i better | paper claim |"
+        "| metric | M_1/G_i mean | M_i/G_i mean | M_i − M_1 (95 % CI, {n} seed{}) | M_1/G_N | M_N/G_N | worlds with M_i better | paper claim |",
+        if n == 1 { "" } else { "s" }
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
     for (name, m) in [("CC (%)", &q.cc), ("MS (%)", &q.ms), ("OPDF (%)", &q.opdf)] {
         let _ = writeln!(
             s,
-            "| {name} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | updated better in every world |",
+            "| {name} | {:.2} | {:.2} | {} | {:.2} | {:.2} | {:.0} % | updated better in every world |",
             m.static_mean,
             m.updated_mean,
+            with_ci(m.diff_mean, m.diff_ci95, 2),
             m.static_last,
             m.updated_last,
             100.0 * m.updated_better_fraction
         );
     }
-    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "\nM_i − M_1: each seed's mean over its worlds of M_i/G_i − M_1/G_i, averaged over the seeds; the \
+         interval is the paired 95 % Student-t interval with the seeds as units (the worlds of one seed are \
+         not independent: each map is made from the previous one){}.\n",
+        if n < 2 { "; with one seed there is no interval (run with --seeds 3 or more)" } else { "" }
+    );
     figure_lines(&mut s, figures, &["fig24a_cc", "fig24b_ms", "fig24c_opdf"]);
     localisation_section(&mut s, summary, figures);
     updater_section(&mut s, summary, figures);
@@ -251,9 +268,12 @@ fn localisation_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
     let _ = writeln!(
         s,
         "\nWorlds where the updated map gave the lower mean error: {:.0} %; the lower mean covariance trace: {:.0} % \
-         (paper: lower errors and lower uncertainty with the updated map).\n",
+         (paper: lower errors and lower uncertainty with the updated map). Chain − baseline mean error (each \
+         seed's mean over its worlds, averaged over {} seed(s), paired 95 % interval over seeds): {} m.\n",
         100.0 * l.updated_better_fraction,
-        100.0 * l.updated_lower_trace_fraction
+        100.0 * l.updated_lower_trace_fraction,
+        summary.seeds.len(),
+        with_ci(l.error_diff_mean_m, l.error_diff_ci95_m, 4)
     );
     figure_lines(
         s,
@@ -422,10 +442,16 @@ impl Summary {
         let (q, l, u) = (&self.map_quality, &self.localisation, &self.updater);
         let m1 = &self.initial_map;
         let _ = writeln!(t, "M_1/G_1: CC {:.2}  MS {:.2}  OPDF {:.2}", m1.cc, m1.ms, m1.opdf);
-        let _ = writeln!(t, "{:<10} {:>10} {:>10} {:>12}", "metric", "M_1/G_i", "M_i/G_i", "M_i better");
+        let n = self.seeds.len();
+        let _ = writeln!(
+            t,
+            "{:<10} {:>10} {:>10} {:>12}  M_i − M_1, 95 % CI over {n} seed(s)",
+            "metric", "M_1/G_i", "M_i/G_i", "M_i better"
+        );
         for (name, m) in [("CC %", &q.cc), ("MS %", &q.ms), ("OPDF %", &q.opdf)] {
             let better = 100.0 * m.updated_better_fraction;
-            let _ = writeln!(t, "{name:<10} {:>10.2} {:>10.2} {better:>11.0}%", m.static_mean, m.updated_mean);
+            let diff = with_ci(m.diff_mean, m.diff_ci95, 2);
+            let _ = writeln!(t, "{name:<10} {:>10.2} {:>10.2} {better:>11.0}%  {diff}", m.static_mean, m.updated_mean);
         }
         let _ = writeln!(t, "{:<10} {:>10} {:>10} {:>12}", "localiser", "mean err m", "max err m", "mean trace");
         for (name, v) in [("on M_1", &l.static_map), ("on M_i-1", &l.updated_map)] {
