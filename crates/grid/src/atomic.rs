@@ -17,7 +17,7 @@ pub enum OutputError {
     #[error("{0}: exists and is not a folder")]
     NotAFolder(PathBuf),
     /// Another running process is writing this output folder.
-    #[error("{}: another run{} is writing this folder (lock {}); wait for it to end, or remove the lock if no run is", target.display(), pid.map(|p| format!(" (pid {p})")).unwrap_or_default(), lock.display())]
+    #[error("{}: another run{} is writing this folder (it holds the lock {}); wait for it to end", target.display(), pid.map(|p| format!(" (pid {p})")).unwrap_or_default(), lock.display())]
     InUse {
         /// The output folder.
         target: PathBuf,
@@ -119,10 +119,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// `.NAME.partial`, which [`StagedDir::finish`] renames into place; so a killed run never leaves
 /// a folder under the target's name that looks complete.
 ///
-/// A lock file beside it, `.NAME.partial.lock` (created exclusively, holding the writer's process
-/// id and, on Linux, its start time), keeps two runs from writing the same folder. When a new run
-/// finds a staging folder or lock whose writer is no longer running, it removes them and says so
-/// ([`StagedDir::leftover`]); a writer still running is an error ([`OutputError::InUse`]).
+/// A lock file beside it, `.NAME.partial.lock`, holds an exclusive advisory lock
+/// ([`std::fs::File::try_lock`]: `flock` on Unix) for as long as the folder is being written, and
+/// the writer's process id as text (for messages). The operating system releases the lock when
+/// the writer ends, however it ends, so a lock that can be taken belongs to no running writer. A
+/// second run into a folder being written is an error ([`OutputError::InUse`]); a staging folder
+/// or lock left by a run that no longer runs is removed and reported ([`StagedDir::leftover`]).
 /// Dropped without [`StagedDir::finish`] (an error or a panic), the staging folder and the lock
 /// are removed.
 ///
@@ -132,8 +134,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 pub struct StagedDir {
     target: PathBuf,
     staging: PathBuf,
-    /// The lock file; `None` for a folder inside another staged folder.
-    lock: Option<PathBuf>,
+    /// The lock file and its open handle holding the lock; `None` for a folder inside another
+    /// staged folder.
+    lock: Option<(PathBuf, std::fs::File)>,
     force: bool,
     finished: bool,
     leftover: Option<Leftover>,
@@ -144,6 +147,8 @@ pub struct StagedDir {
 pub struct Leftover {
     /// The staging folder (it may be gone already when only the lock was left).
     pub staging: PathBuf,
+    /// Whether the staging folder was there (otherwise only its lock file was).
+    pub folder: bool,
     /// Files that were in it.
     pub files: usize,
     /// The process id of the run that left it, when its lock file was readable.
@@ -154,8 +159,10 @@ impl std::fmt::Display for Leftover {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let who =
             self.pid.map_or_else(|| "an interrupted run".to_string(), |p| format!("an interrupted run (pid {p})"));
-        if self.files == 0 {
-            write!(f, "{}: removed what {who} left (an incomplete folder, no file in it)", self.staging.display())
+        if !self.folder {
+            write!(f, "{}.lock: removed the lock file {who} left", self.staging.display())
+        } else if self.files == 0 {
+            write!(f, "{}: removed the incomplete folder {who} left (no file in it yet)", self.staging.display())
         } else {
             write!(f, "{}: removed the incomplete folder {who} left ({} files)", self.staging.display(), self.files)
         }
@@ -178,53 +185,45 @@ fn count_files(p: &Path) -> usize {
         .sum()
 }
 
-/// This process's start time in clock ticks since boot (Linux; `None` elsewhere).
-fn start_ticks(pid: u32) -> Option<u64> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    // Field 22 (starttime); the command name in field 2 may hold spaces and ')'.
-    let rest = &stat[stat.rfind(')')? + 1..];
-    rest.split_whitespace().nth(19)?.parse().ok()
-}
-
-/// The lock's text: `pid [start ticks]`.
-fn lock_text() -> String {
-    let pid = std::process::id();
-    match start_ticks(pid) {
-        Some(t) => format!("{pid} {t}\n"),
-        None => format!("{pid}\n"),
+/// Whether `file` (an open handle) is still the file at `path` (not removed or replaced since
+/// it was opened). Without a way to tell (not Unix), taken to be.
+fn same_file(file: &std::fs::File, path: &Path) -> std::io::Result<bool> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        let (open, named) = (file.metadata()?, std::fs::metadata(path));
+        Ok(named.is_ok_and(|n| n.dev() == open.dev() && n.ino() == open.ino()))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (file, path);
+        Ok(true)
     }
 }
 
-/// Whether the process that wrote `text` (as [`lock_text`]) is still running: same pid and the
-/// same start time (so a reused pid is not taken for the writer). Without `/proc` the writer is
-/// taken to have ended.
-fn lock_owner_alive(text: &str) -> (Option<u32>, bool) {
-    let mut it = text.split_whitespace();
-    let Some(pid) = it.next().and_then(|p| p.parse::<u32>().ok()) else { return (None, false) };
-    let started: Option<u64> = it.next().and_then(|t| t.parse().ok());
-    let alive = match (started, start_ticks(pid)) {
-        (Some(a), Some(b)) => a == b,
-        (None, Some(_)) => true,
-        (_, None) => false,
-    };
-    (Some(pid), alive)
-}
-
-/// Creates the lock file `lock` holding [`lock_text`], exclusively and whole: the text is
-/// written to a temporary first and hard-linked to `lock` (which fails if `lock` exists), so
-/// another process never reads a lock without its pid. Where hard links are not supported,
-/// falls back to an exclusive create and a write.
-fn take_lock(lock: &Path) -> std::io::Result<()> {
-    let tmp = lock.with_extension(format!("lock.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, lock_text())?;
-    let linked = std::fs::hard_link(&tmp, lock);
-    let _ = std::fs::remove_file(&tmp);
-    match linked {
-        Err(e) if e.kind() != std::io::ErrorKind::AlreadyExists => {
-            let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(lock)?;
-            f.write_all(lock_text().as_bytes())
+/// Takes the lock `lock` (creating the file): `Ok(Some((handle, previous text)))` once held,
+/// `Ok(None)` if another process holds it. A lock file removed or replaced between opening and
+/// locking it (by a writer finishing) is opened again.
+fn take_lock(lock: &Path) -> std::io::Result<Option<(std::fs::File, String)>> {
+    use std::io::{Read as _, Seek as _};
+    loop {
+        let mut f = std::fs::OpenOptions::new().read(true).write(true).create(true).truncate(false).open(lock)?;
+        match f.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => return Ok(None),
+            Err(std::fs::TryLockError::Error(e)) => return Err(e),
         }
-        other => other,
+        if !same_file(&f, lock)? {
+            continue;
+        }
+        let mut previous = String::new();
+        // A lock file holding something else than text is still a leftover.
+        let _ = f.read_to_string(&mut previous);
+        f.set_len(0)?;
+        f.rewind()?;
+        f.write_all(format!("{}\n", std::process::id()).as_bytes())?;
+        f.sync_all()?;
+        return Ok(Some((f, previous)));
     }
 }
 
@@ -247,36 +246,30 @@ impl StagedDir {
         std::fs::create_dir_all(&parent).map_err(OutputError::io(&parent))?;
         let staging = parent.join(format!(".{name}.partial"));
         let lock = parent.join(format!(".{name}.partial.lock"));
-        let mut leftover = None;
-        let mut stale_pid = None;
-        // Take the lock; a lock whose writer has ended is removed once and taken again.
-        for attempt in 0..2 {
-            match take_lock(&lock) {
-                Ok(()) => break,
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt == 0 => {
-                    let text = std::fs::read_to_string(&lock).unwrap_or_default();
-                    let (pid, alive) = lock_owner_alive(&text);
-                    // A lock that names no process is not ours to remove.
-                    if alive || pid.is_none() {
-                        return Err(OutputError::InUse { target: target.to_path_buf(), lock, pid });
-                    }
-                    stale_pid = pid;
-                    leftover = Some(Leftover { staging: staging.clone(), files: 0, pid });
-                    std::fs::remove_file(&lock).map_err(OutputError::io(&lock))?;
-                }
-                Err(e) => return Err(OutputError::Io { path: lock, source: e }),
-            }
-        }
+        let Some((handle, previous)) = take_lock(&lock).map_err(OutputError::io(&lock))? else {
+            let pid = std::fs::read_to_string(&lock).ok().and_then(|t| t.trim().parse().ok());
+            return Err(OutputError::InUse { target: target.to_path_buf(), lock, pid });
+        };
+        // A lock file that existed and could be taken, or a staging folder: a run's leftovers.
+        let pid = previous.trim().parse().ok();
+        let mut leftover =
+            (!previous.is_empty()).then(|| Leftover { staging: staging.clone(), folder: false, files: 0, pid });
         if staging.exists() {
             let files = count_files(&staging);
-            leftover = Some(Leftover { staging: staging.clone(), files, pid: stale_pid });
+            leftover = Some(Leftover { staging: staging.clone(), folder: true, files, pid });
             if let Err(e) = std::fs::remove_dir_all(&staging) {
                 let _ = std::fs::remove_file(&lock);
                 return Err(OutputError::Io { path: staging, source: e });
             }
         }
-        let dir =
-            StagedDir { target: target.to_path_buf(), staging, lock: Some(lock), force, finished: false, leftover };
+        let dir = StagedDir {
+            target: target.to_path_buf(),
+            staging,
+            lock: Some((lock, handle)),
+            force,
+            finished: false,
+            leftover,
+        };
         std::fs::create_dir_all(&dir.staging).map_err(OutputError::io(&dir.staging))?;
         Ok(dir)
     }
@@ -336,7 +329,7 @@ impl StagedDir {
     /// once its parent is finished.
     pub fn finish(mut self) -> Result<PathBuf, OutputError> {
         self.finished = true;
-        let Some(lock) = self.lock.clone() else { return Ok(self.target.clone()) };
+        let Some(lock) = self.lock.as_ref().map(|(p, _)| p.clone()) else { return Ok(self.target.clone()) };
         if self.target.exists() {
             if !self.force && !is_empty_dir(&self.target) {
                 self.finished = false;
@@ -351,6 +344,7 @@ impl StagedDir {
             self.finished = false;
             return Err(OutputError::Io { path: self.target.clone(), source: e });
         }
+        // Removed while still held, so a run waiting on it opens a new one (see `take_lock`).
         std::fs::remove_file(&lock).map_err(OutputError::io(&lock))?;
         Ok(self.target.clone())
     }
@@ -361,7 +355,7 @@ impl Drop for StagedDir {
         if self.finished {
             return;
         }
-        if let Some(lock) = &self.lock {
+        if let Some((lock, _)) = &self.lock {
             let _ = std::fs::remove_dir_all(&self.staging);
             let _ = std::fs::remove_file(lock);
         }
@@ -431,14 +425,14 @@ mod leftover_tests {
         let b = base("killed");
         let target = b.join("out");
         // What a run killed mid-way leaves: the staging folder with some files, and its lock
-        // naming a process that no longer runs (no pid reaches 2^31 on Linux).
+        // file (no longer held) naming the process.
         std::fs::create_dir_all(b.join(".out.partial/seed-1")).unwrap();
         std::fs::write(b.join(".out.partial/seed-1/a.csv"), "x").unwrap();
         std::fs::write(b.join(".out.partial/runs.json"), "{").unwrap();
-        std::fs::write(b.join(".out.partial.lock"), "2147483000 12345\n").unwrap();
+        std::fs::write(b.join(".out.partial.lock"), "2147483000\n").unwrap();
         let s = StagedDir::create(&target, false).unwrap();
         let left = s.leftover().expect("the leftover is reported").clone();
-        assert_eq!(left, Leftover { staging: b.join(".out.partial"), files: 2, pid: Some(2147483000) });
+        assert_eq!(left, Leftover { staging: b.join(".out.partial"), folder: true, files: 2, pid: Some(2147483000) });
         assert!(left.to_string().contains("pid 2147483000") && left.to_string().contains("2 files"), "{left}");
         assert!(!s.path().join("runs.json").exists(), "the old files are gone");
         s.write("summary.json", b"{}").unwrap();
@@ -448,7 +442,8 @@ mod leftover_tests {
         // A lock alone (killed between the rename and the lock's removal) is reported too.
         std::fs::write(b.join(".again.partial.lock"), "2147483000\n").unwrap();
         let s = StagedDir::create(&b.join("again"), false).unwrap();
-        assert_eq!(s.leftover().map(|l| l.files), Some(0));
+        assert_eq!(s.leftover().map(|l| (l.folder, l.files)), Some((false, 0)));
+        assert!(s.leftover().unwrap().to_string().contains("removed the lock file"));
         drop(s);
         let _ = std::fs::remove_dir_all(&b);
     }
@@ -492,21 +487,14 @@ mod leftover_tests {
     }
 
     #[test]
-    fn the_lock_names_this_process_and_its_start() {
-        let text = lock_text();
-        let (pid, alive) = lock_owner_alive(&text);
-        assert_eq!(pid, Some(std::process::id()));
-        assert_eq!(alive, start_ticks(std::process::id()).is_some(), "alive where /proc can tell");
-        assert_eq!(lock_owner_alive("garbage"), (None, false));
-        // A lock that names no process is refused, not removed.
+    fn a_lock_file_nobody_holds_is_a_leftover_whatever_it_holds() {
         let b = base("garbage");
         std::fs::write(b.join(".out.partial.lock"), "garbage").unwrap();
-        assert!(matches!(StagedDir::create(&b.join("out"), false), Err(OutputError::InUse { pid: None, .. })));
-        assert!(b.join(".out.partial.lock").exists());
+        let s = StagedDir::create(&b.join("out"), false).unwrap();
+        assert_eq!(s.leftover().map(|l| (l.folder, l.pid)), Some((false, None)));
+        assert_eq!(std::fs::read_to_string(b.join(".out.partial.lock")).unwrap(), format!("{}\n", std::process::id()));
+        s.finish().unwrap();
+        assert!(!b.join(".out.partial.lock").exists());
         let _ = std::fs::remove_dir_all(&b);
-        if let Some(t) = start_ticks(std::process::id()) {
-            let other_start = format!("{} {}", std::process::id(), t + 1);
-            assert_eq!(lock_owner_alive(&other_start), (Some(std::process::id()), false), "a reused pid");
-        }
     }
 }
