@@ -332,3 +332,57 @@ for name, text in {
     "empty.toml": "",
 }.items():
     write("updater_params", name, text)
+
+# --- validation folder files read back by `mapkeeper merge` (runs.json NUL summary.json) --------
+# From tests/data/validation_run/, written by
+# `mapkeeper validate --route-length 10 --worlds 2 --seeds 1 --no-timing --out tests/data/validation_run`
+# (only runs.json and summary.json kept), compacted to fit libFuzzer's 16 KiB inputs.
+import json, copy
+vrun = ROOT / "tests/data/validation_run"
+runs = json.loads((vrun / "runs.json").read_text())
+summary = json.loads((vrun / "summary.json").read_text())
+compact = lambda v: json.dumps(v, separators=(",", ":"), ensure_ascii=False)
+
+def pair(r, s):
+    return compact(r).encode() + b"\0" + (compact(s).encode() if isinstance(s, dict) else s)
+
+seed("merge_json", "valid.json", pair(runs, summary), 3)
+write("merge_json", "runs_only.json", compact(runs))
+
+def edited(edit, s=summary):
+    r = copy.deepcopy(runs)
+    edit(r)
+    return pair(r, s)
+
+def set_path(path, value):
+    def f(r):
+        d = r
+        for k in path[:-1]:
+            d = d[k]
+        d[path[-1]] = value
+    return f
+
+row = ["seeds", 0, "rows", 0]
+for name, data in {
+    "wrong_format.json": edited(set_path(["format"], "mapkeeper-sweep")),
+    "wrong_version.json": edited(set_path(["format_version"], 2)),
+    "no_seed.json": edited(set_path(["seeds"], [])),
+    "duplicate_seed.json": edited(lambda r: r["seeds"].append(copy.deepcopy(r["seeds"][0]))),
+    "missing_row.json": edited(set_path(["seeds", 0, "rows"], [])),
+    "wrong_world.json": edited(set_path(row + ["world"], 7)),
+    "one_edit_list.json": edited(lambda r: r["seeds"][0]["edits"].pop()),
+    "histogram_decreasing.json": edited(set_path(["seeds", 0, "scan_time_histogram_us"], [[5, 1], [3, 2]])),
+    "histogram_zero_count.json": edited(set_path(["seeds", 0, "scan_time_histogram_us"], [[5, 0]])),
+    "huge_counts.json": edited(set_path(row + ["updater", "processed"], 18446744073709551615)),
+    "huge_histogram.json": edited(set_path(["seeds", 0, "scan_time_histogram_us"], [[1, 18446744073709551615], [2, 18446744073709551615]])),
+    "negative_count.json": edited(set_path(row + ["collisions"], -1)),
+    "huge_float.json": edited(set_path(row + ["sim_time_s"], 1e308)),
+    "one_world.json": edited(set_path(["params", "worlds"], 1)),
+    "bad_updater_params.json": edited(set_path(["params", "runner", "updater", "buffer_size"], 0)),
+    "unknown_field.json": edited(set_path(["bogus"], 1)),
+    "summary_disagrees.json": pair(runs, {**summary, "rows": summary["rows"] + 1}),
+    "summary_not_json.json": pair(runs, b"{\"tool\": "),
+    "not_json.json": b'{"format": "mapkeeper-validation-runs", "format_version": 1,\n  "seeds": [\n',
+    "empty.json": b"",
+}.items():
+    write("merge_json", name, data)
