@@ -126,3 +126,24 @@ fn two_folders_whose_counts_add_up_beyond_u64_are_not_merged() {
     let inputs = [("a".into(), a.unwrap()), inputs[1].clone()];
     assert_eq!(merge_records(&inputs).unwrap().summary().updater.beams, u64::MAX);
 }
+
+/// serde_json quotes an unknown key unescaped, so a key holding a newline (`"\n"` in the JSON)
+/// made the error two lines. Found by `merge_json` after 67,705 executions; the input
+/// `fuzz/corpus/merge_json/regression_newline_in_key.json`. A format name is quoted the same way.
+#[test]
+fn a_key_or_format_with_a_newline_gives_a_one_line_merge_error() {
+    use mapkeeper_scenario::results::merge::parse_runs_json;
+    let text = edited_runs(|v| {
+        let u = v["params"]["runner"]["updater"].as_object_mut().unwrap();
+        let x = u.remove("removal_min_incidence_rad").unwrap();
+        u.insert("removal_min_i\ncidence_rad".into(), x);
+    });
+    let m = parse_runs_json(Path::new("run"), &text).unwrap_err().to_string();
+    assert!(!m.contains('\n') && m.contains(r"unknown field `removal_min_i\ncidence_rad`"), "{m}");
+    let text = edited_runs(|v| v["format"] = "mapkeeper-\nvalidation-runs".into());
+    let m = parse_runs_json(Path::new("run"), &text).unwrap_err().to_string();
+    assert_eq!(
+        m,
+        r"run: cannot merge: runs.json: format is 'mapkeeper-\nvalidation-runs', expected 'mapkeeper-validation-runs'"
+    );
+}

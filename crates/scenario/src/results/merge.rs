@@ -86,8 +86,25 @@ pub enum MergeProblem {
 }
 
 impl fmt::Display for MergeProblem {
+    /// One line: keys, format and tool names come from the files, and serde_json quotes a key
+    /// unescaped, so control characters (a JSON `"\n"` in a key) are escaped (`\n` as the two
+    /// characters `\` `n`; the fuzz target `merge_json` found a two-line error).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
+        let text = Unescaped(self).to_string();
+        if !text.contains(char::is_control) {
+            return f.write_str(&text);
+        }
+        text.chars()
+            .try_for_each(|c| if c.is_control() { write!(f, "{}", c.escape_default()) } else { write!(f, "{c}") })
+    }
+}
+
+/// [`MergeProblem`]'s message as its parts hold it, control characters and all.
+struct Unescaped<'a>(&'a MergeProblem);
+
+impl fmt::Display for Unescaped<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
             MergeProblem::NoSuchFolder => write!(f, "no such folder"),
             MergeProblem::NotAFolder => write!(f, "not a folder"),
             MergeProblem::MissingFile(file) => write!(f, "{file} is missing"),
