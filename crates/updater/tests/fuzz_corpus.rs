@@ -94,23 +94,35 @@ fn edge_values(v: &serde_json::Value) -> Vec<String> {
     }
 }
 
+/// Every numeric parameter at each of its edge values: the fuzz property, and a refusal by
+/// `validate()` names the parameter set, as the field or in the reason (a refusal of a
+/// combination names the others).
 #[test]
 fn every_numeric_parameter_at_edge_values_holds_the_fuzz_property() {
     let paper = serde_json::to_value(UpdaterParams::paper()).unwrap();
+    // (the key, the text setting it)
     let mut texts = Vec::new();
     for (key, v) in paper.as_object().unwrap() {
         if let Some(table) = v.as_object() {
             for (sub, w) in table {
-                texts.extend(edge_values(w).into_iter().map(|e| format!("[{key}]\n{sub} = {e}\n")));
+                texts.extend(edge_values(w).into_iter().map(|e| (sub.clone(), format!("[{key}]\n{sub} = {e}\n"))));
             }
         } else {
-            texts.extend(edge_values(v).into_iter().map(|e| format!("{key} = {e}\n")));
+            texts.extend(edge_values(v).into_iter().map(|e| (key.clone(), format!("{key} = {e}\n"))));
         }
     }
     assert!(texts.len() > 500, "{} texts", texts.len());
     let mut total = Checked::default();
-    for text in &texts {
+    for (key, text) in &texts {
         add(&mut total, &check("edge value", text, Run::One));
+        for name in mapkeeper_updater::PRESET_NAMES {
+            let base = UpdaterParams::preset(name).unwrap();
+            if let Err(m) = mapkeeper_harness::config::params_from_toml_str(base, text, UpdaterParams::validate)
+                && m.starts_with("invalid updater parameter")
+            {
+                assert!(m.contains(key.as_str()), "{name}: {text:?} refused without naming {key}: {m}");
+            }
+        }
     }
     eprintln!("edge values ({} texts): {total:?}", texts.len());
     assert!(total.accepted > 0 && total.typed > 0 && total.invalid > 0, "{total:?}");
