@@ -183,3 +183,206 @@ for name, text in {
     "zero_quat.tum": "0 0 0 0 0 0 0 0\n",
 }.items():
     write("tum", name, text)
+
+# --- updater parameter TOML (UpdaterParams over each preset) ------------------------------------
+# Last in this file: the generator is shared, so the targets above keep their mutants.
+# `paper.toml` is every field of the `paper` preset (as `toml::to_string` writes it, with the
+# limits as `inf`); laid over any preset it gives `paper` back (checked by the replay test).
+paper = """method = "stefanini"
+gating_min_translation_m = 0.05
+gating_min_rotation_rad = 0.3490658503988659
+gating_min_interval_s = 0.0
+fast_rotation_rad_s = inf
+fast_rotation_pause_s = 1.2
+fast_rotation_pause_m = 1.6
+max_range_m = inf
+virtual_rays_each_side = 1
+virtual_ray_spacing_beams = 0.5
+virtual_window_rad = 0.0
+change_slope = 0.01327
+change_intercept_m = 0.1473
+change_max_m = 0.3
+min_change_run = 1
+localisation_check = true
+d_eps_min = 0.75
+d_eps_max = 0.9
+min_valid_beams = 20
+tol_slope = 0.01
+tol_intercept_m = 0.1
+tol_max_m = 0.2
+skip_changed_slope = 0.02
+skip_changed_min_m = 0.0
+skip_unchanged_slope = 0.02
+skip_unchanged_min_m = 0.0
+unchanged_hit = "adjacent8"
+unchanged_ray_free_only = false
+skip_near_changes_beams = 0
+removal_hit_clearance_m = 0.0
+free_pass_votes = false
+removal_min_incidence_rad = 0.0
+removal_max_offset_cells = inf
+removal_shadow = false
+map_update = true
+buffer_size = 10
+change_threshold = 7
+flags = "step-majority"
+revert = "never"
+neighbour_support = false
+border_reconstruction = true
+border_interior_only = false
+
+[pose_updating]
+enabled = true
+retry_interval_s = 0.5
+source_beam_step = 2
+max_correspondence_m = 1.0
+correspondence_decay = 0.8
+min_correspondence_m = 0.25
+max_iterations = 40
+convergence_translation_m = 0.0001
+convergence_rotation_rad = 0.0001
+yaw_offsets_rad = [0.0, 0.2, -0.2, 0.4, -0.4, 0.8, -0.8]
+position_offsets_m = [0.0, 0.6, -0.6]
+inlier_distance_m = 0.1
+min_inlier_ratio = 0.7
+max_rmse_m = 0.06
+min_points = 30
+ambiguity_ratio_margin = 0.02
+ambiguity_distance_m = 0.3
+ambiguity_rotation_rad = 0.1
+search_radius_m = 2.0
+search_yaw_rad = 0.8
+search_step_m = 0.1
+search_yaw_step_rad = 0.03
+search_candidates = 6
+
+[log_odds]
+l_occ = 0.85
+l_free = -0.4
+l_min = -2.0
+l_max = 3.5
+occ_threshold = 0.65
+free_threshold = 0.196
+prior_l = 2.0
+"""
+seed("updater_params", "paper.toml", paper, 3)
+# The fields in which `authors` and `mapkeeper` differ from `paper`.
+seed("updater_params", "authors.toml", """gating_min_interval_s = 0.3
+fast_rotation_rad_s = 0.20943951023931956
+max_range_m = 18.0
+virtual_ray_spacing_beams = 1.0
+virtual_window_rad = 0.06981317007977318
+change_slope = 0.013265
+change_intercept_m = 0.14735
+min_change_run = 3
+d_eps_min = 0.58
+d_eps_max = 0.58
+tol_slope = 0.013
+tol_intercept_m = 0.15
+tol_max_m = "inf"
+skip_changed_min_m = 0.15
+skip_near_changes_beams = 2
+unchanged_hit = "cross4"
+unchanged_ray_free_only = true
+flags = "step-each-kind"
+revert = "below-threshold"
+neighbour_support = true
+""", 2)
+seed("updater_params", "mapkeeper.toml", """removal_hit_clearance_m = 0.2
+free_pass_votes = true
+removal_min_incidence_rad = 0.17453292519943295
+removal_shadow = true
+revert = "unchanged-threshold"
+border_interior_only = true
+""", 2)
+seed("updater_params", "log_odds.toml", 'method = "log-odds"\nlocalisation_check = false\n[log_odds]\nl_occ = 2.0\nl_free = -0.1\nprior_l = 0.0\n', 1)
+seed("updater_params", "pose_updating.toml", "[pose_updating]\nmax_iterations = 1000\nsearch_candidates = 64\nsource_beam_step = 1\nmin_points = 0\nmin_inlier_ratio = 0.0\nmax_rmse_m = inf\n", 2)
+for name, text in {
+    # Edge values validate() accepts: the algorithm must cope with them.
+    "zero_windows.toml": "virtual_rays_each_side = 0\nvirtual_window_rad = 0.0\ngating_min_translation_m = 0.0\ngating_min_rotation_rad = 0.0\ntol_slope = 0.0\ntol_intercept_m = 0.0\nchange_slope = 0.0\nchange_intercept_m = 0.0\n",
+    "widest_windows.toml": "virtual_rays_each_side = 64\nvirtual_window_rad = 1e300\nvirtual_ray_spacing_beams = 5e-324\nmin_change_run = 4294967295\nskip_near_changes_beams = 4294967295\n",
+    "biggest_buffers.toml": 'buffer_size = 32\nchange_threshold = 32\nrevert = "unchanged-threshold"\nflags = "step-each-kind"\nneighbour_support = true\n',
+    "smallest_buffers.toml": 'buffer_size = 1\nchange_threshold = 1\nrevert = "below-threshold"\nmin_valid_beams = 1\nd_eps_min = 0.0\nd_eps_max = 0.0\n',
+    "tiny_limits.toml": "max_range_m = 5e-324\nchange_max_m = 5e-324\ntol_max_m = 5e-324\nremoval_max_offset_cells = 5e-324\nfast_rotation_rad_s = 5e-324\n",
+    "huge_values.toml": "gating_min_interval_s = 1e300\nremoval_hit_clearance_m = 1e300\nskip_changed_min_m = 1e300\nskip_unchanged_min_m = 1e300\nchange_intercept_m = 1e300\n",
+    "inf_as_text.toml": 'max_range_m = "Infinity"\ntol_max_m = "INF"\nfast_rotation_rad_s = inf\nremoval_max_offset_cells = "inf"\n',
+    "huge_search.toml": "[pose_updating]\nsearch_radius_m = 1e300\nsearch_step_m = 1e300\nsearch_yaw_rad = 3.2\nsearch_yaw_step_rad = 5e-324\n",
+    "many_hypotheses.toml": "[pose_updating]\nyaw_offsets_rad = [" + ", ".join(f"{0.01 * k:.2f}" for k in range(64)) + "]\nposition_offsets_m = [0.0, 0.1, -0.1, 0.2, -0.2, 0.3, -0.3, 0.4]\n",
+    "nan.toml": "tol_slope = nan\n",
+    "nan_offsets.toml": "[pose_updating]\nyaw_offsets_rad = [nan]\n",
+    "negative.toml": "change_max_m = -0.3\n",
+    "bad_threshold.toml": "buffer_size = 4\nchange_threshold = 9\n",
+    "bad_d_eps.toml": "d_eps_min = 0.95\nd_eps_max = 0.9\n",
+    "bad_log_odds.toml": "[log_odds]\nl_free = 0.7\n",
+    # Refused before validation: the key must be named.
+    "wrong_type.toml": 'buffer_size = "ten"\n',
+    "float_for_int.toml": "buffer_size = 1e3\n",
+    "negative_int.toml": "min_valid_beams = -1\n",
+    "overflow_int.toml": "virtual_rays_each_side = 4294967296\n",
+    "unknown_key.toml": "bogus = 1\n",
+    "unknown_nested_key.toml": "[pose_updating]\nbogus = 1\n",
+    "bad_enum.toml": 'revert = "sometimes"\n',
+    "bad_inf_text.toml": 'max_range_m = "far"\n',
+    "table_of_tables.toml": "[[pose_updating]]\nenabled = false\n",
+    "dotted_keys.toml": "pose_updating.enabled = false\nlog_odds.l_occ = 1.0\n",
+    # Syntax errors: line and column.
+    "syntax.toml": "buffer_size = \n",
+    "duplicate_key.toml": "buffer_size = 5\nbuffer_size = 6\n",
+    "unterminated.toml": '[pose_updating\nmethod = "log-odds\n',
+    "empty.toml": "",
+}.items():
+    write("updater_params", name, text)
+
+# --- validation folder files read back by `mapkeeper merge` (runs.json NUL summary.json) --------
+# From tests/data/validation_run/, written by
+# `mapkeeper validate --route-length 10 --worlds 2 --seeds 1 --no-timing --out tests/data/validation_run`
+# (only runs.json and summary.json kept), compacted to fit libFuzzer's 16 KiB inputs.
+import json, copy
+vrun = ROOT / "tests/data/validation_run"
+runs = json.loads((vrun / "runs.json").read_text())
+summary = json.loads((vrun / "summary.json").read_text())
+compact = lambda v: json.dumps(v, separators=(",", ":"), ensure_ascii=False)
+
+def pair(r, s):
+    return compact(r).encode() + b"\0" + (compact(s).encode() if isinstance(s, dict) else s)
+
+seed("merge_json", "valid.json", pair(runs, summary), 3)
+write("merge_json", "runs_only.json", compact(runs))
+
+def edited(edit, s=summary):
+    r = copy.deepcopy(runs)
+    edit(r)
+    return pair(r, s)
+
+def set_path(path, value):
+    def f(r):
+        d = r
+        for k in path[:-1]:
+            d = d[k]
+        d[path[-1]] = value
+    return f
+
+row = ["seeds", 0, "rows", 0]
+for name, data in {
+    "wrong_format.json": edited(set_path(["format"], "mapkeeper-sweep")),
+    "wrong_version.json": edited(set_path(["format_version"], 2)),
+    "no_seed.json": edited(set_path(["seeds"], [])),
+    "duplicate_seed.json": edited(lambda r: r["seeds"].append(copy.deepcopy(r["seeds"][0]))),
+    "missing_row.json": edited(set_path(["seeds", 0, "rows"], [])),
+    "wrong_world.json": edited(set_path(row + ["world"], 7)),
+    "one_edit_list.json": edited(lambda r: r["seeds"][0]["edits"].pop()),
+    "histogram_decreasing.json": edited(set_path(["seeds", 0, "scan_time_histogram_us"], [[5, 1], [3, 2]])),
+    "histogram_zero_count.json": edited(set_path(["seeds", 0, "scan_time_histogram_us"], [[5, 0]])),
+    "huge_counts.json": edited(set_path(row + ["updater", "processed"], 18446744073709551615)),
+    "huge_histogram.json": edited(set_path(["seeds", 0, "scan_time_histogram_us"], [[1, 18446744073709551615], [2, 18446744073709551615]])),
+    "negative_count.json": edited(set_path(row + ["collisions"], -1)),
+    "huge_float.json": edited(set_path(row + ["sim_time_s"], 1e308)),
+    "one_world.json": edited(set_path(["params", "worlds"], 1)),
+    "bad_updater_params.json": edited(set_path(["params", "runner", "updater", "buffer_size"], 0)),
+    "unknown_field.json": edited(set_path(["bogus"], 1)),
+    "summary_disagrees.json": pair(runs, {**summary, "rows": summary["rows"] + 1}),
+    "summary_not_json.json": pair(runs, b"{\"tool\": "),
+    "not_json.json": b'{"format": "mapkeeper-validation-runs", "format_version": 1,\n  "seeds": [\n',
+    "empty.json": b"",
+}.items():
+    write("merge_json", name, data)

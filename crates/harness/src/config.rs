@@ -25,11 +25,23 @@ where
     };
     let bad = |message: String| HarnessError::Config { path: path.to_path_buf(), message };
     let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
-    let over: toml::Value = toml::from_str(&text).map_err(|e| bad(e.to_string().trim().to_owned()))?;
-    let mut value = toml::Value::try_from(&base).map_err(|e| bad(format!("cannot serialise the preset: {e}")))?;
+    params_from_toml_str(base, &text, validate).map_err(bad)
+}
+
+/// `base` overridden by the TOML text `text`, then checked by `validate`: the in-memory half of
+/// [`load_params`] (which reads the file and puts its name before the error), so the fuzz
+/// target `updater_params` does no file I/O. The error is the TOML parser's message (line and
+/// column of a syntax error, the key of a wrong type or an unknown key) or the validator's.
+pub fn params_from_toml_str<T, E>(base: T, text: &str, validate: impl FnOnce(&T) -> Result<(), E>) -> Result<T, String>
+where
+    T: Serialize + DeserializeOwned,
+    E: Display,
+{
+    let over: toml::Value = toml::from_str(text).map_err(|e| e.to_string().trim().to_owned())?;
+    let mut value = toml::Value::try_from(&base).map_err(|e| format!("cannot serialise the preset: {e}"))?;
     merge(&mut value, over);
-    let params: T = value.try_into().map_err(|e: toml::de::Error| bad(e.to_string().trim().to_owned()))?;
-    validate(&params).map_err(|e| bad(e.to_string()))?;
+    let params: T = value.try_into().map_err(|e: toml::de::Error| e.to_string().trim().to_owned())?;
+    validate(&params).map_err(|e| e.to_string())?;
     Ok(params)
 }
 

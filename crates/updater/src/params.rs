@@ -535,8 +535,12 @@ impl UpdaterParams {
         non_neg_finite("skip_changed_min_m", self.skip_changed_min_m)?;
         non_neg_finite("skip_unchanged_slope", self.skip_unchanged_slope)?;
         non_neg_finite("skip_unchanged_min_m", self.skip_unchanged_min_m)?;
-        if self.skip_changed_slope >= 1.0 || self.skip_unchanged_slope >= 1.0 {
-            return Err(bad("skip_changed_slope", "skip slopes must be < 1"));
+        for (field, v) in
+            [("skip_changed_slope", self.skip_changed_slope), ("skip_unchanged_slope", self.skip_unchanged_slope)]
+        {
+            if v >= 1.0 {
+                return Err(bad(field, format!("must be < 1, got {v}")));
+            }
         }
         if !(1..=32).contains(&self.buffer_size) {
             return Err(bad("buffer_size", format!("must lie in 1..=32, got {}", self.buffer_size)));
@@ -601,8 +605,12 @@ impl PoseUpdatingParams {
         if p.position_offsets_m.is_empty() || p.position_offsets_m.iter().any(|v| !v.is_finite()) {
             return Err(bad("pose_updating.position_offsets_m", "must be non-empty and finite"));
         }
-        if p.yaw_offsets_rad.len() * p.position_offsets_m.len().pow(2) > 4096 {
-            return Err(bad("pose_updating.yaw_offsets_rad", "at most 4096 hypotheses"));
+        let hypotheses = p.yaw_offsets_rad.len().saturating_mul(p.position_offsets_m.len().saturating_pow(2));
+        if hypotheses > 4096 {
+            return Err(bad(
+                "pose_updating.yaw_offsets_rad",
+                format!("with position_offsets_m, {hypotheses} hypotheses (yaws × positions²): at most 4096"),
+            ));
         }
         positive("pose_updating.inlier_distance_m", p.inlier_distance_m)?;
         if !p.inlier_distance_m.is_finite() {
@@ -620,8 +628,15 @@ impl PoseUpdatingParams {
         positive("pose_updating.search_step_m", p.search_step_m)?;
         positive("pose_updating.search_yaw_step_rad", p.search_yaw_step_rad)?;
         let steps = |range: f64, step: f64| 2.0 * (range / step).floor() + 1.0;
-        if steps(p.search_radius_m, p.search_step_m).powi(2) * steps(p.search_yaw_rad, p.search_yaw_step_rad) > 2e6 {
-            return Err(bad("pose_updating.search_radius_m", "the search has more than 2,000,000 poses"));
+        let poses = steps(p.search_radius_m, p.search_step_m).powi(2) * steps(p.search_yaw_rad, p.search_yaw_step_rad);
+        if poses > 2e6 {
+            return Err(bad(
+                "pose_updating.search_radius_m",
+                format!(
+                    "with search_step_m, search_yaw_rad and search_yaw_step_rad, the search has {poses:.3e} poses: at most \
+                     2,000,000"
+                ),
+            ));
         }
         if p.search_candidates == 0 || p.search_candidates > 64 {
             return Err(bad("pose_updating.search_candidates", "must lie in 1..=64"));
@@ -726,6 +741,21 @@ mod tests {
         let mut p = UpdaterParams::paper();
         p.change_slope = f64::NAN;
         assert!(p.validate().is_err());
+    }
+
+    /// `skip_unchanged_slope = 1` was refused as "skip_changed_slope: skip slopes must be < 1",
+    /// naming the other field (found by the edge-value sweep of the `updater_params` replay
+    /// test).
+    #[test]
+    fn a_skip_unchanged_slope_of_one_is_refused_under_its_own_name() {
+        let p = UpdaterParams { skip_unchanged_slope: 1.0, ..UpdaterParams::paper() };
+        let e = p.validate().unwrap_err();
+        assert!(matches!(e, UpdaterError::InvalidParam { field: "skip_unchanged_slope", .. }), "{e}");
+        let p = UpdaterParams { skip_changed_slope: 1.5, ..UpdaterParams::paper() };
+        assert_eq!(
+            p.validate().unwrap_err().to_string(),
+            "invalid updater parameter 'skip_changed_slope': must be < 1, got 1.5"
+        );
     }
 
     #[test]

@@ -7,10 +7,10 @@
 //! must agree with it, and each seed's `seed-S/` folder (maps, trajectories) must be present,
 //! as it is copied into the merged folder. Folders are refused, with the folder and the problem
 //! named ([`MergeProblem`]), when a file is missing or unreadable, when their tool version,
-//! format, world count, preset, any other parameter or timing mode differ, or when a seed
-//! appears twice.
+//! format, world count, preset, any other parameter or timing mode differ, when a seed
+//! appears twice, or when the counts the summary adds up would not fit in `u64`.
 
-use crate::experiments::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, Summary, ValidationRecord};
+use crate::experiments::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, SeedRecord, Summary, ValidationRecord};
 use crate::results::ResultsError;
 use crate::results::report::write_results;
 use mapkeeper_grid::StagedDir;
@@ -66,6 +66,14 @@ pub enum MergeProblem {
     },
     /// Timed in one folder, `--no-timing` in the other.
     TimingMismatch,
+    /// A counter the summary adds up over every row (or the scan-time histogram's counts) goes
+    /// beyond `u64` with this seed, within the folder or with the folders before it.
+    CountsOverflow {
+        /// The counter, as a path into a world row (e.g. `updater.beams`).
+        counter: &'static str,
+        /// The seed whose counts do not fit.
+        seed: u64,
+    },
     /// A seed already given by another folder (or twice in this one).
     DuplicateSeed {
         /// The seed.
@@ -78,8 +86,25 @@ pub enum MergeProblem {
 }
 
 impl fmt::Display for MergeProblem {
+    /// One line: keys, format and tool names come from the files, and serde_json quotes a key
+    /// unescaped, so control characters (a JSON `"\n"` in a key) are escaped (`\n` as the two
+    /// characters `\` `n`; the fuzz target `merge_json` found a two-line error).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
+        let text = Unescaped(self).to_string();
+        if !text.contains(char::is_control) {
+            return f.write_str(&text);
+        }
+        text.chars()
+            .try_for_each(|c| if c.is_control() { write!(f, "{}", c.escape_default()) } else { write!(f, "{c}") })
+    }
+}
+
+/// [`MergeProblem`]'s message as its parts hold it, control characters and all.
+struct Unescaped<'a>(&'a MergeProblem);
+
+impl fmt::Display for Unescaped<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
             MergeProblem::NoSuchFolder => write!(f, "no such folder"),
             MergeProblem::NotAFolder => write!(f, "not a folder"),
             MergeProblem::MissingFile(file) => write!(f, "{file} is missing"),
@@ -100,6 +125,9 @@ impl fmt::Display for MergeProblem {
             }
             MergeProblem::TimingMismatch => {
                 write!(f, "timed and untimed (--no-timing) folders cannot be merged")
+            }
+            MergeProblem::CountsOverflow { counter, seed } => {
+                write!(f, "the {counter} counts add up beyond 2^64 - 1 with seed {seed}")
             }
             MergeProblem::DuplicateSeed { seed, first } => {
                 write!(f, "seed {seed} is also in {}", first.display())
@@ -136,8 +164,23 @@ pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ResultsError> {
     if !dir.is_dir() {
         return Err(problem(dir, if dir.exists() { MergeProblem::NotAFolder } else { MergeProblem::NoSuchFolder }));
     }
-    let text = read_text(dir, "runs.json")?;
-    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad_json(dir, "runs.json", &e))?;
+    let record = parse_runs_json(dir, &read_text(dir, "runs.json")?)?;
+    check_summary_json(dir, &record, &read_text(dir, "summary.json")?)?;
+    for s in &record.seeds {
+        let sub = format!("seed-{}", s.seed);
+        if !dir.join(&sub).is_dir() {
+            return Err(problem(dir, MergeProblem::MissingFile(format!("{sub}/"))));
+        }
+    }
+    Ok(record)
+}
+
+/// The text of a folder's `runs.json`, parsed and checked as [`load_result_dir`] does (format,
+/// version, rows and edits complete for every seed, parameters valid, no seed twice); `dir`
+/// only names the folder in the errors (no file is read: the fuzz target `merge_json` calls
+/// this).
+pub fn parse_runs_json(dir: &Path, text: &str) -> Result<ValidationRecord, ResultsError> {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| bad_json(dir, "runs.json", &e))?;
     let format = value.get("format").and_then(serde_json::Value::as_str).unwrap_or_default();
     if format != RUNS_FORMAT {
         return Err(problem(dir, MergeProblem::WrongFormat(format!("format is '{format}', expected '{RUNS_FORMAT}'"))));
@@ -152,11 +195,16 @@ pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ResultsError> {
             )),
         ));
     }
-    let record: ValidationRecord = serde_json::from_str(&text).map_err(|e| bad_json(dir, "runs.json", &e))?;
+    let record: ValidationRecord = serde_json::from_str(text).map_err(|e| bad_json(dir, "runs.json", &e))?;
     check_record(dir, &record)?;
+    Ok(record)
+}
 
-    let text = read_text(dir, "summary.json")?;
-    let summary: Summary = serde_json::from_str(&text).map_err(|e| bad_json(dir, "summary.json", &e))?;
+/// Checks the text of a folder's `summary.json` against `record` (its `runs.json`, checked by
+/// [`parse_runs_json`]): equal to the summary recomputed from it, but for the tool name. `dir`
+/// only names the folder in the errors.
+pub fn check_summary_json(dir: &Path, record: &ValidationRecord, text: &str) -> Result<(), ResultsError> {
+    let summary: Summary = serde_json::from_str(text).map_err(|e| bad_json(dir, "summary.json", &e))?;
     let recomputed = Summary { tool: summary.tool.clone(), ..record.summary() };
     if recomputed != summary {
         return Err(problem(
@@ -164,17 +212,53 @@ pub fn load_result_dir(dir: &Path) -> Result<ValidationRecord, ResultsError> {
             MergeProblem::Inconsistent("summary.json does not match the summary of runs.json".into()),
         ));
     }
-    for s in &record.seeds {
-        let sub = format!("seed-{}", s.seed);
-        if !dir.join(&sub).is_dir() {
-            return Err(problem(dir, MergeProblem::MissingFile(format!("{sub}/"))));
+    Ok(())
+}
+
+/// What the summary adds up over all seeds (`summarise_records`): the scan-time histogram's
+/// counts and the integer counters of every world row, each by name.
+fn seed_counts(s: &SeedRecord) -> impl Iterator<Item = (&'static str, u64)> + '_ {
+    let histogram = s.scan_time_histogram_us.iter().map(|&(_, c)| ("scan_time_histogram_us", c));
+    let rows = s.rows.iter().flat_map(|w| {
+        let (u, l) = (&w.updater, &w.lost);
+        [
+            ("updater.processed", u.processed),
+            ("updater.beams", u.beams),
+            ("updater.update", u.update),
+            ("updater.suspend", u.suspend),
+            ("updater.lost", u.lost),
+            ("updater.recovered", u.recovered),
+            ("updater.cell_changes", u.cell_changes),
+            ("collisions", w.collisions),
+            ("lost.episodes", l.episodes),
+            ("lost.attempts", l.attempts),
+            ("lost.recoveries", l.recoveries),
+            ("lost.cleared", l.cleared),
+            ("lost.give_ups", l.give_ups),
+            ("lost.stopped_ns", l.stopped_ns),
+        ]
+    });
+    histogram.chain(rows)
+}
+
+/// Running totals of [`seed_counts`], added with overflow checks: a folder (or a merge) whose
+/// totals do not fit in `u64` is refused instead of making the summary overflow (the fuzz
+/// target `merge_json` found a histogram with two counts of 2^64 − 1 doing so).
+#[derive(Default)]
+struct Totals(BTreeMap<&'static str, u64>);
+
+impl Totals {
+    fn add(&mut self, s: &SeedRecord) -> Result<(), MergeProblem> {
+        for (counter, v) in seed_counts(s) {
+            let t = self.0.entry(counter).or_default();
+            *t = t.checked_add(v).ok_or(MergeProblem::CountsOverflow { counter, seed: s.seed })?;
         }
+        Ok(())
     }
-    Ok(record)
 }
 
 /// Every seed has rows for W_2 … W_N in order and N edit lists; parameters are valid; no seed
-/// twice.
+/// twice; the totals of the summary fit.
 fn check_record(dir: &Path, r: &ValidationRecord) -> Result<(), ResultsError> {
     let inconsistent = |m: String| problem(dir, MergeProblem::Inconsistent(format!("runs.json: {m}")));
     r.params.validate().map_err(|e| inconsistent(e.to_string()))?;
@@ -183,6 +267,7 @@ fn check_record(dir: &Path, r: &ValidationRecord) -> Result<(), ResultsError> {
     }
     let n = r.params.worlds;
     let mut seen = BTreeMap::new();
+    let mut totals = Totals::default();
     for s in &r.seeds {
         if seen.insert(s.seed, ()).is_some() {
             return Err(problem(dir, MergeProblem::DuplicateSeed { seed: s.seed, first: dir.to_path_buf() }));
@@ -203,6 +288,7 @@ fn check_record(dir: &Path, r: &ValidationRecord) -> Result<(), ResultsError> {
                 s.seed
             )));
         }
+        totals.add(s).map_err(|p| problem(dir, p))?;
     }
     Ok(())
 }
@@ -242,6 +328,7 @@ pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<Validatio
     let first_params = serde_json::to_value(&first.params)
         .map_err(|e| ResultsError::Serialise { what: "params".into(), message: e.to_string() })?;
     let mut owner: BTreeMap<u64, &Path> = BTreeMap::new();
+    let mut totals = Totals::default();
     let mut seeds = Vec::new();
     let mut wall_time_s = 0.0;
     for (dir, r) in inputs {
@@ -273,6 +360,7 @@ pub fn merge_records(inputs: &[(PathBuf, ValidationRecord)]) -> Result<Validatio
             if let Some(other) = owner.insert(s.seed, dir) {
                 return Err(problem(dir, MergeProblem::DuplicateSeed { seed: s.seed, first: other.to_path_buf() }));
             }
+            totals.add(s).map_err(|p| problem(dir, p))?;
             seeds.push(s.clone());
         }
         wall_time_s += r.wall_time_s;

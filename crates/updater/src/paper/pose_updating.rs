@@ -32,6 +32,25 @@ const SCORE_MAX: u8 = 4;
 /// Search peaks below this share of the highest possible score are not worth checking.
 const MIN_SEARCH_SCORE: f64 = 0.3;
 
+/// Largest translation step of the search used for the offsets, cells (2^40): more than the
+/// 1e9 cells a scan point may lie off the map plus the largest map side, so a point shifted by
+/// a non-zero multiple of it lands off the map, as with any larger step.
+const MAX_STEP_CELLS: f64 = (1u64 << 40) as f64;
+
+/// The window of the correlative search on a map of `res` metres per cell: the translation
+/// step in whole cells (at least one), the steps each side in x and y, the yaw steps each side.
+/// The steps are counted from the step as given, in f64; the step used for the offsets is capped
+/// at [`MAX_STEP_CELLS`], which moves every point off any map as a larger step would, so
+/// `tx · step` and the shifted cells stay within i64. (The fuzz target `updater_params` found
+/// `search_step_m = 1e300` saturating the cast to i64: an overflow, or without overflow checks
+/// 20001² positions where `validate()` had counted 3².)
+fn search_window(p: &PoseUpdatingParams, res: f64) -> (i64, i64, i64) {
+    let step_cells = (p.search_step_m / res).round().max(1.0);
+    let n_t = ((p.search_radius_m / (step_cells * res)).floor() as i64).min(10_000);
+    let n_yaw = ((p.search_yaw_rad / p.search_yaw_step_rad).floor() as i64).min(100_000);
+    (step_cells.min(MAX_STEP_CELLS) as i64, n_t, n_yaw)
+}
+
 /// Best first: more inliers, then lower RMSE, then hypothesis order (stable sort).
 fn sort_candidates(c: &mut [(Pose2, Fitness, f64, bool)]) {
     c.sort_by(|a, b| b.1.inlier_ratio.total_cmp(&a.1.inlier_ratio).then(a.1.rmse_m.total_cmp(&b.1.rmse_m)));
@@ -335,10 +354,7 @@ impl PoseUpdater {
         let g = *map.geometry();
         let (w, h) = (g.width(), g.height());
         self.build_score(map);
-        let res = g.resolution_m();
-        let step_cells = ((p.search_step_m / res).round() as i64).max(1);
-        let n_t = ((p.search_radius_m / (step_cells as f64 * res)).floor() as i64).min(10_000);
-        let n_yaw = ((p.search_yaw_rad / p.search_yaw_step_rad).floor() as i64).min(100_000);
+        let (step_cells, n_t, n_yaw) = search_window(p, g.resolution_m());
         let k = (self.source.len() / SEARCH_POINTS).max(1);
         let n_points = self.source.len().div_ceil(k);
         let min_score = (MIN_SEARCH_SCORE * f64::from(SCORE_MAX) * n_points as f64) as u32;
@@ -545,6 +561,35 @@ mod tests {
             !matches!(r, PoseRecovery::Recovered { pose_in_map, .. } if pose_in_map.distance(&truth) < 0.03),
             "{r:?}"
         );
+    }
+
+    /// `search_step_m = 1e300` (accepted by `validate()`: the search then has 3 × 3 positions)
+    /// saturated the step's cast to i64 cells: `tx · step` overflowed, and without overflow
+    /// checks the window was clamped to 20001 × 20001 positions (80 s for this call). The input
+    /// `fuzz/corpus/updater_params/regression_search_step_overflows_i64.toml`.
+    #[test]
+    fn a_search_step_beyond_the_i64_range_of_cells_neither_overflows_nor_widens_the_window() {
+        let m = room();
+        let truth = Pose2::new(3.0, 2.5, 0.4);
+        let scans = [scan360(&m, truth)];
+        let predicted = Pose2::new(truth.x + 1.3, truth.y - 0.9, truth.yaw - 0.5);
+        let p = |radius: f64, step: f64| PoseUpdatingParams {
+            yaw_offsets_rad: vec![0.0],
+            position_offsets_m: vec![0.0],
+            search_radius_m: radius,
+            search_step_m: step,
+            search_yaw_rad: 5e-324,
+            ..Default::default()
+        };
+        assert_eq!(search_window(&p(1e300, 1e300), 0.05), (1 << 40, 1, 0));
+        assert_eq!(search_window(&p(2.0, 0.1), 0.05), (2, 20, 0));
+        let mut huge = PoseUpdater::new();
+        huge.recover(&m, predicted, &scans, f64::INFINITY, &p(1e300, 1e300));
+        // A step of 1e6 m is 2e7 cells: the same 3 × 3 window, every shifted point off the map.
+        let mut large = PoseUpdater::new();
+        large.recover(&m, predicted, &scans, f64::INFINITY, &p(1e6, 1e6));
+        assert_eq!(huge.peaks, large.peaks);
+        assert!(huge.peaks.iter().all(|(_, q)| q.position() == predicted.position()), "{:?}", huge.peaks);
     }
 
     /// A square empty room seen from its centre has four equally good yaws: refused as
