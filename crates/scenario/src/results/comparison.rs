@@ -309,8 +309,20 @@ fn read_comparison(dir: &Path) -> Result<Comparison, ResultsError> {
         std::io::ErrorKind::NotFound => bad(MergeProblem::MissingFile("summary.json".into())),
         _ => ResultsError::Io { path: p.clone(), source: e },
     })?;
-    serde_json::from_str(&text)
-        .map_err(|e| bad(MergeProblem::BadJson { file: "summary.json".into(), message: e.to_string() }))
+    let c: Comparison = serde_json::from_str(&text)
+        .map_err(|e| bad(MergeProblem::BadJson { file: "summary.json".into(), message: e.to_string() }))?;
+    // Preset names become folder names under the merge's output: a plain name only, never a
+    // path (`../x` would write outside it).
+    let plain = |p: &str| {
+        !p.is_empty() && p != "." && p != ".." && p.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+    };
+    if let Some(p) = c.presets.iter().find(|p| !plain(p)) {
+        let escaped: String = p.escape_default().collect();
+        return Err(bad(MergeProblem::Inconsistent(format!(
+            "summary.json: preset name '{escaped}' is not a plain name (letters, digits, '-', '_')"
+        ))));
+    }
+    Ok(c)
 }
 
 /// Merges sweep folders (`validate --presets … --shard k/N`, or sweeps of other seeds) into the
@@ -352,4 +364,35 @@ pub fn merge_sweeps(dirs: &[PathBuf], out: &StagedDir) -> Result<Comparison, Res
     let c = Comparison::new(&presets, &records.iter().collect::<Vec<_>>());
     write_comparison(out, &c)?;
     Ok(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sweep_whose_preset_names_are_paths_is_refused() {
+        let dir = std::env::temp_dir().join(format!("mapkeeper-comparison-names-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, ok) in
+            [("paper", true), ("always-update", true), ("../x", false), ("a/b", false), ("..", false), ("", false)]
+        {
+            let c = Comparison {
+                format: COMPARISON_FORMAT.into(),
+                tool: "t".into(),
+                worlds: 2,
+                presets: vec![name.into()],
+                rows: Vec::new(),
+                preset_diffs: Vec::new(),
+            };
+            std::fs::write(dir.join("summary.json"), c.json().unwrap()).unwrap();
+            let got = read_comparison(&dir);
+            assert_eq!(got.is_ok(), ok, "{name:?}: {got:?}");
+            if !ok {
+                assert!(got.unwrap_err().to_string().contains("not a plain name"));
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
