@@ -386,3 +386,16 @@ for name, data in {
     "empty.json": b"",
 }.items():
     write("merge_json", name, data)
+
+# --- parameter TOML: RecoveryParams (`recover --params`), appended to the params_toml corpus --
+recovery = {
+    "recovery_short.toml": '[demo]\nduration_s = 4.0\n[table1]\nruns = 1\nroute_length_m = 4.0\n[lost]\nruns = 1\n[kidnap]\nstale_max_world = 2\nkidnap_min_s = 2.0\nkidnap_max_s = 2.5\n',
+    "recovery_route.toml": 'exploration_route = { format = "mapkeeper-route", version = 1, waypoints = [[-3.65, -2.3], [-3.65, 7.3]] }\n',
+    "recovery_bad_kidnap.toml": "[kidnap]\nkidnap_min_s = 5.0\nkidnap_max_s = 1.0\n",
+    "recovery_nan.toml": "resolution_m = nan\n[demo]\nduration_s = inf\n",
+    "recovery_runner.toml": '[runner]\nstart_error_m = -1.0\n[runner.updater]\nbuffer_size = 0\n',
+    "recovery_empty_route.toml": 'tour = { format = "mapkeeper-route", version = 1, waypoints = [] }\n',
+}
+for name, text in recovery.items():
+    seed("params_toml", name, text, 2)
+

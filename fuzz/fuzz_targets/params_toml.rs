@@ -1,5 +1,6 @@
 //! Parameter files (serde + `validate()`) of the grid (MapperParams, MetricParams), the
-//! simulator (SimParams) and the localiser (FilterParams): the same text is tried as each.
+//! simulator (SimParams) and the localiser (FilterParams), and `RecoveryParams` as
+//! `recover --params` loads it (overlaid on the defaults): the same text is tried as each.
 //! Never panics; a syntax error names the line, a bad value names the parameter.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
@@ -25,4 +26,11 @@ fuzz_target!(|data: &[u8]| {
     check(text, mapkeeper_grid::metrics::MetricParams::validate);
     check(text, mapkeeper_sim::SimParams::validate);
     check(text, mapkeeper_localiser::FilterParams::validate);
+    let base = mapkeeper_scenario::RecoveryParams::default();
+    if let Err(m) =
+        mapkeeper_harness::config::params_from_toml_str(base, text, mapkeeper_scenario::RecoveryParams::validate)
+    {
+        // The CLI joins a TOML error's lines; a syntax error names its line.
+        assert!(!m.is_empty() && (!m.starts_with("TOML parse error") || m.contains("line ")), "{m}");
+    }
 });

@@ -147,3 +147,36 @@ fn a_key_or_format_with_a_newline_gives_a_one_line_merge_error() {
         r"run: cannot merge: runs.json: format is 'mapkeeper-\nvalidation-runs', expected 'mapkeeper-validation-runs'"
     );
 }
+
+/// The parameter-file corpus (`fuzz/corpus/params_toml/`) as `recover --params` loads it: the
+/// defaults overlaid by the file, then `RecoveryParams::validate`. No input panics; a refusal
+/// names what is wrong: a TOML syntax error its line (the CLI puts the file's name before it and
+/// joins the parser's lines into one).
+#[test]
+fn params_toml_corpus_never_panics_for_recovery_params() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/params_toml");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("entry").path())
+        .collect();
+    files.sort();
+    let (mut ok, mut refused) = (0, 0);
+    for file in files {
+        let Ok(text) = std::fs::read_to_string(&file) else { continue };
+        let base = mapkeeper_scenario::RecoveryParams::default();
+        let got = catch_unwind(AssertUnwindSafe(|| {
+            mapkeeper_harness::config::params_from_toml_str(base, &text, mapkeeper_scenario::RecoveryParams::validate)
+        }))
+        .unwrap_or_else(|_| panic!("{}: panicked", file.display()));
+        match got {
+            Ok(_) => ok += 1,
+            Err(m) => {
+                refused += 1;
+                let syntax = m.starts_with("TOML parse error");
+                assert!(!m.is_empty() && (!syntax || m.contains("line ")), "{}: {m}", file.display());
+            }
+        }
+    }
+    eprintln!("params_toml corpus (RecoveryParams): {ok} accepted, {refused} refused");
+    assert!(ok > 0 && refused > 0, "the corpus holds both accepted and refused files");
+}
