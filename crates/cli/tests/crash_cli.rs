@@ -14,28 +14,11 @@
 
 mod common;
 
-use common::{s, scratch};
+use common::{SHORT_RECOVER, files, s, scratch};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-
-/// The files under `dir` (relative path → bytes).
-fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    fn walk(base: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                walk(base, &p, out);
-            } else {
-                out.insert(p.strip_prefix(base).unwrap().display().to_string(), std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
-}
 
 fn count_files(dir: &Path) -> usize {
     std::fs::read_dir(dir)
@@ -194,23 +177,6 @@ fn killed_generate_runs_leave_nothing_that_looks_complete() {
     let make = |out: &Path| strings(&["generate", "--worlds", "12", "--seed", "4", "--out", s(out)]);
     check_command("generate", &make, true, 13);
 }
-
-const SHORT_RECOVER: &str = r#"
-exploration_route = { format = "mapkeeper-route", version = 1, waypoints = [[-3.65, -2.3], [-3.65, 7.3]] }
-[demo]
-duration_s = 3.0
-[table1]
-runs = 1
-route_length_m = 3.0
-[lost]
-runs = 1
-route_length_m = 3.0
-[kidnap]
-stale_max_world = 2
-kidnap_min_s = 2.0
-kidnap_max_s = 2.5
-recovery_window_s = 3.0
-"#;
 
 #[test]
 fn killed_recover_and_run_leave_nothing_that_looks_complete() {

@@ -3,25 +3,11 @@
 // Helpers outside `#[test]` functions unwrap too: a failure is a test failure.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
+use common::SHORT_RECOVER;
 use std::path::PathBuf;
 use std::process::Command;
-
-const SHORT: &str = r#"
-exploration_route = { format = "mapkeeper-route", version = 1, waypoints = [[-3.65, -2.3], [-3.65, 7.3]] }
-[demo]
-duration_s = 4.0
-[table1]
-runs = 1
-route_length_m = 4.0
-[lost]
-runs = 1
-route_length_m = 4.0
-[kidnap]
-stale_max_world = 2
-kidnap_min_s = 2.0
-kidnap_max_s = 2.5
-recovery_window_s = 4.0
-"#;
 
 fn scratch() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("mapkeeper-recover-cli-{}", std::process::id()));
@@ -34,7 +20,7 @@ fn scratch() -> PathBuf {
 fn recover_writes_the_summary_csv_and_report_and_refuses_bad_input() {
     let dir = scratch();
     let params = dir.join("short.toml");
-    std::fs::write(&params, SHORT).unwrap();
+    std::fs::write(&params, SHORT_RECOVER).unwrap();
     let out = dir.join("out");
     let run = |extra: &[&str]| {
         let mut args = vec!["recover", "--trials", "1", "--seed", "2", "--jobs", "2", "--params"];

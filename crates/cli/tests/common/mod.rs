@@ -1,6 +1,7 @@
 //! Helpers shared by the CLI's end-to-end tests: a scratch folder, the binary, paths as text.
 #![allow(dead_code, clippy::unwrap_used)]
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -21,3 +22,39 @@ pub fn mapkeeper(args: &[&str]) -> Output {
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
+
+/// Every file under `dir`, by path relative to it.
+pub fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(base: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                let rel = p.strip_prefix(base).unwrap().to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+/// A `recover --params` file that shortens every experiment to seconds (for end-to-end tests).
+pub const SHORT_RECOVER: &str = r#"
+exploration_route = { format = "mapkeeper-route", version = 1, waypoints = [[-3.65, -2.3], [-3.65, 7.3]] }
+[demo]
+duration_s = 4.0
+[table1]
+runs = 1
+route_length_m = 4.0
+[lost]
+runs = 1
+route_length_m = 4.0
+[kidnap]
+stale_max_world = 2
+kidnap_min_s = 2.0
+kidnap_max_s = 2.5
+recovery_window_s = 4.0
+"#;
