@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::{SHORT_RECOVER, files, s, scratch};
+use common::{SHORT_RECOVER, files, s, scratch, validate_args};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -148,7 +148,18 @@ fn strings(args: &[&str]) -> Vec<String> {
 #[test]
 fn killed_validate_runs_leave_nothing_that_looks_complete() {
     let make = |out: &Path| {
-        strings(&["validate", "--worlds", "3", "--route-length", "6", "--no-timing", "--jobs", "1", "--out", s(out)])
+        validate_args(&[
+            "validate",
+            "--worlds",
+            "3",
+            "--route-length",
+            "6",
+            "--no-timing",
+            "--jobs",
+            "1",
+            "--out",
+            s(out),
+        ])
     };
     check_command("validate", &make, true, 11);
 }
@@ -156,7 +167,7 @@ fn killed_validate_runs_leave_nothing_that_looks_complete() {
 #[test]
 fn killed_validate_sweeps_appear_whole_or_not_at_all() {
     let make = |out: &Path| {
-        strings(&[
+        validate_args(&[
             "validate",
             "--worlds",
             "2",
@@ -203,8 +214,18 @@ fn killed_recover_and_run_leave_nothing_that_looks_complete() {
 fn a_folder_being_written_is_refused_to_a_second_run() {
     let dir = scratch("crash", "concurrent");
     let out = dir.join("out");
-    let args =
-        strings(&["validate", "--worlds", "3", "--route-length", "6", "--no-timing", "--jobs", "1", "--out", s(&out)]);
+    let args = validate_args(&[
+        "validate",
+        "--worlds",
+        "3",
+        "--route-length",
+        "6",
+        "--no-timing",
+        "--jobs",
+        "1",
+        "--out",
+        s(&out),
+    ]);
     let mut first = command(&args).spawn().unwrap();
     let [_, lock] = hidden(&out);
     let start = Instant::now();

@@ -29,22 +29,40 @@ fn an_unknown_localiser_is_refused_naming_the_flag_and_the_known_presets() {
     }
 }
 
+/// The default `validate` is the paper's setting: presets paper and mapkeeper side by side, the
+/// amcl localiser (recorded with its parameters), the hold-out seeds 11, 12, 13, and the paired
+/// intervals of mapkeeper − paper over those seeds.
 #[test]
-fn validate_records_the_amcl_localiser_and_its_parameters() {
+fn validate_by_default_sweeps_paper_and_mapkeeper_with_amcl_over_hold_out_seeds() {
     let dir = scratch("localiser-cli", "validate");
     let out = dir.join("v");
-    let args =
-        ["validate", "--localiser", "amcl", "--worlds", "2", "--route-length", "5", "--no-timing", "--out", s(&out)];
+    let args = ["validate", "--worlds", "2", "--route-length", "4", "--no-timing", "--out", s(&out)];
     let o = mapkeeper(&args);
     assert!(o.status.success(), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["localiser"], "amcl");
-    assert_eq!(summary["params"]["runner"]["localiser"], "amcl");
-    assert_eq!(summary["params"]["runner"]["filter"]["beam_combination"], "amcl_cube_sum");
-    assert_eq!(summary["params"]["runner"]["filter"]["beam_selection"], "amcl_stride");
-    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
-    assert!(report.contains("localiser `amcl`"), "{report}");
+    let read = |rel: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join(rel)).unwrap()).unwrap()
+    };
+    for preset in ["paper", "mapkeeper"] {
+        let summary = read(&format!("{preset}/summary.json"));
+        assert_eq!(summary["preset"], preset);
+        assert_eq!(summary["seeds"], serde_json::json!([11, 12, 13]), "{preset}");
+        assert_eq!(summary["localiser"], "amcl");
+        assert_eq!(summary["params"]["runner"]["localiser"], "amcl");
+        assert_eq!(summary["params"]["runner"]["filter"]["beam_combination"], "amcl_cube_sum");
+        assert_eq!(summary["params"]["runner"]["filter"]["beam_selection"], "amcl_stride");
+        for m in ["cc", "ms", "opdf"] {
+            let ci = &summary["map_quality"][m]["diff_ci95"];
+            assert!(ci[0].as_f64().unwrap() <= ci[1].as_f64().unwrap(), "{preset} {m}: {ci}");
+        }
+        let report = std::fs::read_to_string(out.join(preset).join("report.md")).unwrap();
+        assert!(report.contains("localiser `amcl`") && report.contains("3 seeds"), "{report}");
+    }
+    let top = read("summary.json");
+    assert_eq!(top["presets"], serde_json::json!(["paper", "mapkeeper"]));
+    let diff = &top["preset_diffs"][0];
+    assert_eq!((diff["a"].as_str(), diff["b"].as_str()), (Some("mapkeeper"), Some("paper")));
+    assert_eq!(diff["seeds"], serde_json::json!([11, 12, 13]));
+    assert!(diff["cc"]["ci95"][0].is_f64(), "{diff}");
     assert!(String::from_utf8_lossy(&o.stdout).contains("localiser amcl"));
 }
 

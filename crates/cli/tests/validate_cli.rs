@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::files;
+use common::{files, validate_args};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -71,7 +71,8 @@ fn validate(name: &str, extra: &[&str]) -> PathBuf {
         args.extend(["--worlds", "3"]);
     }
     args.extend_from_slice(extra);
-    let r = mapkeeper(&args);
+    let args = validate_args(&args);
+    let r = mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(r.status.success(), "validate {extra:?} failed: {}", stderr(&r));
     out
 }
@@ -329,6 +330,8 @@ fn bad_shards_are_refused_before_any_work() {
         let out = scratch().join(format!("bad-shard-{}", shard.replace('/', "-")));
         let r = mapkeeper(&[
             "validate",
+            "--preset",
+            "paper",
             "--worlds",
             "3",
             "--seeds",

@@ -11,8 +11,9 @@
 //! start pose on odometry equal to the truth and gets the updated map every 5,000 processed
 //! steps; its estimate is the pose given to the updater.
 //!
-//! Run: `cargo run --release -p mapkeeper-localiser --example soak [-- --scans N --every K]`
-//! (default N = 1,000,000 processed dual scans, a memory line every K = 50,000). The first
+//! Run: `cargo run --release -p mapkeeper-localiser --example soak [-- --scans N --every K
+//! --preset NAME]` (default N = 1,000,000 processed dual scans, a memory line every K = 50,000,
+//! updater preset `mapkeeper`; any preset name of `UpdaterParams::preset`, e.g. `paper`). The first
 //! line (0 processed) is the RSS before the scene is built; `wall_s` is elapsed wall time.
 #![allow(missing_docs, clippy::unwrap_used)]
 
@@ -137,14 +138,17 @@ fn dual_scan(caster: &RayCaster, robot: Pose2) -> [LaserScan; 2] {
 fn main() {
     let mut target: u64 = 1_000_000;
     let mut every: u64 = 50_000;
+    let mut preset = String::from("mapkeeper");
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--scans" => target = args.next().and_then(|n| n.parse().ok()).expect("--scans N"),
             "--every" => every = args.next().and_then(|n| n.parse().ok()).expect("--every K"),
-            other => panic!("unknown argument {other}; usage: soak [--scans N] [--every K]"),
+            "--preset" => preset = args.next().expect("--preset NAME"),
+            other => panic!("unknown argument {other}; usage: soak [--scans N] [--every K] [--preset NAME]"),
         }
     }
+    let params = UpdaterParams::preset(&preset).unwrap_or_else(|e| panic!("--preset {preset}: {e}"));
     let rss_start = vm_rss_kb();
     let (map, changed) = scene();
     let poses = lap();
@@ -160,12 +164,16 @@ fn main() {
     let filter = FilterParams { min_particles: 200, max_particles: 1000, ..FilterParams::default() };
     let mut loc = Localiser::new(&map, filter, 7).unwrap();
     loc.init_pose(poses[0], [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.002]]).unwrap();
-    let mut up = MapUpdater::new(map.clone(), UpdaterParams::paper()).unwrap();
+    let mut up = MapUpdater::new(map.clone(), params).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let noise = Normal::new(0.0f32, 0.01).unwrap();
     let mut scans: Vec<LaserScan> = laps[0][0].to_vec();
 
-    println!("soak: {target} processed dual scans, lap of {} poses; map {} cells", poses.len(), map.cells().len());
+    println!(
+        "soak: {target} processed dual scans, updater preset {preset}, lap of {} poses; map {} cells",
+        poses.len(),
+        map.cells().len()
+    );
     let wall = std::time::Instant::now();
     println!(
         "{:>10} {:>10} {:>9} {:>12} {:>10} {:>9} {:>9} {:>7}",

@@ -58,3 +58,21 @@ kidnap_min_s = 2.0
 kidnap_max_s = 2.5
 recovery_window_s = 4.0
 "#;
+
+/// `validate` arguments with the settings most tests run under filled in where `args` does not
+/// give them: one preset (`paper`), the `mapkeeper` localiser, seed 1, one seed. (The default
+/// run, a sweep of paper and mapkeeper with amcl over seeds 11-13, is tested on its own in
+/// validate_cli.rs.)
+pub fn validate_args(args: &[&str]) -> Vec<String> {
+    let has = |flag: &str| args.contains(&flag);
+    let mut v: Vec<String> = args.iter().map(ToString::to_string).collect();
+    if !has("--preset") && !has("--presets") {
+        v.extend(["--preset".into(), "paper".into()]);
+    }
+    for (flag, value) in [("--localiser", "mapkeeper"), ("--seed", "1"), ("--seeds", "1")] {
+        if !has(flag) {
+            v.extend([flag.into(), value.into()]);
+        }
+    }
+    v
+}
