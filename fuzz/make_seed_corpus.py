@@ -335,7 +335,7 @@ for name, text in {
 
 # --- validation folder files read back by `mapkeeper merge` (runs.json NUL summary.json) --------
 # From tests/data/validation_run/, written by
-# `mapkeeper validate --route-length 10 --worlds 2 --seeds 1 --no-timing --out tests/data/validation_run`
+# `mapkeeper validate --preset paper --localiser mapkeeper --seed 1 --seeds 1 --route-length 10 --worlds 2 --no-timing --out tests/data/validation_run`
 # (only runs.json and summary.json kept), compacted to fit libFuzzer's 16 KiB inputs.
 import json, copy
 vrun = ROOT / "tests/data/validation_run"

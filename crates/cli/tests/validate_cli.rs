@@ -43,7 +43,7 @@ fn scratch() -> PathBuf {
 
 /// The number of `#[test]` functions in this file: the last one to pass removes the scratch
 /// folder (it is kept when a test fails, or when tests are filtered).
-const TESTS: usize = 7;
+const TESTS: usize = 8;
 
 /// Called at the end of each test.
 fn done() {
@@ -468,6 +468,62 @@ fn check_comparison(all: &Path) {
     assert_eq!(report.lines().filter(|l| l.starts_with("| paper |") || l.starts_with("| no-update |")).count(), 6);
     assert!(report.contains("Lost episodes") && report.contains("err on M_1"), "{report}");
     check_intervals(all);
+}
+
+/// `--ground-truth exact` and `observed` score the same maps against both variants: each run's
+/// `map_quality` is its own variant, `by_ground_truth` is the same in both, and the worlds.csv
+/// columns of the other variant swap. The observed G_i knows fewer cells than the exact one (not
+/// the backs of walls and items) and gives every cell it knows the exact state.
+#[test]
+fn ground_truth_variants_are_both_reported_and_swap() {
+    let exact = validate("gt-exact", &["--worlds", "2", "--no-timing"]);
+    let observed = validate("gt-observed", &["--worlds", "2", "--no-timing", "--ground-truth", "observed"]);
+    let json = |p: &Path| -> serde_json::Value { serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap() };
+    let (e, o) = (json(&exact.join("summary.json")), json(&observed.join("summary.json")));
+    assert_eq!((e["ground_truth"].as_str(), o["ground_truth"].as_str()), (Some("exact"), Some("observed")));
+    assert_eq!(e["by_ground_truth"], o["by_ground_truth"]);
+    assert_eq!(e["map_quality"], e["by_ground_truth"]["exact"]["map_quality"]);
+    assert_eq!(o["map_quality"], o["by_ground_truth"]["observed"]["map_quality"]);
+    assert_ne!(e["map_quality"], o["map_quality"]);
+    for gt in ["exact", "observed"] {
+        for m in ["cc", "ms", "opdf"] {
+            let b = &e["by_ground_truth"][gt]["best_achievable"][m];
+            let q = &e["by_ground_truth"][gt]["map_quality"][m];
+            let (best, m1, mi) = (
+                b["best_mean"].as_f64().unwrap(),
+                q["static_mean"].as_f64().unwrap(),
+                q["updated_mean"].as_f64().unwrap(),
+            );
+            assert!(best.is_finite() && (0.0..=100.0).contains(&best), "{gt} {m}: {b}");
+            if let Some(a) = b["achieved_fraction"].as_f64() {
+                assert!((a - (mi - m1) / (best - m1)).abs() < 1e-9, "{gt} {m}: {b} {q}");
+            }
+        }
+    }
+    let csv = |d: &Path| -> Vec<Vec<String>> {
+        let text = std::fs::read_to_string(d.join("worlds.csv")).unwrap();
+        text.lines().map(|l| l.split(',').map(str::to_string).collect()).collect()
+    };
+    let (ce, co) = (csv(&exact), csv(&observed));
+    let col = |name: &str| ce[0].iter().position(|h| h == name).unwrap();
+    for (mine, other) in [("cc_updated", "cc_updated_other_gt"), ("ms_best", "ms_best_other_gt")] {
+        assert_eq!(ce[1][col(mine)], co[1][col(other)], "{mine}");
+        assert_eq!(ce[1][col(other)], co[1][col(mine)], "{other}");
+    }
+    let report = std::fs::read_to_string(observed.join("report.md")).unwrap();
+    assert!(report.contains("use the `observed` ground truth") && report.contains("| exact | CC |"), "{report}");
+    // The saved ground truth of W_2: the observed raster keeps the exact states where known.
+    let pgm = |d: &Path| std::fs::read(d.join("seed-1/maps/G_002.pgm")).unwrap();
+    let (ge, go) = (pgm(&exact), pgm(&observed));
+    assert_eq!(ge.len(), go.len());
+    let unknown = 205u8;
+    let header = ge.iter().rposition(|&b| b == b'\n').unwrap() + 1;
+    let (pe, po) = (&ge[header..], &go[header..]);
+    let count = |p: &[u8], v: u8| p.iter().filter(|&&x| x == v).count();
+    assert!(count(po, unknown) > count(pe, unknown), "the observed raster knows fewer cells");
+    assert!(count(po, 0) < count(pe, 0), "the backs of walls and items are not observed");
+    assert!(pe.iter().zip(po).all(|(a, b)| *b == unknown || a == b), "observed cells keep the exact state");
+    done();
 }
 
 /// The paired intervals of summary.json, recomputed here from the presets' runs.json: per seed

@@ -144,25 +144,119 @@ pub struct MapMetrics {
 /// [`GridGeometry::same_as`]; use [`resample_onto`] first), and
 /// [`MetricsError::InvalidParam`] for parameters that fail [`MetricParams::validate`].
 pub fn map_metrics(a: &OccupancyGrid, b: &OccupancyGrid, params: &MetricParams) -> Result<MapMetrics, MetricsError> {
+    metrics_over(a, b, None, params)
+}
+
+/// [`map_metrics`] over the cells where `mask` is true only (`mask` has one entry per cell, in
+/// the grids' row-major order, e.g. from [`interior_mask`]): ν is the number of masked cells,
+/// CC and MS are taken over them, and OPDF measures the masked occupied cells of each map
+/// against the masked occupied cells of the other. An all-true mask gives [`map_metrics`].
+///
+/// Errors: those of [`map_metrics`], and [`GridError::GeometryMismatch`] (wrapped) if `mask`
+/// does not have one entry per cell.
+///
+/// ```
+/// use mapkeeper_grid::metrics::{map_metrics_in, MetricParams};
+/// use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
+/// let g = GridGeometry::new(4, 1, 1.0, Pose2::IDENTITY).unwrap();
+/// let mut a = OccupancyGrid::filled(g, CellState::Free);
+/// a.set(CellCoord::new(0, 0), CellState::Occupied);
+/// let mut b = a.clone();
+/// b.set(CellCoord::new(3, 0), CellState::Occupied);
+/// // Cell 3, where the maps differ, is outside the mask: they agree on the rest.
+/// let m = map_metrics_in(&a, &b, &[true, true, true, false], &MetricParams::default()).unwrap();
+/// assert_eq!((m.cc, m.ms, m.opdf, m.cells), (100.0, 100.0, 100.0, 3));
+/// ```
+pub fn map_metrics_in(
+    a: &OccupancyGrid,
+    b: &OccupancyGrid,
+    mask: &[bool],
+    params: &MetricParams,
+) -> Result<MapMetrics, MetricsError> {
+    metrics_over(a, b, Some(mask), params)
+}
+
+/// The cells inside the map's outer walls: every cell but those reachable from the grid's border
+/// through cells that are not occupied (4-connected flood fill). Walls and everything they
+/// enclose (items, their unknown insides) are interior; the floor outside an outer wall, and all
+/// of a map with no closed outer wall, is not.
+///
+/// ```
+/// use mapkeeper_grid::metrics::interior_mask;
+/// use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
+/// let g = GridGeometry::new(5, 5, 1.0, Pose2::IDENTITY).unwrap();
+/// let mut m = OccupancyGrid::filled(g, CellState::Free);
+/// for i in 1..4 {
+///     for (x, y) in [(i, 1), (i, 3), (1, i), (3, i)] {
+///         m.set(CellCoord::new(x, y), CellState::Occupied);
+///     }
+/// }
+/// let inside = interior_mask(&m);
+/// assert_eq!(inside.iter().filter(|&&b| b).count(), 9); // the 3 × 3 ring and its centre
+/// assert!(inside[2 * 5 + 2] && !inside[0]);
+/// ```
+pub fn interior_mask(map: &OccupancyGrid) -> Vec<bool> {
+    let (w, h) = (map.geometry().width(), map.geometry().height());
+    let cells = map.cells();
+    let mut outside = vec![false; cells.len()];
+    let mut stack = Vec::new();
+    let push = |i: usize, outside: &mut Vec<bool>, stack: &mut Vec<usize>| {
+        if !outside[i] && cells[i] != CellState::Occupied {
+            outside[i] = true;
+            stack.push(i);
+        }
+    };
+    for x in 0..w {
+        push(x, &mut outside, &mut stack);
+        push((h - 1) * w + x, &mut outside, &mut stack);
+    }
+    for y in 0..h {
+        push(y * w, &mut outside, &mut stack);
+        push(y * w + w - 1, &mut outside, &mut stack);
+    }
+    while let Some(i) = stack.pop() {
+        let (x, y) = (i % w, i / w);
+        if x > 0 {
+            push(i - 1, &mut outside, &mut stack);
+        }
+        if x + 1 < w {
+            push(i + 1, &mut outside, &mut stack);
+        }
+        if y > 0 {
+            push(i - w, &mut outside, &mut stack);
+        }
+        if y + 1 < h {
+            push(i + w, &mut outside, &mut stack);
+        }
+    }
+    outside.into_iter().map(|o| !o).collect()
+}
+
+fn metrics_over(
+    a: &OccupancyGrid,
+    b: &OccupancyGrid,
+    mask: Option<&[bool]>,
+    params: &MetricParams,
+) -> Result<MapMetrics, MetricsError> {
     params.validate()?;
-    if !a.geometry().same_as(b.geometry()) {
+    if !a.geometry().same_as(b.geometry()) || mask.is_some_and(|m| m.len() != a.cells().len()) {
         return Err(GridError::GeometryMismatch.into());
     }
-    let counts = JointCounts::of(a.cells(), b.cells());
+    let counts = JointCounts::of(a.cells(), b.cells(), mask);
     let (cc, cc_degenerate) = counts.cross_correlation(params.unknown_value);
     let ms = counts.map_score(params.unknown_value);
     let geometry = a.geometry();
     let r = params.opdf_radius_cells(geometry.resolution_m());
     let mut scratch = vec![0u32; geometry.len()];
-    let opdf_ab = opdf_as(a, b, r, &mut scratch);
-    let opdf_ba = opdf_as(b, a, r, &mut scratch);
+    let opdf_ab = opdf_as(a, b, mask, r, &mut scratch);
+    let opdf_ba = opdf_as(b, a, mask, r, &mut scratch);
     Ok(MapMetrics {
         cc,
         ms,
         opdf: 0.5 * (opdf_ab + opdf_ba),
         opdf_ab,
         opdf_ba,
-        cells: geometry.len(),
+        cells: counts.total as usize,
         union_occupied: counts.union_occupied(),
         occupied_a: counts.occupied_a(),
         occupied_b: counts.occupied_b(),
@@ -221,12 +315,22 @@ struct JointCounts {
 }
 
 impl JointCounts {
-    fn of(a: &[CellState], b: &[CellState]) -> Self {
+    fn of(a: &[CellState], b: &[CellState], mask: Option<&[bool]>) -> Self {
         let mut n = [[0u64; 3]; 3];
-        for (&x, &y) in a.iter().zip(b) {
-            n[slot(x)][slot(y)] += 1;
+        match mask {
+            None => {
+                for (&x, &y) in a.iter().zip(b) {
+                    n[slot(x)][slot(y)] += 1;
+                }
+            }
+            Some(mask) => {
+                for ((&x, &y), _) in a.iter().zip(b).zip(mask).filter(|(_, m)| **m) {
+                    n[slot(x)][slot(y)] += 1;
+                }
+            }
         }
-        Self { n, total: a.len().min(b.len()) as u64 }
+        let total = n.iter().flatten().sum();
+        Self { n, total }
     }
 
     fn marginal_a(&self, i: usize) -> u64 {
@@ -252,7 +356,7 @@ impl JointCounts {
     /// (CC, degenerate?). Centred sums over the 3 × 3 table (no E[x²] − E[x]² cancellation).
     fn cross_correlation(&self, unknown_value: f64) -> (f64, bool) {
         let v = STATES.map(|s| s.value(unknown_value));
-        let nu = self.total as f64;
+        let nu = self.total.max(1) as f64;
         let mean_a = (0..3).map(|i| self.marginal_a(i) as f64 * v[i]).sum::<f64>() / nu;
         let mean_b = (0..3).map(|j| self.marginal_b(j) as f64 * v[j]).sum::<f64>() / nu;
         let var_a = (0..3).map(|i| self.marginal_a(i) as f64 * (v[i] - mean_a).powi(2)).sum::<f64>() / nu;
@@ -325,12 +429,14 @@ impl JointCounts {
 const FAR: u32 = u32::MAX / 2;
 
 /// Exact L1 (Manhattan) distance transform in cells to the nearest occupied cell of `grid`,
-/// written into `out` (length ν; [`FAR`] where the grid has no occupied cell). The 4-neighbour
-/// chamfer mask is exact for L1; its passes are run per axis (columns, then rows), O(ν).
-fn manhattan_to_occupied(grid: &OccupancyGrid, out: &mut [u32]) {
+/// written into `out` (length ν; [`FAR`] where the grid has no occupied cell). Only occupied
+/// cells inside `mask` (if any) count as sites. The 4-neighbour chamfer mask is exact for L1;
+/// its passes are run per axis (columns, then rows), O(ν).
+fn manhattan_to_occupied(grid: &OccupancyGrid, mask: Option<&[bool]>, out: &mut [u32]) {
     let (w, h) = (grid.geometry().width(), grid.geometry().height());
-    for (d, &s) in out.iter_mut().zip(grid.cells()) {
-        *d = if s == CellState::Occupied { 0 } else { FAR };
+    for (i, (d, &s)) in out.iter_mut().zip(grid.cells()).enumerate() {
+        let site = s == CellState::Occupied && mask.is_none_or(|m| m[i]);
+        *d = if site { 0 } else { FAR };
     }
     // L1 is separable: first the distance to the nearest site in the same column (a sweep up,
     // then down, whole rows at a time), then along each row (a sweep right, then left).
@@ -361,17 +467,26 @@ fn manhattan_to_occupied(grid: &OccupancyGrid, out: &mut [u32]) {
     }
 }
 
-/// OPDF_as(m, other) with search radius `r` cells; `scratch` has length ν.
-fn opdf_as(m: &OccupancyGrid, other: &OccupancyGrid, r: f64, scratch: &mut [u32]) -> f64 {
-    let occupied_m = m.count(CellState::Occupied);
-    if occupied_m == 0 {
-        return if other.count(CellState::Occupied) == 0 { 100.0 } else { 0.0 };
+/// Occupied cells of `m` inside `mask` (all of them without a mask).
+fn occupied_in(m: &OccupancyGrid, mask: Option<&[bool]>) -> usize {
+    match mask {
+        None => m.count(CellState::Occupied),
+        Some(mask) => m.cells().iter().zip(mask).filter(|&(&s, &k)| k && s == CellState::Occupied).count(),
     }
-    manhattan_to_occupied(other, scratch);
+}
+
+/// OPDF_as(m, other) with search radius `r` cells over the cells in `mask` (all without one);
+/// `scratch` has length ν.
+fn opdf_as(m: &OccupancyGrid, other: &OccupancyGrid, mask: Option<&[bool]>, r: f64, scratch: &mut [u32]) -> f64 {
+    let occupied_m = occupied_in(m, mask);
+    if occupied_m == 0 {
+        return if occupied_in(other, mask) == 0 { 100.0 } else { 0.0 };
+    }
+    manhattan_to_occupied(other, mask, scratch);
     // Distances below r summed exactly as integers, the capped ones counted.
     let (mut below, mut capped) = (0u64, 0u64);
-    for (&s, &d) in m.cells().iter().zip(scratch.iter()) {
-        if s == CellState::Occupied {
+    for (i, (&s, &d)) in m.cells().iter().zip(scratch.iter()).enumerate() {
+        if s == CellState::Occupied && mask.is_none_or(|k| k[i]) {
             if (d as f64) < r {
                 below += u64::from(d);
             } else {
@@ -511,7 +626,7 @@ mod tests {
         // 4 × 3 with occupied cells at (0,0) and (3,2).
         let a = grid(&[&[F, F, F, O], &[F, F, F, F], &[O, F, F, F]]);
         let mut d = vec![0u32; 12];
-        manhattan_to_occupied(&a, &mut d);
+        manhattan_to_occupied(&a, None, &mut d);
         // Row 0 (bottom): (0,0)=0, (1,0)=1, (2,0)=2, (3,0)=min(3 to (0,0), 2 to (3,2))=2.
         assert_eq!(&d[0..4], &[0, 1, 2, 2]);
         // Row 1: (0,1)=1, (1,1)=min(2, 3)=2, (2,1)=min(3, 1+1)=2, (3,1)=1.
@@ -521,7 +636,7 @@ mod tests {
         // No occupied cell: FAR everywhere.
         let empty = grid(&[&[F, U], &[F, F]]);
         let mut d = vec![0u32; 4];
-        manhattan_to_occupied(&empty, &mut d);
+        manhattan_to_occupied(&empty, None, &mut d);
         assert!(d.iter().all(|&x| x == FAR));
     }
 
@@ -679,5 +794,52 @@ mod tests {
             let s = map_metrics(&a, &a, &p).unwrap();
             prop_assert!((s.cc - 100.0).abs() < 1e-9 && s.ms == 100.0 && s.opdf == 100.0);
         }
+
+        /// Masked metrics: an all-true mask gives the unmasked figures exactly; otherwise CC and
+        /// MS are those of the masked cells alone (laid out as one row: neither depends on the
+        /// layout) and OPDF is the brute-force search among masked cells.
+        #[test]
+        fn masked_metrics_are_the_metrics_of_the_masked_cells(
+            (a, b) in arb_grid_pair(),
+            bits in prop::collection::vec(any::<bool>(), 144),
+            u in 0.0f64..=1.0,
+        ) {
+            let p = MetricParams { unknown_value: u, ..MetricParams::default() };
+            let n = a.cells().len();
+            prop_assert_eq!(map_metrics_in(&a, &b, &vec![true; n], &p).unwrap(), map_metrics(&a, &b, &p).unwrap());
+            let mask = &bits[..n];
+            let m = map_metrics_in(&a, &b, mask, &p).unwrap();
+            let picked: Vec<usize> = (0..n).filter(|&i| mask[i]).collect();
+            prop_assert_eq!(m.cells, picked.len());
+            if !picked.is_empty() {
+                let row = GridGeometry::new(picked.len(), 1, 0.05, Pose2::IDENTITY).unwrap();
+                let take = |g: &OccupancyGrid| {
+                    OccupancyGrid::from_cells(row, picked.iter().map(|&i| g.cells()[i]).collect()).unwrap()
+                };
+                let flat = map_metrics(&take(&a), &take(&b), &p).unwrap();
+                prop_assert!((m.cc - flat.cc).abs() < 1e-9 && (m.ms - flat.ms).abs() < 1e-9);
+            }
+            let hide = |g: &OccupancyGrid| {
+                let cells = g.cells().iter().zip(mask).map(|(&s, &k)| if k { s } else { U }).collect();
+                OccupancyGrid::from_cells(*g.geometry(), cells).unwrap()
+            };
+            let r = m.opdf_radius_cells;
+            prop_assert!((m.opdf_ab - brute_opdf_as(&hide(&a), &hide(&b), r)).abs() < 1e-9);
+            prop_assert!((m.opdf_ba - brute_opdf_as(&hide(&b), &hide(&a), r)).abs() < 1e-9);
+            prop_assert!(map_metrics_in(&a, &b, &bits[..n - 1], &p).is_err() || n == 0);
+        }
+    }
+
+    #[test]
+    fn interior_of_an_open_room_is_its_walls_only_and_a_closed_room_holds_its_inside() {
+        let closed = grid(&[&[F, F, F, F, F], &[F, O, O, O, F], &[F, O, U, O, F], &[F, O, O, O, F], &[F, F, F, F, F]]);
+        let inside = interior_mask(&closed);
+        assert_eq!(inside.iter().filter(|&&b| b).count(), 9);
+        let open = grid(&[&[F, F, F, F, F], &[F, O, F, O, F], &[F, O, F, O, F], &[F, O, O, O, F], &[F, F, F, F, F]]);
+        assert_eq!(interior_mask(&open).iter().filter(|&&b| b).count(), 7);
+        let one = grid(&[&[F]]);
+        assert_eq!(interior_mask(&one), vec![false]);
+        let all = grid(&[&[O, O], &[O, O]]);
+        assert_eq!(interior_mask(&all), vec![true; 4]);
     }
 }

@@ -135,7 +135,8 @@ fn dual_scan(caster: &RayCaster, robot: Pose2) -> [LaserScan; 2] {
     })
 }
 
-fn main() {
+/// (N processed dual scans, memory line every K, updater preset) from the command line.
+fn args() -> (u64, u64, String) {
     let mut target: u64 = 1_000_000;
     let mut every: u64 = 50_000;
     let mut preset = String::from("mapkeeper");
@@ -148,6 +149,11 @@ fn main() {
             other => panic!("unknown argument {other}; usage: soak [--scans N] [--every K] [--preset NAME]"),
         }
     }
+    (target, every, preset)
+}
+
+fn main() {
+    let (target, every, preset) = args();
     let params = UpdaterParams::preset(&preset).unwrap_or_else(|e| panic!("--preset {preset}: {e}"));
     let rss_start = vm_rss_kb();
     let (map, changed) = scene();

@@ -35,8 +35,8 @@ pub use experiments::runner::{
 };
 pub use experiments::sweep::{SweepPlan, SweepSpec};
 pub use experiments::validation::{
-    Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed, run_seed_in,
-    summarise, summarise_records,
+    GroundTruth, Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed,
+    run_seed_in, summarise, summarise_records,
 };
 pub use mapkeeper_grid::StagedDir;
 pub use results::ResultsError;

@@ -4,7 +4,7 @@
 use anyhow::Context;
 use mapkeeper_scenario::results::comparison::{Comparison, write_comparison};
 use mapkeeper_scenario::results::report::write_validation;
-use mapkeeper_scenario::{Clock, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
+use mapkeeper_scenario::{Clock, GroundTruth, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
 use mapkeeper_updater::UpdaterParams;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -59,6 +59,12 @@ pub struct Args {
     /// filter the paper ran.
     #[arg(long, value_name = "NAME", default_value = "amcl")]
     pub localiser: String,
+    /// Ground truth of the map metrics: `exact` (the raster of all geometry, whole grid) or
+    /// `observed` (what a noise-free mapper sees from the exploration route in W_i, over the
+    /// interior of the outer walls; the paper's G_i were such SLAM maps). The other variant and
+    /// the best achievable map are reported beside it.
+    #[arg(long, value_name = "exact|observed", default_value = "exact", value_parser = str::parse::<GroundTruth>)]
+    pub ground_truth: GroundTruth,
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -131,6 +137,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         route_length_m: args.route_length,
         shard: args.shard,
         localiser: args.localiser.clone(),
+        ground_truth: args.ground_truth,
     };
     mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let mut plan = spec.plan()?;

@@ -24,6 +24,8 @@ pub struct SweepSpec {
     pub shard: Option<Shard>,
     /// Localiser preset of both localisers (`mapkeeper_localiser::LOCALISER_PRESETS`).
     pub localiser: String,
+    /// The ground truth of the map metrics.
+    pub ground_truth: crate::GroundTruth,
 }
 
 /// A checked sweep.
@@ -58,6 +60,7 @@ impl SweepSpec {
         for preset in presets {
             let mut p = ValidationParams::new(self.worlds, preset)?;
             p.runner.set_localiser(&self.localiser)?;
+            p.ground_truth = self.ground_truth;
             if let Some(len) = self.route_length_m {
                 if !(len.is_finite() && len > 0.0) {
                     return Err(invalid("route_length", format!("must be a positive number of metres, got {len}")));

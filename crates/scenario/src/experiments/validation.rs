@@ -13,11 +13,56 @@ pub use crate::stats::histogram_median;
 use crate::stats::{PairedDiff, frac, mean, median, paired_diff};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
 use crate::worlds::mapping::{MappingParams, build_initial_map};
-use mapkeeper_grid::metrics::{MapMetrics, MetricParams, map_metrics};
-use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2};
+use crate::worlds::observed::{OBSERVATION_STEP_M, restrict_to, route_poses, visible_cells};
+use mapkeeper_grid::metrics::{MapMetrics, MetricParams, interior_mask, map_metrics, map_metrics_in};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sim::{Route, World, ground_truth_map};
 use mapkeeper_updater::UpdaterParams;
 use serde::{Deserialize, Serialize};
+
+/// Which ground truth G_i the map metrics compare with (`validate --ground-truth`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroundTruth {
+    /// The exact raster of all of W_i's geometry over the whole grid (faces never visible from
+    /// anywhere are occupied; cells outside the walls count).
+    #[default]
+    Exact,
+    /// What a noise-free mapper sees driving the exploration route at true poses in W_i (the
+    /// paper's G_i were SLAM Toolbox maps of such a run): the exact raster where a beam reaches,
+    /// unknown elsewhere; scored over the interior of the outer walls only.
+    Observed,
+}
+
+impl GroundTruth {
+    /// The name used on the command line and in the outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            GroundTruth::Exact => "exact",
+            GroundTruth::Observed => "observed",
+        }
+    }
+
+    /// The other variant.
+    pub fn other(self) -> GroundTruth {
+        match self {
+            GroundTruth::Exact => GroundTruth::Observed,
+            GroundTruth::Observed => GroundTruth::Exact,
+        }
+    }
+}
+
+impl std::str::FromStr for GroundTruth {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "exact" => Ok(GroundTruth::Exact),
+            "observed" => Ok(GroundTruth::Observed),
+            _ => Err(format!("unknown ground truth '{s}': expected exact or observed")),
+        }
+    }
+}
 
 /// Parameters of the validation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -41,6 +86,9 @@ pub struct ValidationParams {
     pub mapping: MappingParams,
     /// The map-quality metrics.
     pub metrics: MetricParams,
+    /// The ground truth of `map_quality` and the plots (the other variant is reported beside
+    /// it). Default [`GroundTruth::Exact`].
+    pub ground_truth: GroundTruth,
     /// Worlds whose maps (M_i, G_i) and trajectories are kept for the outputs. Default
     /// [2, 50, 100] (those ≤ `worlds`).
     pub saved_worlds: Vec<usize>,
@@ -58,6 +106,7 @@ impl Default for ValidationParams {
             generator: GeneratorParams::default(),
             mapping: MappingParams::default(),
             metrics: MetricParams::default(),
+            ground_truth: GroundTruth::Exact,
             saved_worlds: vec![2, 50, 100],
         }
     }
@@ -137,6 +186,18 @@ impl From<MapMetrics> for Scores {
     }
 }
 
+/// M_1, M_i and the best achievable map M*_i scored against one variant of G_i.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GroundTruthScores {
+    /// M_1 / G_i.
+    pub static_map: Scores,
+    /// M_i / G_i.
+    pub updated_map: Scores,
+    /// M*_i / G_i: the best achievable map (M*_1 = M_1; M*_i is M*_{i-1} with every cell the
+    /// route observes in W_i set to its state in W_i).
+    pub best_map: Scores,
+}
+
 /// One world of one seed: a row of `worlds.csv`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WorldRow {
@@ -148,10 +209,16 @@ pub struct WorldRow {
     pub edits: usize,
     /// Movable items in W_i.
     pub movable_items: usize,
-    /// M_1 / G_i.
+    /// M_1 / G_i (G_i the run's ground truth, `params.ground_truth`).
     pub static_map: Scores,
     /// M_i / G_i.
     pub updated_map: Scores,
+    /// M*_i / G_i, the best achievable map ([`GroundTruthScores::best_map`]).
+    #[serde(default)]
+    pub best_map: Scores,
+    /// The same three against the other ground truth variant.
+    #[serde(default)]
+    pub other_ground_truth: GroundTruthScores,
     /// The baseline localiser on M_1.
     pub loc_static: LocStats,
     /// The chain localiser on M_{i-1}.
@@ -385,6 +452,82 @@ pub fn run_seed(
     run_seed_in(&w1, params, seed, clock, progress)
 }
 
+/// Scores maps against both ground truth variants of each world and keeps the best achievable
+/// map M*_i of the chain.
+struct Judge<'a> {
+    params: &'a ValidationParams,
+    /// Inside the outer walls of W_1 (they never move: one interior for every world).
+    interior: Vec<bool>,
+    /// Observation poses along the exploration route (the observed ground truth).
+    exploration: Vec<Pose2>,
+    /// Observation poses along the route (what an updater can see).
+    route: Vec<Pose2>,
+    /// M*_i.
+    best: OccupancyGrid,
+    /// The exact G_1.
+    g1: OccupancyGrid,
+}
+
+impl<'a> Judge<'a> {
+    fn new(params: &'a ValidationParams, m1: &OccupancyGrid, g1: OccupancyGrid) -> Self {
+        Judge {
+            params,
+            interior: interior_mask(&g1),
+            exploration: route_poses(&params.exploration_route, OBSERVATION_STEP_M),
+            route: route_poses(&params.route, OBSERVATION_STEP_M),
+            best: m1.clone(),
+            g1,
+        }
+    }
+
+    fn observed(&self, exact: &OccupancyGrid) -> OccupancyGrid {
+        restrict_to(exact, &visible_cells(exact, &self.exploration, &self.params.runner.sim.lidars))
+    }
+
+    /// G_1 of the run's variant and M_1 against it.
+    fn initial(&self, m1: &OccupancyGrid) -> Result<(OccupancyGrid, Scores), ExperimentError> {
+        let metrics = &self.params.metrics;
+        Ok(match self.params.ground_truth {
+            GroundTruth::Exact => (self.g1.clone(), Scores::from(map_metrics(m1, &self.g1, metrics)?)),
+            GroundTruth::Observed => {
+                let observed = self.observed(&self.g1);
+                let scores = Scores::from(map_metrics_in(m1, &observed, &self.interior, metrics)?);
+                (observed, scores)
+            }
+        })
+    }
+
+    /// Advances M*_{i-1} to M*_i with the exact G_i `gi`, and scores M_1, M_i and M*_i: (against
+    /// the run's ground truth, against the other variant, G_i of the run's variant).
+    fn world(
+        &mut self,
+        gi: OccupancyGrid,
+        m1: &OccupancyGrid,
+        mi: &OccupancyGrid,
+    ) -> Result<(GroundTruthScores, GroundTruthScores, OccupancyGrid), ExperimentError> {
+        let seen = visible_cells(&gi, &self.route, &self.params.runner.sim.lidars);
+        for ((cell, &truth), seen) in self.best.cells_mut().iter_mut().zip(gi.cells()).zip(seen) {
+            if seen {
+                *cell = truth;
+            }
+        }
+        let metrics = &self.params.metrics;
+        let exact = GroundTruthScores {
+            static_map: Scores::from(map_metrics(m1, &gi, metrics)?),
+            updated_map: Scores::from(map_metrics(mi, &gi, metrics)?),
+            best_map: Scores::from(map_metrics(&self.best, &gi, metrics)?),
+        };
+        let observed_gi = self.observed(&gi);
+        let inside = |m: &OccupancyGrid| map_metrics_in(m, &observed_gi, &self.interior, metrics).map(Scores::from);
+        let observed =
+            GroundTruthScores { static_map: inside(m1)?, updated_map: inside(mi)?, best_map: inside(&self.best)? };
+        Ok(match self.params.ground_truth {
+            GroundTruth::Exact => (exact, observed, gi),
+            GroundTruth::Observed => (observed, exact, observed_gi),
+        })
+    }
+}
+
 /// [`run_seed`] from a given W_1.
 pub fn run_seed_in(
     w1: &World,
@@ -397,8 +540,8 @@ pub fn run_seed_in(
     let geometry: GridGeometry = w1.default_map_geometry(params.resolution_m)?;
     let chain = generate_worlds(w1, &params.route, params.worlds, seed, &params.generator)?;
     let m1 = build_initial_map(w1, &params.exploration_route, &geometry, &params.runner.sim, &params.mapping, seed)?;
-    let g1 = ground_truth_map(w1, &geometry);
-    let initial_scores = Scores::from(map_metrics(&m1.map, &g1, &params.metrics)?);
+    let mut judge = Judge::new(params, &m1.map, ground_truth_map(w1, &geometry));
+    let (g1, initial_scores) = judge.initial(&m1.map)?;
     progress(1);
     let mut rows = Vec::with_capacity(params.worlds - 1);
     let mut saved = Vec::new();
@@ -411,9 +554,7 @@ pub fn run_seed_in(
         rp.record_trajectories = keep;
         let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
         let run = run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?;
-        let gi = ground_truth_map(world, &geometry);
-        let static_map = Scores::from(map_metrics(&m1.map, &gi, &params.metrics)?);
-        let updated_map = Scores::from(map_metrics(&run.map, &gi, &params.metrics)?);
+        let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map)?;
         let median_scan_us = median(run.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
         all_times.extend_from_slice(&run.scan_times_us);
         rows.push(WorldRow {
@@ -421,8 +562,10 @@ pub fn run_seed_in(
             world: i,
             edits: chain.edits[k].len(),
             movable_items: world.movable.len(),
-            static_map,
-            updated_map,
+            static_map: chosen.static_map,
+            updated_map: chosen.updated_map,
+            best_map: chosen.best_map,
+            other_ground_truth: other,
             loc_static: run.baseline,
             loc_updated: run.chain,
             updater: run.updater,
@@ -489,6 +632,46 @@ pub struct MapQuality {
     pub ms: MetricSummary,
     /// OPDF.
     pub opdf: MetricSummary,
+}
+
+/// The best achievable map against one metric: how much of the possible improvement M_i made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BestSummary {
+    /// Mean of M*_i/G_i over all worlds and seeds, percent.
+    pub best_mean: f64,
+    /// (mean M_i/G_i − mean M_1/G_i) / (mean M*_i/G_i − mean M_1/G_i): the share of the
+    /// achievable improvement M_i reaches (1 = all of it, 0 = none, negative = worse than M_1);
+    /// `null` when M*_i is no better than M_1 (nothing to achieve).
+    pub achieved_fraction: Option<f64>,
+}
+
+/// [`BestSummary`] per metric.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BestAchievable {
+    /// Cross-correlation.
+    pub cc: BestSummary,
+    /// Map score.
+    pub ms: BestSummary,
+    /// OPDF.
+    pub opdf: BestSummary,
+}
+
+/// The map quality against one ground truth variant, with the best achievable map.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GroundTruthQuality {
+    /// M_1 and M_i against it.
+    pub map_quality: MapQuality,
+    /// M*_i against it.
+    pub best_achievable: BestAchievable,
+}
+
+/// Both ground truth variants side by side.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ByGroundTruth {
+    /// The exact raster over the whole grid.
+    pub exact: GroundTruthQuality,
+    /// What the exploration route observes, over the interior.
+    pub observed: GroundTruthQuality,
 }
 
 /// One localiser's figures over all worlds and seeds.
@@ -575,8 +758,14 @@ pub struct Summary {
     pub wall_time_s: f64,
     /// M_1/G_1, mean over seeds.
     pub initial_map: Scores,
-    /// Map quality.
+    /// The ground truth of `map_quality` (`exact` or `observed`).
+    #[serde(default)]
+    pub ground_truth: GroundTruth,
+    /// Map quality against that ground truth.
     pub map_quality: MapQuality,
+    /// Map quality against both ground truth variants, each with the best achievable map.
+    #[serde(default)]
+    pub by_ground_truth: ByGroundTruth,
     /// Localisation.
     pub localisation: Localisation,
     /// Updater.
@@ -606,10 +795,22 @@ fn per_seed_diff(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> f64) -> PairedDif
     paired_diff(&per_seed)
 }
 
-fn metric_summary(runs: &[SeedRecord], f: impl Fn(&Scores) -> f64) -> MetricSummary {
-    let rows = || runs.iter().flat_map(|r| r.rows.iter());
-    let last = || runs.iter().filter_map(|r| r.rows.last());
-    let diff = per_seed_diff(runs, |w| f(&w.updated_map) - f(&w.static_map));
+/// The three scores of a row against the run's own ground truth (`other` false) or the other one.
+fn row_scores(w: &WorldRow, other: bool) -> GroundTruthScores {
+    if other {
+        w.other_ground_truth
+    } else {
+        GroundTruthScores { static_map: w.static_map, updated_map: w.updated_map, best_map: w.best_map }
+    }
+}
+
+fn metric_summary(runs: &[SeedRecord], other: bool, f: impl Fn(&Scores) -> f64) -> MetricSummary {
+    let rows = || runs.iter().flat_map(|r| r.rows.iter()).map(|w| row_scores(w, other));
+    let last = || runs.iter().filter_map(|r| r.rows.last()).map(|w| row_scores(w, other));
+    let diff = per_seed_diff(runs, |w| {
+        let g = row_scores(w, other);
+        f(&g.updated_map) - f(&g.static_map)
+    });
     MetricSummary {
         diff_mean: diff.mean,
         diff_ci95: diff.ci95,
@@ -619,6 +820,31 @@ fn metric_summary(runs: &[SeedRecord], f: impl Fn(&Scores) -> f64) -> MetricSumm
         updated_last: mean(last().map(|w| f(&w.updated_map))),
         static_last: mean(last().map(|w| f(&w.static_map))),
     }
+}
+
+fn map_quality(runs: &[SeedRecord], other: bool) -> MapQuality {
+    MapQuality {
+        cc: metric_summary(runs, other, |s| s.cc),
+        ms: metric_summary(runs, other, |s| s.ms),
+        opdf: metric_summary(runs, other, |s| s.opdf),
+    }
+}
+
+fn best_summary(runs: &[SeedRecord], other: bool, q: &MetricSummary, f: impl Fn(&Scores) -> f64) -> BestSummary {
+    let best_mean = mean(runs.iter().flat_map(|r| r.rows.iter()).map(|w| f(&row_scores(w, other).best_map)));
+    let possible = best_mean - q.static_mean;
+    let achieved_fraction = (possible > 1e-9).then(|| (q.updated_mean - q.static_mean) / possible);
+    BestSummary { best_mean, achieved_fraction }
+}
+
+fn ground_truth_quality(runs: &[SeedRecord], other: bool) -> GroundTruthQuality {
+    let q = map_quality(runs, other);
+    let best_achievable = BestAchievable {
+        cc: best_summary(runs, other, &q.cc, |s| s.cc),
+        ms: best_summary(runs, other, &q.ms, |s| s.ms),
+        opdf: best_summary(runs, other, &q.opdf, |s| s.opdf),
+    };
+    GroundTruthQuality { map_quality: q, best_achievable }
 }
 
 fn loc_summary(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> &LocStats) -> LocSummary {
@@ -658,10 +884,15 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
             ms: mean(runs.iter().map(|r| r.initial_scores.ms)),
             opdf: mean(runs.iter().map(|r| r.initial_scores.opdf)),
         },
-        map_quality: MapQuality {
-            cc: metric_summary(runs, |s| s.cc),
-            ms: metric_summary(runs, |s| s.ms),
-            opdf: metric_summary(runs, |s| s.opdf),
+        ground_truth: params.ground_truth,
+        map_quality: map_quality(runs, false),
+        by_ground_truth: match params.ground_truth {
+            GroundTruth::Exact => {
+                ByGroundTruth { exact: ground_truth_quality(runs, false), observed: ground_truth_quality(runs, true) }
+            }
+            GroundTruth::Observed => {
+                ByGroundTruth { exact: ground_truth_quality(runs, true), observed: ground_truth_quality(runs, false) }
+            }
         },
         localisation: Localisation {
             static_map: loc_summary(runs, |w| &w.loc_static),

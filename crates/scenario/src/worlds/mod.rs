@@ -4,6 +4,7 @@
 
 pub mod generator;
 pub mod mapping;
+pub mod observed;
 pub mod outline;
 
 /// What can go wrong while generating worlds or building M_1.
