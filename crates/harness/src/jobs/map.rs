@@ -72,6 +72,46 @@ pub fn integrate_scan(
     }
 }
 
+/// Maps every `stride`-th step the session processed at the pose the updater was given (the
+/// localiser's estimate, or a recorded pose): the map a robot makes of one run without a prior,
+/// e.g. the "fresh map" baseline of the validation. Steps without a pose are not counted.
+#[derive(Debug)]
+pub struct EstimateMapper {
+    /// The mapper.
+    pub mapper: LogOddsMapper,
+    /// Integrate every this-many steps with a pose (≥ 1).
+    pub stride: u64,
+    /// Steps with a pose seen.
+    pub steps: u64,
+    /// Scans integrated.
+    pub scans: u64,
+    /// Beams integrated, by kind.
+    pub beams: BeamCounts,
+}
+
+impl EstimateMapper {
+    /// A mapper over `geometry`.
+    pub fn new(geometry: GridGeometry, params: MapperParams, stride: u64) -> Result<Self, HarnessError> {
+        let mapper = LogOddsMapper::new(geometry, params).map_err(|e| HarnessError::Invalid(format!("mapper: {e}")))?;
+        Ok(Self { mapper, stride: stride.max(1), steps: 0, scans: 0, beams: BeamCounts::default() })
+    }
+}
+
+impl Observer for EstimateMapper {
+    fn on_step(&mut self, step: &Step, report: &StepReport) {
+        let Some(pose) = report.pose_in_map else { return };
+        self.steps += 1;
+        if !self.steps.is_multiple_of(self.stride) {
+            return;
+        }
+        for scan in &step.frame.scans {
+            let lidar = scan.lidar_in_map(&pose);
+            integrate_scan(&mut self.mapper, scan, &lidar, 0.0, &mut self.beams);
+            self.scans += 1;
+        }
+    }
+}
+
 /// Maps every `stride`-th step's scans at the true pose, as they come (the geometry is known).
 #[derive(Debug)]
 pub struct TruthMapper {
@@ -228,4 +268,61 @@ fn fit_geometry(
             "the observed area does not fit a grid ({e}); use a coarser --resolution or --like"
         ))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::{SensorFrame, Truth};
+
+    fn scan(ranges: Vec<f32>) -> LaserScan {
+        LaserScan {
+            stamp_ns: 0,
+            lidar_id: 0,
+            lidar_in_robot: Pose2::new(0.1, 0.0, 0.0),
+            angle_min_rad: -0.5,
+            angle_increment_rad: 0.05,
+            range_min_m: 0.05,
+            range_max_m: 10.0,
+            ranges_m: ranges,
+        }
+    }
+
+    fn report(pose: Option<Pose2>) -> StepReport {
+        StepReport {
+            stamp_ns: 0,
+            pose_in_map: pose,
+            localiser: None,
+            updater: None,
+            updater_ns: None,
+            updater_state_bytes: 0,
+            skipped: None,
+        }
+    }
+
+    /// Fed its own poses as the estimate, the estimate mapper makes the truth mapper's map; it
+    /// counts only steps with a pose and maps every `stride`-th of them.
+    #[test]
+    fn estimate_mapper_at_true_poses_makes_the_truth_mappers_map() {
+        let g = GridGeometry::new(80, 60, 0.1, Pose2::new(-1.0, -3.0, 0.0)).unwrap();
+        let mut truth = TruthMapper::new(g, MapperParams::default(), 2, 0.0).unwrap();
+        let mut est = EstimateMapper::new(g, MapperParams::default(), 2).unwrap();
+        for k in 0..9 {
+            let pose = Pose2::new(0.2 * f64::from(k), 0.1, 0.05 * f64::from(k));
+            let ranges = (0..21).map(|i| 3.0 + 0.1 * (i as f32) + 0.05 * k as f32).collect();
+            let step = Step {
+                frame: SensorFrame { stamp_ns: k as u64, odometry: None, scans: vec![scan(ranges)] },
+                truth: Some(Truth { pose_in_map: pose, distance_m: 0.0 }),
+            };
+            truth.on_step(&step, &report(None));
+            est.on_step(&step, &report(Some(pose)));
+            // A step without a pose (skipped by the session) is not counted.
+            est.on_step(&step, &report(None));
+        }
+        assert_eq!((est.steps, est.scans), (9, 4));
+        assert_eq!((truth.steps, truth.scans), (9, 4));
+        assert_eq!(est.beams, truth.beams);
+        assert_eq!(est.mapper.to_grid(), truth.mapper.to_grid());
+        assert!(est.mapper.to_grid().count(mapkeeper_grid::CellState::Occupied) > 0);
+    }
 }

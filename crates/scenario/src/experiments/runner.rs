@@ -17,6 +17,7 @@ use crate::experiments::run_events::{
 };
 use crate::sim_source::SimSource;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
+use mapkeeper_harness::jobs::map::EstimateMapper;
 use mapkeeper_harness::{Baseline, Control, LocScore, Observer, PoseSource, Session, UpdaterWork};
 pub use mapkeeper_harness::{Clock, ErrorSample, LocStats, NoClock, Trajectories};
 use mapkeeper_localiser::{FilterParams, Localiser};
@@ -74,6 +75,21 @@ pub struct RunnerParams {
     /// Record the updater's verdict and the chain localiser's error at every processed step
     /// ([`WorldRun::timeline`]). Default false.
     pub record_timeline: bool,
+    /// Build a fresh map of the run: the log-odds mapper over M_{i-1}'s grid, fed every
+    /// `scan_stride`-th processed step's scans at the chain localiser's estimate (no prior).
+    /// Default `None` (off); the validation turns it on with its `mapping` parameters.
+    #[serde(default)]
+    pub fresh_map: Option<FreshMapParams>,
+}
+
+/// How the fresh map of a run is made ([`RunnerParams::fresh_map`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FreshMapParams {
+    /// The log-odds mapper.
+    pub mapper: mapkeeper_grid::mapper::MapperParams,
+    /// Integrate every k-th processed step (≥ 1).
+    pub scan_stride: u32,
 }
 
 impl Default for RunnerParams {
@@ -96,6 +112,7 @@ impl Default for RunnerParams {
             parallel_baseline: true,
             kidnap: None,
             record_timeline: false,
+            fresh_map: None,
         }
     }
 }
@@ -123,6 +140,17 @@ impl RunnerParams {
         self.sim.validate()?;
         self.filter.validate()?;
         self.updater.validate()?;
+        if let Some(f) = &self.fresh_map {
+            if f.scan_stride == 0 {
+                return Err(ExperimentError::InvalidParam {
+                    name: "fresh_map.scan_stride",
+                    problem: "must be ≥ 1".into(),
+                });
+            }
+            f.mapper
+                .validate()
+                .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map.mapper", problem: e.to_string() })?;
+        }
         let bad = |name, v: f64| ExperimentError::InvalidParam {
             name,
             problem: format!("must be finite and ≥ 0, got {v}"),
@@ -212,6 +240,8 @@ pub struct WorldRun {
     pub lost: LostCounts,
     /// The Lost episodes, in order.
     pub lost_episodes: Vec<LostEpisode>,
+    /// The fresh map of this run at the estimated poses ([`RunnerParams::fresh_map`]).
+    pub fresh_map: Option<OccupancyGrid>,
 }
 
 /// The initial estimate: the true start displaced by `start_error_m` in a seeded direction and
@@ -280,8 +310,18 @@ pub fn run_world(
     let mut timeline = TimelineRecorder::default();
     let mut kidnap = params.kidnap.map(KidnapControl::new);
     let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
+    let mut fresh = match params.fresh_map {
+        Some(f) => Some(
+            EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
+                .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })?,
+        ),
+        None => None,
+    };
     let result = {
         let mut observers: Vec<&mut dyn Observer> = vec![&mut score, &mut work];
+        if let Some(f) = fresh.as_mut() {
+            observers.push(f);
+        }
         if params.record_timeline {
             observers.push(&mut timeline);
         }
@@ -319,6 +359,7 @@ pub fn run_world(
         timeline: timeline.samples,
         lost: lost_counts,
         lost_episodes,
+        fresh_map: fresh.map(|f| f.mapper.to_grid()),
     })
 }
 

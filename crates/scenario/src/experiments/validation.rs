@@ -8,7 +8,9 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::LostCounts;
-use crate::experiments::runner::{Clock, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world};
+use crate::experiments::runner::{
+    Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world,
+};
 pub use crate::stats::histogram_median;
 use crate::stats::{PairedDiff, frac, mean, median, paired_diff};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
@@ -196,6 +198,10 @@ pub struct GroundTruthScores {
     /// M*_i / G_i: the best achievable map (M*_1 = M_1; M*_i is M*_{i-1} with every cell the
     /// route observes in W_i set to its state in W_i).
     pub best_map: Scores,
+    /// F_i / G_i: a fresh map of W_i's run alone (the log-odds mapper of M_1, fed the run's
+    /// scans at the chain localiser's estimates, no prior).
+    #[serde(default)]
+    pub fresh_map: Scores,
 }
 
 /// One world of one seed: a row of `worlds.csv`.
@@ -216,6 +222,9 @@ pub struct WorldRow {
     /// M*_i / G_i, the best achievable map ([`GroundTruthScores::best_map`]).
     #[serde(default)]
     pub best_map: Scores,
+    /// F_i / G_i, the fresh map of this run ([`GroundTruthScores::fresh_map`]).
+    #[serde(default)]
+    pub fresh_map: Scores,
     /// The same three against the other ground truth variant.
     #[serde(default)]
     pub other_ground_truth: GroundTruthScores,
@@ -504,6 +513,7 @@ impl<'a> Judge<'a> {
         gi: OccupancyGrid,
         m1: &OccupancyGrid,
         mi: &OccupancyGrid,
+        fresh: &OccupancyGrid,
     ) -> Result<(GroundTruthScores, GroundTruthScores, OccupancyGrid), ExperimentError> {
         let seen = visible_cells(&gi, &self.route, &self.params.runner.sim.lidars);
         for ((cell, &truth), seen) in self.best.cells_mut().iter_mut().zip(gi.cells()).zip(seen) {
@@ -516,11 +526,16 @@ impl<'a> Judge<'a> {
             static_map: Scores::from(map_metrics(m1, &gi, metrics)?),
             updated_map: Scores::from(map_metrics(mi, &gi, metrics)?),
             best_map: Scores::from(map_metrics(&self.best, &gi, metrics)?),
+            fresh_map: Scores::from(map_metrics(fresh, &gi, metrics)?),
         };
         let observed_gi = self.observed(&gi);
         let inside = |m: &OccupancyGrid| map_metrics_in(m, &observed_gi, &self.interior, metrics).map(Scores::from);
-        let observed =
-            GroundTruthScores { static_map: inside(m1)?, updated_map: inside(mi)?, best_map: inside(&self.best)? };
+        let observed = GroundTruthScores {
+            static_map: inside(m1)?,
+            updated_map: inside(mi)?,
+            best_map: inside(&self.best)?,
+            fresh_map: inside(fresh)?,
+        };
         Ok(match self.params.ground_truth {
             GroundTruth::Exact => (exact, observed, gi),
             GroundTruth::Observed => (observed, exact, observed_gi),
@@ -552,9 +567,11 @@ pub fn run_seed_in(
         let keep = params.saved_worlds.contains(&i);
         let mut rp = params.runner.clone();
         rp.record_trajectories = keep;
+        rp.fresh_map = Some(FreshMapParams { mapper: params.mapping.mapper, scan_stride: params.mapping.scan_stride });
         let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
         let run = run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?;
-        let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map)?;
+        let fresh = run.fresh_map.as_ref().unwrap_or(&run.map);
+        let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map, fresh)?;
         let median_scan_us = median(run.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
         all_times.extend_from_slice(&run.scan_times_us);
         rows.push(WorldRow {
@@ -565,6 +582,7 @@ pub fn run_seed_in(
             static_map: chosen.static_map,
             updated_map: chosen.updated_map,
             best_map: chosen.best_map,
+            fresh_map: chosen.fresh_map,
             other_ground_truth: other,
             loc_static: run.baseline,
             loc_updated: run.chain,
@@ -663,6 +681,9 @@ pub struct GroundTruthQuality {
     pub map_quality: MapQuality,
     /// M*_i against it.
     pub best_achievable: BestAchievable,
+    /// Means over all worlds and seeds of the fresh map F_i against it.
+    #[serde(default)]
+    pub fresh_map: Scores,
 }
 
 /// Both ground truth variants side by side.
@@ -800,7 +821,12 @@ fn row_scores(w: &WorldRow, other: bool) -> GroundTruthScores {
     if other {
         w.other_ground_truth
     } else {
-        GroundTruthScores { static_map: w.static_map, updated_map: w.updated_map, best_map: w.best_map }
+        GroundTruthScores {
+            static_map: w.static_map,
+            updated_map: w.updated_map,
+            best_map: w.best_map,
+            fresh_map: w.fresh_map,
+        }
     }
 }
 
@@ -844,7 +870,11 @@ fn ground_truth_quality(runs: &[SeedRecord], other: bool) -> GroundTruthQuality 
         ms: best_summary(runs, other, &q.ms, |s| s.ms),
         opdf: best_summary(runs, other, &q.opdf, |s| s.opdf),
     };
-    GroundTruthQuality { map_quality: q, best_achievable }
+    let fresh = |f: fn(&Scores) -> f64| {
+        mean(runs.iter().flat_map(|r| r.rows.iter()).map(|w| f(&row_scores(w, other).fresh_map)))
+    };
+    let fresh_map = Scores { cc: fresh(|s| s.cc), ms: fresh(|s| s.ms), opdf: fresh(|s| s.opdf) };
+    GroundTruthQuality { map_quality: q, best_achievable, fresh_map }
 }
 
 fn loc_summary(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> &LocStats) -> LocSummary {
