@@ -1,0 +1,78 @@
+//! The local scale-out recipe `docs/scale-out/local-shards.sh`: a sweep run as shards through
+//! `xargs -P` and merged equals the unsharded sweep file for file, and a re-run after a lost
+//! shard runs only that shard.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{files, s, scratch};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/scale-out/local-shards.sh")
+}
+
+fn recipe(args: &[&str]) -> Output {
+    Command::new("bash").arg(script()).args(args).env("MAPKEEPER", env!("CARGO_BIN_EXE_mapkeeper")).output().unwrap()
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+const SWEEP: [&str; 14] = [
+    "--presets",
+    "paper,no-update",
+    "--localiser",
+    "mapkeeper",
+    "--seed",
+    "1",
+    "--seeds",
+    "2",
+    "--worlds",
+    "2",
+    "--route-length",
+    "6",
+    "--no-timing",
+    "--force",
+];
+
+#[test]
+fn shards_through_xargs_merge_into_the_unsharded_sweep_and_resume_skips_complete_shards() {
+    let dir = scratch("scale-out", "sweep");
+    let whole = dir.join("whole");
+    let mut args = vec!["validate"];
+    args.extend(SWEEP);
+    args.extend(["--out", s(&whole)]);
+    let o = Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(&args).output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+
+    // Four jobs (preset × seed) in three shards, two processes at a time.
+    let out = dir.join("sharded");
+    let mut args = vec!["3", "2", s(&out)];
+    args.extend(SWEEP);
+    let o = recipe(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("skipped"), "{}", text(&o));
+    assert_eq!(files(&out.join("all")), files(&whole), "merged shards differ from the unsharded sweep");
+
+    // Shard 2 lost (as if killed before it finished): the re-run runs it alone.
+    let kept = files(&out.join("shards/1"));
+    std::fs::remove_dir_all(out.join("shards/2")).unwrap();
+    let o = recipe(&args);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("shard 1/3: complete, skipped") && t.contains("shard 3/3: complete, skipped"), "{t}");
+    assert!(!t.contains("shard 2/3: complete"), "{t}");
+    assert_eq!(files(&out.join("shards/1")), kept);
+    assert_eq!(files(&out.join("all")), files(&whole), "the resumed sweep differs from the unsharded one");
+
+    // Bad counts are refused with the usage.
+    for bad in [["x", "2"], ["3", ""], ["0", "1"], ["2", "-1"]] {
+        let o = recipe(&[bad[0], bad[1], s(&dir.join("bad"))]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(!dir.join("bad").exists());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
