@@ -365,7 +365,7 @@ def set_path(path, value):
 row = ["seeds", 0, "rows", 0]
 for name, data in {
     "wrong_format.json": edited(set_path(["format"], "mapkeeper-sweep")),
-    "wrong_version.json": edited(set_path(["format_version"], 2)),
+    "wrong_version.json": edited(set_path(["format_version"], 1)),
     "no_seed.json": edited(set_path(["seeds"], [])),
     "duplicate_seed.json": edited(lambda r: r["seeds"].append(copy.deepcopy(r["seeds"][0]))),
     "missing_row.json": edited(set_path(["seeds", 0, "rows"], [])),
@@ -382,7 +382,7 @@ for name, data in {
     "unknown_field.json": edited(set_path(["bogus"], 1)),
     "summary_disagrees.json": pair(runs, {**summary, "rows": summary["rows"] + 1}),
     "summary_not_json.json": pair(runs, b"{\"tool\": "),
-    "not_json.json": b'{"format": "mapkeeper-validation-runs", "format_version": 1,\n  "seeds": [\n',
+    "not_json.json": b'{"format": "mapkeeper-validation-runs", "format_version": 2,\n  "seeds": [\n',
     "empty.json": b"",
 }.items():
     write("merge_json", name, data)

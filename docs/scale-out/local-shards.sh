@@ -8,8 +8,10 @@
 # Each shard runs with --jobs 1 (the parallelism is the P processes). A shard whose folder is
 # complete (it has runs.json: folders appear whole or not at all) is skipped, so re-running the
 # same command after a kill runs only the shards that did not finish; a killed shard's
-# `.k.partial` staging folder is reported and removed by its re-run. OUT/all is rewritten by
-# every run. Set MAPKEEPER to the binary (default: `mapkeeper` on PATH).
+# `.k.partial` staging folder is reported and removed by its re-run. OUT/recipe.txt records N and
+# the validate arguments: a re-run with other ones is refused (it would mix shards of two
+# sweeps). OUT/all is rewritten by every run. Set MAPKEEPER to the binary (default: `mapkeeper`
+# on PATH).
 set -euo pipefail
 if [ $# -lt 3 ]; then
     echo "usage: $0 N P OUT [validate arguments…]" >&2
@@ -24,6 +26,12 @@ for v in "$n" "$p"; do
 done
 bin=${MAPKEEPER:-mapkeeper}
 mkdir -p "$out/shards"
+stamp=$(printf 'N=%s' "$n"; printf ' %q' "$@")
+if [ -f "$out/recipe.txt" ] && [ "$(cat "$out/recipe.txt")" != "$stamp" ]; then
+    echo "$0: $out holds shards of another sweep ($(cat "$out/recipe.txt")), not of ($stamp): use another OUT" >&2
+    exit 2
+fi
+printf '%s' "$stamp" >"$out/recipe.txt"
 todo=()
 for k in $(seq 1 "$n"); do
     if [ -f "$out/shards/$k/runs.json" ] || [ -f "$out/shards/$k/summary.json" ]; then

@@ -2,8 +2,10 @@
 # Slurm array job: one `mapkeeper validate` shard per array task. Submit with
 #   sbatch --array=1-10 docs/scale-out/slurm-array.sh
 # then merge once every task is done (the job id is printed by sbatch):
-#   sbatch --dependency=afterok:JOBID --wrap 'mapkeeper merge $(for k in $(seq 1 10); do echo sweep/shards/$k; done) --out sweep/all'
-# Shard k of N is the k-th contiguous slice of the (preset × seed) jobs; N is the array's size.
+#   sbatch --dependency=afterok:JOBID --wrap 'mapkeeper merge $(for k in $(seq 1 10); do echo sweep/shards/$k; done) --out sweep/all --force'
+# Shard k of N is the k-th contiguous slice of the (preset × seed) jobs. N is written below
+# (not taken from the array's size, so that re-submitting only the failed indices, e.g.
+# --array=3,7, runs the same shards); keep it equal to the array's last index.
 # A task whose shard folder is complete exits at once, so re-submitting the same array after a
 # failure runs only the shards that did not finish. Not run on a cluster by this project: the
 # shard and merge logic is the one the local recipe's test checks (local-shards.sh).
@@ -14,8 +16,8 @@
 #SBATCH --output=mapkeeper-%A_%a.log
 set -euo pipefail
 out=${OUT:-$PWD/sweep}
-k=${SLURM_ARRAY_TASK_ID:?run as an array job (sbatch --array=1-N)}
-n=${SLURM_ARRAY_TASK_COUNT:?run as an array job (sbatch --array=1-N)}
+k=${SLURM_ARRAY_TASK_ID:?run as an array job (sbatch --array=1-10)}
+n=10
 if [ -f "$out/shards/$k/runs.json" ] || [ -f "$out/shards/$k/summary.json" ]; then
     echo "shard $k/$n: complete, skipped"
     exit 0

@@ -78,6 +78,7 @@ const FLAGS: &[Flag] = &[
     other("validate", "--updater-params", Path),
     other("validate", "--presets", Names),
     other("validate", "--localiser", Name),
+    other("validate", "--ground-truth", Name),
     other("validate", "--out", Path),
     num("validate", "--jobs", Count),
     num("validate", "--route-length", Real),

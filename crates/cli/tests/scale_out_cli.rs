@@ -1,5 +1,5 @@
 //! The local scale-out recipe `docs/scale-out/local-shards.sh`: a sweep run as shards through
-//! `xargs -P` and merged equals the unsharded sweep file for file, and a re-run after a lost
+//! `xargs -P` and merged equals the unsharded sweep file for file, and a re-run after a killed
 //! shard runs only that shard.
 #![allow(clippy::unwrap_used)]
 
@@ -57,16 +57,32 @@ fn shards_through_xargs_merge_into_the_unsharded_sweep_and_resume_skips_complete
     assert!(!text(&o).contains("skipped"), "{}", text(&o));
     assert_eq!(files(&out.join("all")), files(&whole), "merged shards differ from the unsharded sweep");
 
-    // Shard 2 lost (as if killed before it finished): the re-run runs it alone.
+    // Shard 2 killed while writing: only its staging folder (a half-written file) and lock file
+    // are left. The re-run runs shard 2 alone, reporting and removing the leftover.
     let kept = files(&out.join("shards/1"));
     std::fs::remove_dir_all(out.join("shards/2")).unwrap();
+    let staging = out.join("shards/.2.partial");
+    std::fs::create_dir_all(staging.join("paper")).unwrap();
+    std::fs::write(staging.join("paper/runs.json"), "{\"format\": \"mapkeeper-vali").unwrap();
+    std::fs::write(out.join("shards/.2.partial.lock"), "").unwrap();
     let o = recipe(&args);
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("shard 1/3: complete, skipped") && t.contains("shard 3/3: complete, skipped"), "{t}");
     assert!(!t.contains("shard 2/3: complete"), "{t}");
+    assert!(t.contains(".2.partial: removed the incomplete folder"), "{t}");
+    assert!(!staging.exists() && !out.join("shards/.2.partial.lock").exists());
     assert_eq!(files(&out.join("shards/1")), kept);
     assert_eq!(files(&out.join("all")), files(&whole), "the resumed sweep differs from the unsharded one");
+
+    // The same OUT with other arguments would mix two sweeps: refused, nothing run.
+    let mut other = vec!["3", "2", s(&out)];
+    other.extend(SWEEP);
+    other.extend(["--seeds", "3"]);
+    let o = recipe(&other);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("holds shards of another sweep"), "{}", text(&o));
+    assert_eq!(files(&out.join("all")), files(&whole));
 
     // Bad counts are refused with the usage.
     for bad in [["x", "2"], ["3", ""], ["0", "1"], ["2", "-1"]] {

@@ -485,6 +485,7 @@ fn ground_truth_variants_are_both_reported_and_swap() {
     assert_eq!(e["map_quality"], e["by_ground_truth"]["exact"]["map_quality"]);
     assert_eq!(o["map_quality"], o["by_ground_truth"]["observed"]["map_quality"]);
     assert_ne!(e["map_quality"], o["map_quality"]);
+    let mut fractions = 0;
     for gt in ["exact", "observed"] {
         for m in ["cc", "ms", "opdf"] {
             let b = &e["by_ground_truth"][gt]["best_achievable"][m];
@@ -497,9 +498,15 @@ fn ground_truth_variants_are_both_reported_and_swap() {
             assert!(best.is_finite() && (0.0..=100.0).contains(&best), "{gt} {m}: {b}");
             if let Some(a) = b["achieved_fraction"].as_f64() {
                 assert!((a - (mi - m1) / (best - m1)).abs() < 1e-9, "{gt} {m}: {b} {q}");
+                fractions += 1;
+            } else {
+                assert!(best <= m1 + 1e-9, "{gt} {m}: null although M* beats M_1: {b} {q}");
             }
+            let fresh = e["by_ground_truth"][gt]["fresh_map"][m].as_f64().unwrap();
+            assert!(fresh > 0.0 && fresh <= 100.0, "{gt} {m}: fresh map {fresh}");
         }
     }
+    assert!(fractions > 0, "the best achievable map beat M_1 on no metric");
     let csv = |d: &Path| -> Vec<Vec<String>> {
         let text = std::fs::read_to_string(d.join("worlds.csv")).unwrap();
         text.lines().map(|l| l.split(',').map(str::to_string).collect()).collect()

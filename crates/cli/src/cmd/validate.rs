@@ -39,7 +39,8 @@ pub struct Args {
     #[arg(long, value_name = "S", default_value_t = DEFAULT_SEED, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
     /// Number of seeds (seed, seed+1, …), run in parallel; 1 to 100000 (each seed is a whole
-    /// validation; 3 or more give the paired 95 % intervals of the differences).
+    /// validation; 2 or more give the paired 95 % intervals of the differences, 3 or more
+    /// intervals of a useful width: t(0.975, 1) = 12.7).
     #[arg(long, value_name = "K", default_value_t = 3, value_parser = super::count_in(1, super::MAX_SEEDS), allow_hyphen_values = true)]
     pub seeds: usize,
     /// One updater preset: paper, authors, mapkeeper, always-update, no-update, log-odds (results

@@ -62,7 +62,7 @@ recovery_window_s = 4.0
 /// `validate` arguments with the settings most tests run under filled in where `args` does not
 /// give them: one preset (`paper`), the `mapkeeper` localiser, seed 1, one seed. (The default
 /// run, a sweep of paper and mapkeeper with amcl over seeds 11-13, is tested on its own in
-/// validate_cli.rs.)
+/// localiser_cli.rs.)
 pub fn validate_args(args: &[&str]) -> Vec<String> {
     let has = |flag: &str| args.contains(&flag);
     let mut v: Vec<String> = args.iter().map(ToString::to_string).collect();

@@ -77,7 +77,8 @@ pub struct RunnerParams {
     pub record_timeline: bool,
     /// Build a fresh map of the run: the log-odds mapper over M_{i-1}'s grid, fed every
     /// `scan_stride`-th processed step's scans at the chain localiser's estimate (no prior).
-    /// Default `None` (off); the validation turns it on with its `mapping` parameters.
+    /// Default `None` (off); `ValidationParams`' default turns it on with M_1's mapper and
+    /// stride.
     #[serde(default)]
     pub fresh_map: Option<FreshMapParams>,
 }

@@ -27,7 +27,8 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "snake_case")]
 pub enum GroundTruth {
     /// The exact raster of all of W_i's geometry over the whole grid (faces never visible from
-    /// anywhere are occupied; cells outside the walls count).
+    /// anywhere are occupied; the cells outside the walls, unknown in G_i and in the maps,
+    /// count).
     #[default]
     Exact,
     /// What a noise-free mapper sees driving the exploration route at true poses in W_i (the
@@ -80,7 +81,8 @@ pub struct ValidationParams {
     pub route: Route,
     /// The exploration route in W_1 for M_1. Default [`Route::exploration_warehouse`].
     pub exploration_route: Route,
-    /// The closed loop.
+    /// The closed loop. Its `fresh_map` (required here) is by default M_1's mapper and stride
+    /// (`mapping`).
     pub runner: RunnerParams,
     /// The scenario generator.
     pub generator: GeneratorParams,
@@ -98,15 +100,19 @@ pub struct ValidationParams {
 
 impl Default for ValidationParams {
     fn default() -> Self {
+        let mapping = MappingParams::default();
         Self {
             worlds: 100,
             preset: "paper".into(),
             resolution_m: 0.05,
             route: Route::default_warehouse(),
             exploration_route: Route::exploration_warehouse(),
-            runner: RunnerParams::default(),
+            runner: RunnerParams {
+                fresh_map: Some(FreshMapParams { mapper: mapping.mapper, scan_stride: mapping.scan_stride }),
+                ..RunnerParams::default()
+            },
             generator: GeneratorParams::default(),
-            mapping: MappingParams::default(),
+            mapping,
             metrics: MetricParams::default(),
             ground_truth: GroundTruth::Exact,
             saved_worlds: vec![2, 50, 100],
@@ -164,6 +170,12 @@ impl ValidationParams {
             return Err(ExperimentError::InvalidParam { name: "route", problem: "routes need waypoints".into() });
         }
         self.runner.validate()?;
+        if self.runner.fresh_map.is_none() {
+            return Err(ExperimentError::InvalidParam {
+                name: "runner.fresh_map",
+                problem: "the validation scores a fresh map of every run: give its mapper and stride".into(),
+            });
+        }
         self.generator.validate()?;
         self.mapping.validate()?;
         self.metrics.validate()?;
@@ -200,7 +212,6 @@ pub struct GroundTruthScores {
     pub best_map: Scores,
     /// F_i / G_i: a fresh map of W_i's run alone (the log-odds mapper of M_1, fed the run's
     /// scans at the chain localiser's estimates, no prior).
-    #[serde(default)]
     pub fresh_map: Scores,
 }
 
@@ -220,13 +231,10 @@ pub struct WorldRow {
     /// M_i / G_i.
     pub updated_map: Scores,
     /// M*_i / G_i, the best achievable map ([`GroundTruthScores::best_map`]).
-    #[serde(default)]
     pub best_map: Scores,
     /// F_i / G_i, the fresh map of this run ([`GroundTruthScores::fresh_map`]).
-    #[serde(default)]
     pub fresh_map: Scores,
-    /// The same three against the other ground truth variant.
-    #[serde(default)]
+    /// The same four against the other ground truth variant.
     pub other_ground_truth: GroundTruthScores,
     /// The baseline localiser on M_1.
     pub loc_static: LocStats,
@@ -391,7 +399,7 @@ impl std::str::FromStr for Shard {
 /// Value of `runs.json`'s `format` field.
 pub const RUNS_FORMAT: &str = "mapkeeper-validation-runs";
 /// Version of the `runs.json` layout.
-pub const RUNS_FORMAT_VERSION: u32 = 1;
+pub const RUNS_FORMAT_VERSION: u32 = 2;
 
 /// `runs.json`: the machine-readable record of a validation folder, from which `summary.json`,
 /// `worlds.csv`, `edits.json`, `report.md` and the plots are recomputed exactly (what
@@ -567,9 +575,9 @@ pub fn run_seed_in(
         let keep = params.saved_worlds.contains(&i);
         let mut rp = params.runner.clone();
         rp.record_trajectories = keep;
-        rp.fresh_map = Some(FreshMapParams { mapper: params.mapping.mapper, scan_stride: params.mapping.scan_stride });
         let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
         let run = run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?;
+        // Validated: runner.fresh_map is set, so every run returns its fresh map.
         let fresh = run.fresh_map.as_ref().unwrap_or(&run.map);
         let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map, fresh)?;
         let median_scan_us = median(run.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
@@ -682,7 +690,6 @@ pub struct GroundTruthQuality {
     /// M*_i against it.
     pub best_achievable: BestAchievable,
     /// Means over all worlds and seeds of the fresh map F_i against it.
-    #[serde(default)]
     pub fresh_map: Scores,
 }
 
@@ -779,13 +786,11 @@ pub struct Summary {
     pub wall_time_s: f64,
     /// M_1/G_1, mean over seeds.
     pub initial_map: Scores,
-    /// The ground truth of `map_quality` (`exact` or `observed`).
-    #[serde(default)]
+    /// The ground truth of `initial_map` and `map_quality` (`exact` or `observed`).
     pub ground_truth: GroundTruth,
     /// Map quality against that ground truth.
     pub map_quality: MapQuality,
     /// Map quality against both ground truth variants, each with the best achievable map.
-    #[serde(default)]
     pub by_ground_truth: ByGroundTruth,
     /// Localisation.
     pub localisation: Localisation,

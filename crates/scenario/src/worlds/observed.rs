@@ -41,7 +41,9 @@ pub fn route_poses(route: &Route, step_m: f64) -> Vec<Pose2> {
 
 /// Which cells of `exact` the `lidars` observe from the robot at each of `poses`: every cell a
 /// beam crosses up to its range limit, and the cell it stops in (the first cell that is not
-/// free). One entry per cell, row-major.
+/// free). A lidar whose origin is not in a free cell (an item of this world stands on that
+/// point of the route) sees nothing from there: the robot could not be there. One entry per
+/// cell, row-major.
 pub fn visible_cells(exact: &OccupancyGrid, poses: &[Pose2], lidars: &[LidarParams]) -> Vec<bool> {
     let geometry = *exact.geometry();
     let cells = exact.cells();
@@ -49,6 +51,9 @@ pub fn visible_cells(exact: &OccupancyGrid, poses: &[Pose2], lidars: &[LidarPara
     for robot in poses {
         for lidar in lidars {
             let origin = robot.compose(&lidar.lidar_in_robot);
+            if exact.get_world(origin.position()) != Some(CellState::Free) {
+                continue;
+            }
             for k in 0..lidar.beams {
                 let angle = origin.yaw + lidar.angle_min_rad + k as f64 * lidar.angle_increment_rad;
                 let (s, c) = angle.sin_cos();
@@ -133,6 +138,14 @@ mod tests {
         assert_eq!(at(3.45, 2.0), CellState::Occupied);
         assert_eq!(at(4.0, 2.0), CellState::Free);
         assert_eq!(at(2.95, 2.0), CellState::Unknown);
+    }
+
+    #[test]
+    fn a_pose_inside_an_item_sees_nothing() {
+        let exact = room();
+        let inside = Route::new(&[Point2::new(3.0, 2.0)]);
+        let seen = visible_cells(&exact, &route_poses(&inside, 0.5), &[lidar()]);
+        assert!(seen.iter().all(|&s| !s));
     }
 
     #[test]
