@@ -72,6 +72,21 @@ pub fn integrate_scan(
     }
 }
 
+/// Integrates every scan of one step taken with the robot at `robot_in_map`; returns the number
+/// of scans.
+fn integrate_frame(
+    mapper: &mut LogOddsMapper,
+    scans: &[LaserScan],
+    robot_in_map: &Pose2,
+    clear_m: f64,
+    counts: &mut BeamCounts,
+) -> u64 {
+    for scan in scans {
+        integrate_scan(mapper, scan, &scan.lidar_in_map(robot_in_map), clear_m, counts);
+    }
+    scans.len() as u64
+}
+
 /// Maps every `stride`-th step the session processed at the pose the updater was given (the
 /// localiser's estimate, or a recorded pose): the map a robot makes of one run without a prior,
 /// e.g. the "fresh map" baseline of the validation. Steps without a pose are not counted.
@@ -104,11 +119,7 @@ impl Observer for EstimateMapper {
         if !self.steps.is_multiple_of(self.stride) {
             return;
         }
-        for scan in &step.frame.scans {
-            let lidar = scan.lidar_in_map(&pose);
-            integrate_scan(&mut self.mapper, scan, &lidar, 0.0, &mut self.beams);
-            self.scans += 1;
-        }
+        self.scans += integrate_frame(&mut self.mapper, &step.frame.scans, &pose, 0.0, &mut self.beams);
     }
 }
 
@@ -144,11 +155,8 @@ impl Observer for TruthMapper {
         if !self.steps.is_multiple_of(self.stride) {
             return;
         }
-        for scan in &step.frame.scans {
-            let lidar = scan.lidar_in_map(&truth.pose_in_map);
-            integrate_scan(&mut self.mapper, scan, &lidar, self.clear_m, &mut self.beams);
-            self.scans += 1;
-        }
+        self.scans +=
+            integrate_frame(&mut self.mapper, &step.frame.scans, &truth.pose_in_map, self.clear_m, &mut self.beams);
     }
 }
 

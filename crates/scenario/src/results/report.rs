@@ -8,7 +8,7 @@
 //! Scenario set (`generate`): `manifest.json`, `route.toml`, `worlds/W_iii.toml`,
 //! `ground_truth/G_iii.{yaml,pgm}`. Same seed ⇒ byte-identical files.
 
-use crate::experiments::validation::{SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
+use crate::experiments::validation::{Scores, SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
 use crate::results::ResultsError;
 use crate::results::figures::{Figure, write_figures};
 use crate::worlds::generator::WorldChain;
@@ -88,35 +88,23 @@ pub const WORLDS_CSV_COLUMNS: &[&str] = &[
 fn csv_row(w: &WorldRow) -> String {
     let f = |v: f64| format!("{v:.6}");
     let (s, u) = (&w.loc_static, &w.loc_updated);
-    let cols: Vec<String> = vec![
-        w.seed.to_string(),
-        w.world.to_string(),
-        w.edits.to_string(),
-        w.movable_items.to_string(),
-        f(w.static_map.cc),
-        f(w.static_map.ms),
-        f(w.static_map.opdf),
-        f(w.updated_map.cc),
-        f(w.updated_map.ms),
-        f(w.updated_map.opdf),
-        f(w.best_map.cc),
-        f(w.best_map.ms),
-        f(w.best_map.opdf),
-        f(w.fresh_map.cc),
-        f(w.fresh_map.ms),
-        f(w.fresh_map.opdf),
-        f(w.other_ground_truth.static_map.cc),
-        f(w.other_ground_truth.static_map.ms),
-        f(w.other_ground_truth.static_map.opdf),
-        f(w.other_ground_truth.updated_map.cc),
-        f(w.other_ground_truth.updated_map.ms),
-        f(w.other_ground_truth.updated_map.opdf),
-        f(w.other_ground_truth.best_map.cc),
-        f(w.other_ground_truth.best_map.ms),
-        f(w.other_ground_truth.best_map.opdf),
-        f(w.other_ground_truth.fresh_map.cc),
-        f(w.other_ground_truth.fresh_map.ms),
-        f(w.other_ground_truth.fresh_map.opdf),
+    let three = |x: &Scores| [f(x.cc), f(x.ms), f(x.opdf)];
+    let o = &w.other_ground_truth;
+    let mut cols: Vec<String> =
+        vec![w.seed.to_string(), w.world.to_string(), w.edits.to_string(), w.movable_items.to_string()];
+    for x in [
+        &w.static_map,
+        &w.updated_map,
+        &w.best_map,
+        &w.fresh_map,
+        &o.static_map,
+        &o.updated_map,
+        &o.best_map,
+        &o.fresh_map,
+    ] {
+        cols.extend(three(x));
+    }
+    cols.extend([
         f(s.mean_error_m),
         f(s.max_error_m),
         f(s.rmse_m),
@@ -150,7 +138,7 @@ fn csv_row(w: &WorldRow) -> String {
         w.lost.cleared.to_string(),
         w.lost.give_ups.to_string(),
         format!("{:.3}", w.lost.stopped_s()),
-    ];
+    ]);
     cols.join(",")
 }
 
