@@ -22,6 +22,8 @@ enum Command {
     Validate(cmd::validate::Args),
     /// The robustness experiments: localisation-check demo, Table 1, lost robot, kidnap suite.
     Recover(cmd::recover::Args),
+    /// One experiment of the paper's claims into a folder of its own (check-detection).
+    Experiment(cmd::experiment::Args),
     /// How long the localiser presets take to correct a start error (time and distance).
     Converge(cmd::converge::Args),
     /// Write a seeded scenario set (worlds, ground-truth maps, route, manifest).
@@ -52,6 +54,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Validate(a) => cmd::validate::run(a),
         Command::Recover(a) => cmd::recover::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
         Command::Converge(a) => cmd::converge::run(a),
         Command::Generate(a) => cmd::generate::run(a),
         Command::Run(a) => cmd::run::run(a),

@@ -34,6 +34,6 @@ pub use clock::{Clock, NoClock};
 pub use driver::{Control, Observer, run, step_once};
 pub use error::HarnessError;
 pub use replay::{DEFAULT_SYNC_WINDOW_NS, LogSource, OdometryAt, ReplayOptions};
-pub use session::{Baseline, BaselineSample, PoseSource, Session, SessionOutput, Skip, StepReport};
+pub use session::{Baseline, BaselineSample, PoseBias, PoseSource, Session, SessionOutput, Skip, StepReport};
 pub use source::{RobotControl, SensorFrame, SensorSource, SourceError, Step, Truth};
 pub use stats::{ErrorSample, LocAcc, LocScore, LocStats, Trajectories, UpdaterWork};

@@ -149,6 +149,28 @@ pub struct Session<'c> {
     updater: Option<MapUpdater>,
     baseline: Option<Baseline>,
     clock: &'c dyn Clock,
+    /// An offset added to the pose source's pose before the updater sees it ([`Session::set_pose_bias`]).
+    bias: Option<PoseBias>,
+}
+
+/// An offset of the pose the updater is given (an experiment holding the estimate wrong while
+/// the localiser itself runs on): the position moves by (`dx_m`, `dy_m`) in the map frame and
+/// the heading by `dyaw_rad`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PoseBias {
+    /// Along the map's x axis, metres.
+    pub dx_m: f64,
+    /// Along the map's y axis, metres.
+    pub dy_m: f64,
+    /// Heading, radians.
+    pub dyaw_rad: f64,
+}
+
+impl PoseBias {
+    /// `pose` moved by the bias.
+    pub fn apply(&self, pose: Pose2) -> Pose2 {
+        Pose2::new(pose.x + self.dx_m, pose.y + self.dy_m, mapkeeper_grid::wrap_angle(pose.yaw + self.dyaw_rad))
+    }
 }
 
 impl std::fmt::Debug for Session<'_> {
@@ -165,7 +187,19 @@ impl<'c> Session<'c> {
         baseline: Option<Baseline>,
         clock: &'c dyn Clock,
     ) -> Self {
-        Self { pose, updater, baseline, clock }
+        Self { pose, updater, baseline, clock, bias: None }
+    }
+
+    /// From the next step on, the pose the updater is given (and [`StepReport::pose_in_map`])
+    /// is the pose source's pose moved by `bias`; `None` removes it. The localiser itself is
+    /// not touched. [`Session::set_estimate`] removes the bias (the estimate is re-initialised).
+    pub fn set_pose_bias(&mut self, bias: Option<PoseBias>) {
+        self.bias = bias;
+    }
+
+    /// The bias in force, if any.
+    pub fn pose_bias(&self) -> Option<PoseBias> {
+        self.bias
     }
 
     /// Steps every estimator with one frame: the pose source first, then the updater with
@@ -185,6 +219,10 @@ impl<'c> Session<'c> {
                 None => return StepReport::skipped(frame.stamp_ns, Skip::NoPose),
             },
             PoseSource::None => (None, None),
+        };
+        let pose = match (pose, self.bias) {
+            (Some(p), Some(b)) => Some(b.apply(p)),
+            _ => pose,
         };
         let (mut updater_ns, mut updater_state_bytes) = (None, 0);
         let updater = match (self.updater.as_mut(), pose) {
@@ -218,7 +256,11 @@ impl<'c> Session<'c> {
     /// biasing the estimate, or pose updating handing a pose back).
     pub fn set_estimate(&mut self, pose_in_map: Pose2, covariance: Covariance3) -> Result<(), HarnessError> {
         match &mut self.pose {
-            PoseSource::Localiser(loc) => Ok(loc.init_pose(pose_in_map, covariance)?),
+            PoseSource::Localiser(loc) => {
+                loc.init_pose(pose_in_map, covariance)?;
+                self.bias = None;
+                Ok(())
+            }
             _ => Err(HarnessError::Unsupported("the session's pose comes from no localiser".into())),
         }
     }

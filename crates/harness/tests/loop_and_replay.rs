@@ -312,3 +312,31 @@ fn update_writes_every_pose_recovery_with_its_pose_or_refusal_reason() {
     assert_eq!(rows[2][..6], ["2.010000000", "lost", "refused", "", "", ""]);
     assert!(!rows[2][6].is_empty(), "a refusal names its reason: {:?}", rows[2]);
 }
+
+#[test]
+fn a_pose_bias_moves_the_pose_the_updater_sees_and_a_new_estimate_removes_it() {
+    use mapkeeper_harness::PoseBias;
+    use mapkeeper_localiser::Localiser;
+    let frame = |t: u64| mapkeeper_harness::SensorFrame {
+        stamp_ns: t,
+        odometry: Some(Pose2::IDENTITY),
+        scans: vec![scan(t, 0)],
+    };
+    let mut loc = Localiser::new(&room(), FilterParams::default(), 7).unwrap();
+    loc.init_pose(Pose2::IDENTITY, [[1e-4, 0.0, 0.0], [0.0, 1e-4, 0.0], [0.0, 0.0, 1e-4]]).unwrap();
+    let mut session = Session::new(PoseSource::Localiser(Box::new(loc)), None, None, &NoClock);
+    let plain = session.process(&frame(1)).pose_in_map.unwrap();
+    let bias = PoseBias { dx_m: 0.5, dy_m: -0.25, dyaw_rad: 0.1 };
+    session.set_pose_bias(Some(bias));
+    assert_eq!(session.pose_bias(), Some(bias));
+    let r = session.process(&frame(2));
+    let (biased, est) = (r.pose_in_map.unwrap(), r.localiser.unwrap().estimate.pose_in_map);
+    // The localiser itself is not moved: the report's pose is its estimate plus the bias.
+    assert!((biased.x - est.x - 0.5).abs() < 1e-12 && (biased.y - est.y + 0.25).abs() < 1e-12);
+    assert!((biased.yaw - est.yaw - 0.1).abs() < 1e-12);
+    assert!(est.distance(&plain) < 0.2, "{est:?} vs {plain:?}");
+    session.set_estimate(Pose2::IDENTITY, [[1e-4, 0.0, 0.0], [0.0, 1e-4, 0.0], [0.0, 0.0, 1e-4]]).unwrap();
+    assert_eq!(session.pose_bias(), None);
+    let r = session.process(&frame(3));
+    assert_eq!(r.pose_in_map, Some(r.localiser.unwrap().estimate.pose_in_map));
+}

@@ -650,10 +650,11 @@ impl PoseUpdatingParams {
 /// are numbers (TOML's `inf` too), `"inf"` / `"infinity"` (any case) and `null`. Every field
 /// that may hold `inf` carries `#[serde(with = "inf_as_text")]` (the test
 /// `infinite_limits_survive_json` catches one that does not, in any preset).
-mod inf_as_text {
+pub mod inf_as_text {
     use serde::{Deserialize, Deserializer, Serializer};
 
-    pub(super) fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+    /// Writes `inf` as `"inf"`, any other value as a number.
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
         if *v == f64::INFINITY { s.serialize_str("inf") } else { s.serialize_f64(*v) }
     }
 
@@ -664,7 +665,8 @@ mod inf_as_text {
         Text(String),
     }
 
-    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    /// Reads a number, `"inf"` / `"infinity"` (any case) or `null` (= `inf`).
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         match Option::<Repr>::deserialize(d)? {
             Some(Repr::Number(v)) => Ok(v),
             None => Ok(f64::INFINITY),

@@ -1,6 +1,7 @@
 //! One module per subcommand: its arguments and the glue that calls the libraries.
 
 pub mod converge;
+pub mod experiment;
 pub mod generate;
 pub mod localise;
 pub mod map;

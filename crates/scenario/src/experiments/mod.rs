@@ -4,6 +4,7 @@
 //! experiments and kidnap suite ([`recovery`]), and the localisers' convergence from a start
 //! error ([`convergence`]).
 
+pub mod check_detection;
 pub mod convergence;
 pub mod recovery;
 pub mod run_events;

@@ -6,7 +6,7 @@
 
 use crate::experiments::ExperimentError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
-use mapkeeper_harness::{Control, HarnessError, Observer, RobotControl, Session, Step, StepReport};
+use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, Step, StepReport};
 use mapkeeper_localiser::Covariance3;
 use mapkeeper_updater::{PoseRecovery, Verdict};
 use serde::{Deserialize, Serialize};
@@ -181,6 +181,106 @@ impl Control for KidnapControl {
                 Some(PoseRecovery::NotRecovered { .. }) => rec.failed_recoveries += 1,
                 None => {}
             }
+        }
+        Ok(())
+    }
+}
+
+/// A pose error held for a while: from the first scan tick at or after `at_s` and for
+/// `hold_s` seconds (`inf`: to the end of the run), the pose the updater is given is the chain
+/// localiser's estimate moved by (`dx_m`, `dy_m`) in the map frame and by `dyaw_rad`. The
+/// localiser itself runs on unbiased, so when the hold ends the estimate is right again at once
+/// (a localiser that was wrong for `hold_s` and then converged). A pose that pose updating hands
+/// back re-initialises the localiser and ends the hold early.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseErrorHold {
+    /// Start, seconds of simulated time.
+    pub at_s: f64,
+    /// Duration, seconds (`inf`: to the end of the run).
+    #[serde(with = "mapkeeper_updater::params::inf_as_text")]
+    pub hold_s: f64,
+    /// Offset along the map's x axis, metres.
+    pub dx_m: f64,
+    /// Offset along the map's y axis, metres.
+    pub dy_m: f64,
+    /// Heading offset, radians.
+    pub dyaw_rad: f64,
+}
+
+impl PoseErrorHold {
+    pub(crate) fn validate(&self) -> Result<(), ExperimentError> {
+        let ok = self.at_s.is_finite()
+            && self.at_s >= 0.0
+            && !self.hold_s.is_nan()
+            && self.hold_s >= 0.0
+            && [self.dx_m, self.dy_m, self.dyaw_rad].iter().all(|v| v.is_finite());
+        if !ok {
+            return Err(ExperimentError::InvalidParam {
+                name: "pose_error",
+                problem: format!("needs finite offsets, at_s ≥ 0 and hold_s ≥ 0, got {self:?}"),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// When a [`PoseErrorHold`] acted.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseErrorRecord {
+    /// The tick it began, seconds.
+    pub began_s: f64,
+    /// The tick it ended (time up, or a recovered pose), seconds; `None` if it lasted to the end.
+    pub ended_s: Option<f64>,
+    /// It was ended by pose updating (the localiser was re-initialised) before its time.
+    pub ended_by_recovery: bool,
+}
+
+/// Applies a [`PoseErrorHold`] through the session's pose bias.
+#[derive(Clone, Debug)]
+pub struct PoseErrorControl {
+    hold: PoseErrorHold,
+    record: Option<PoseErrorRecord>,
+}
+
+impl PoseErrorControl {
+    /// A control that will apply `hold`.
+    pub fn new(hold: PoseErrorHold) -> Self {
+        Self { hold, record: None }
+    }
+
+    /// What happened, if the hold's time was reached.
+    pub fn into_record(self) -> Option<PoseErrorRecord> {
+        self.record
+    }
+}
+
+impl Control for PoseErrorControl {
+    fn before_step(
+        &mut self,
+        step: &Step,
+        session: &mut Session<'_>,
+        _robot: Option<&mut dyn RobotControl>,
+    ) -> Result<(), HarnessError> {
+        let (h, t_s) = (self.hold, seconds(step));
+        match self.record.as_mut() {
+            None if t_s >= h.at_s => {
+                if h.hold_s > 0.0 {
+                    session.set_pose_bias(Some(PoseBias { dx_m: h.dx_m, dy_m: h.dy_m, dyaw_rad: h.dyaw_rad }));
+                }
+                let ended_s = (h.hold_s <= 0.0).then_some(t_s);
+                self.record = Some(PoseErrorRecord { began_s: t_s, ended_s, ended_by_recovery: false });
+            }
+            Some(rec) if rec.ended_s.is_none() => {
+                if session.pose_bias().is_none() {
+                    rec.ended_s = Some(t_s);
+                    rec.ended_by_recovery = true;
+                } else if t_s >= rec.began_s + h.hold_s {
+                    session.set_pose_bias(None);
+                    rec.ended_s = Some(t_s);
+                }
+            }
+            _ => {}
         }
         Ok(())
     }

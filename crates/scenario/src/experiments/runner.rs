@@ -13,7 +13,8 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{
-    Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEpisode, LostPolicy, TimelineRecorder, TimelineSample,
+    Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEpisode, LostPolicy, PoseErrorControl, PoseErrorHold,
+    PoseErrorRecord, TimelineRecorder, TimelineSample,
 };
 use crate::sim_source::SimSource;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
@@ -81,6 +82,10 @@ pub struct RunnerParams {
     /// stride.
     #[serde(default)]
     pub fresh_map: Option<FreshMapParams>,
+    /// Hold the pose the updater is given wrong by a fixed offset for a while (the localiser
+    /// runs on unbiased; [`PoseErrorHold`]). Default none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose_error: Option<PoseErrorHold>,
 }
 
 /// How the fresh map of a run is made ([`RunnerParams::fresh_map`]).
@@ -114,6 +119,7 @@ impl Default for RunnerParams {
             kidnap: None,
             record_timeline: false,
             fresh_map: None,
+            pose_error: None,
         }
     }
 }
@@ -172,6 +178,9 @@ impl RunnerParams {
         }
         if let Some(k) = &self.kidnap {
             k.validate()?;
+        }
+        if let Some(h) = &self.pose_error {
+            h.validate()?;
         }
         Ok(())
     }
@@ -235,6 +244,8 @@ pub struct WorldRun {
     pub chain_errors: Vec<ErrorSample>,
     /// What happened around the kidnap, if one was asked for and its time was reached.
     pub kidnap: Option<KidnapRecord>,
+    /// When the held pose error began and ended, if one was asked for and its time reached.
+    pub pose_error: Option<PoseErrorRecord>,
     /// Every processed step, if asked for.
     pub timeline: Vec<TimelineSample>,
     /// The reaction to Lost: episodes, attempts, recoveries, give-ups, time stopped.
@@ -310,6 +321,7 @@ pub fn run_world(
     let mut work = UpdaterWork::default();
     let mut timeline = TimelineRecorder::default();
     let mut kidnap = params.kidnap.map(KidnapControl::new);
+    let mut pose_error = params.pose_error.map(PoseErrorControl::new);
     let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
     let mut fresh = match params.fresh_map {
         Some(f) => Some(
@@ -329,6 +341,9 @@ pub fn run_world(
         let mut controls: Vec<&mut dyn Control> = Vec::new();
         if let Some(k) = kidnap.as_mut() {
             controls.push(k);
+        }
+        if let Some(h) = pose_error.as_mut() {
+            controls.push(h);
         }
         controls.push(&mut lost);
         mapkeeper_harness::run(&mut source, &mut session, &mut controls, &mut observers)
@@ -357,6 +372,7 @@ pub fn run_world(
         trajectories: score.trajectories,
         chain_errors: score.chain_errors,
         kidnap: kidnap.and_then(KidnapControl::into_record),
+        pose_error: pose_error.and_then(PoseErrorControl::into_record),
         timeline: timeline.samples,
         lost: lost_counts,
         lost_episodes,

@@ -2,6 +2,7 @@
 //! recovery suite's ([`recovery_report`]), and merging the folders of a sharded sweep
 //! ([`merge`]). Every folder is written through [`mapkeeper_grid::StagedDir`].
 
+pub mod check_detection_report;
 pub mod comparison;
 pub mod figures;
 pub mod merge;

@@ -62,7 +62,7 @@ pub struct Setup {
 }
 
 impl Setup {
-    fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ExperimentError> {
+    pub(crate) fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ExperimentError> {
         match (self.chain.worlds.get(i.wrapping_sub(1)), self.ground_truth.get(i.wrapping_sub(1))) {
             (Some(w), Some(g)) => Ok((w, g)),
             _ => Err(ExperimentError::InvalidParam {
@@ -136,7 +136,7 @@ pub fn tour_from(tour: &Route, s: f64, length_m: f64) -> (Pose2, Route) {
     (Pose2::new(start.x, start.y, yaw), Route::new(&route))
 }
 
-fn with_start(world: &World, start: Pose2) -> World {
+pub(crate) fn with_start(world: &World, start: Pose2) -> World {
     let mut w = world.clone();
     w.robot_start = StartPose { x: start.x, y: start.y, yaw_deg: start.yaw.to_degrees() };
     w

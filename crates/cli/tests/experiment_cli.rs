@@ -1,0 +1,71 @@
+//! End-to-end tests of `mapkeeper experiment`, run as the real binary on its `--quick` settings.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{files, mapkeeper, s, scratch};
+
+#[test]
+fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports() {
+    let dir = scratch("experiment", "check-detection");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let run = |out: &std::path::Path, jobs: &str| {
+        let o =
+            mapkeeper(&["experiment", "check-detection", "--quick", "--trials", "8", "--jobs", jobs, "--out", s(out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let stdout = run(&a, "1");
+    assert!(stdout.contains("paper") && stdout.contains("mapkeeper") && stdout.contains("detection"), "{stdout}");
+    run(&b, "2");
+    for f in ["summary.json", "trials.csv", "report.md", "detection_by_error.svg", "detection_by_error.png"] {
+        assert!(a.join(f).is_file(), "{f} missing");
+    }
+    // Same seed, other thread count: every file identical but the wall time in the summary and report.
+    let (fa, fb) = (files(&a), files(&b));
+    for (name, bytes) in &fa {
+        if name == "summary.json" || name == "report.md" {
+            continue;
+        }
+        assert_eq!(Some(bytes), fb.get(name), "{name} differs between --jobs 1 and 2");
+    }
+    let v: serde_json::Value = serde_json::from_slice(&fa["summary.json"]).unwrap();
+    let mut w: serde_json::Value = serde_json::from_slice(&fb["summary.json"]).unwrap();
+    w["wall_time_s"] = v["wall_time_s"].clone();
+    assert_eq!(v, w);
+    assert_eq!(v["trials"], 8);
+    // The headline rates are the counts of trials.csv.
+    let csv = String::from_utf8_lossy(&fa["trials.csv"]).into_owned();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 16);
+    for preset in ["paper", "mapkeeper"] {
+        let d = &v["check_detection"][preset];
+        let bad: Vec<&Vec<&str>> =
+            rows.iter().filter(|r| r[0] == preset && r[4].parse::<f64>().unwrap() >= 0.3).collect();
+        let detected = bad.iter().filter(|r| r[10] == "true").count();
+        assert_eq!(d["detection"]["of"].as_u64().unwrap() as usize, bad.len(), "{preset}");
+        assert_eq!(d["detection"]["hits"].as_u64().unwrap() as usize, detected, "{preset}");
+        let clean: u64 = rows.iter().filter(|r| r[0] == preset).map(|r| r[11].parse::<u64>().unwrap()).sum();
+        assert_eq!(d["false_alarms"]["of"].as_u64().unwrap(), clean, "{preset}");
+        assert!(clean > 100, "{preset}: {clean} clean steps");
+        let rate = d["detection_rate"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&rate) && d["false_alarm_rate"].as_f64().unwrap() <= 1.0);
+    }
+    // A pose held 1 m off in a world one step from the map is seen; a right pose is not flagged.
+    assert!(v["check_detection"]["paper"]["by_error"][5]["detected"]["rate"].as_f64().unwrap_or(1.0) > 0.0);
+    assert!(v["check_detection"]["paper"]["false_alarm_rate"].as_f64().unwrap() < 0.2);
+
+    // Bad input names the flag or the file.
+    let o = mapkeeper(&["experiment", "check-detection", "--quick", "--presets", "nope", "--out", s(&dir.join("c"))]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--presets"), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = mapkeeper(&["experiment", "check-detection", "--max-world", "1", "--out", s(&dir.join("c"))]);
+    assert_eq!(o.status.code(), Some(2));
+    let params = dir.join("p.toml");
+    std::fs::write(&params, "[check_detection]\nwindow_s = -1.0\n").unwrap();
+    let o =
+        mapkeeper(&["experiment", "check-detection", "--quick", "--params", s(&params), "--out", s(&dir.join("c"))]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("p.toml"), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
