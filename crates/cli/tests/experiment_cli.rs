@@ -69,3 +69,41 @@ fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports
     assert!(String::from_utf8_lossy(&o.stderr).contains("p.toml"), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn table1_writes_every_cell_of_the_table_and_the_held_error_costs_always_update() {
+    let dir = scratch("experiment", "table1");
+    let out = dir.join("t");
+    let o = mapkeeper(&["experiment", "table1", "--quick", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["summary.json", "runs.csv", "report.md", "cc_by_hold.svg", "cc_by_hold.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let t = &v["table1"]["paper"];
+    for cond in ["hold_0s", "hold_2s", "amcl_start"] {
+        for variant in ["always_update", "check", "check_no_pose_updating"] {
+            let c = &t[cond][variant];
+            for m in ["cc", "ms", "opdf"] {
+                let x = c[m].as_f64().unwrap_or(f64::NAN);
+                assert!((0.0..=100.0).contains(&x), "{cond} {variant} {m}: {c}");
+            }
+            assert_eq!(c["runs"], 2, "{cond} {variant}");
+        }
+        // always_update's difference from itself is zero.
+        assert_eq!(t[cond]["always_update"]["vs_always_update"]["cc"]["mean"].as_f64(), Some(0.0));
+    }
+    // With no hold the check never acts on a right pose here: the three variants give one map.
+    let h0 = &t["hold_0s"];
+    assert_eq!(h0["check"]["cc"], h0["always_update"]["cc"]);
+    // A pose held wrong for 2 s: updating without the check flips cells wrongly, the check does not.
+    let h2 = &t["hold_2s"];
+    assert!(
+        h2["always_update"]["wrong_flips"].as_f64().unwrap() > h2["check"]["wrong_flips"].as_f64().unwrap(),
+        "{h2}"
+    );
+    assert!(h2["check"]["vs_always_update"]["cc"]["mean"].as_f64().unwrap() > 0.0, "{h2}");
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 3 * 3);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -6,7 +6,9 @@ use super::load_params;
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::check_detection::{CheckDetectionParams, run_check_detection};
+use mapkeeper_scenario::experiments::table1_hold::{Table1HoldParams, VARIANTS, run_table1_hold};
 use mapkeeper_scenario::results::check_detection_report::write_check_detection;
+use mapkeeper_scenario::results::table1_hold_report::write_table1_hold;
 use mapkeeper_sim::World;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -28,6 +30,103 @@ pub enum Which {
     /// How well the localisation check sees a bad pose: detection rate, false alarms and
     /// latency of each updater preset against injected pose errors in stale worlds.
     CheckDetection(CheckDetectionArgs),
+    /// Table 1 for real: the pose held wrong for T s (or the localiser from a 0.7 m start) on
+    /// the whole tour of W_2; always-update / check / check without pose updating per preset.
+    Table1(Table1Args),
+}
+
+/// Arguments of `mapkeeper experiment table1`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Each trial has its own world seed (its own W_2), start place on the tour and error (0.3-1.0 m in any direction relative to the heading, up to ±10°). Conditions: hold_<T>s for T in 0, 5, 10, 20, 30 (the pose the updater is given is held wrong for T s from the start, then right) and amcl_start (the localiser starts 0.7 m off and corrects itself). Variants: always_update, check, check_no_pose_updating. Output in OUT (default results/table1-s<SEED>-<N>t-<counter>): summary.json (table1.<preset>.<condition>.<variant>.{cc, ms, opdf, ..._ci95, vs_always_update, wrong_flips}), runs.csv, report.md, cc_by_hold.{svg,png}. Definitions: docs/recovery.md, \"Table 1 with a held error\"."
+)]
+pub struct Table1Args {
+    /// Trials, 1 to 100000 (default 10).
+    #[arg(long, value_name = "N", value_parser = super::count_in(1, MAX_TRIALS), allow_hyphen_values = true)]
+    pub trials: Option<usize>,
+    /// Run seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 31, value_parser = super::seed, allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Updater presets compared, comma-separated (default paper,mapkeeper).
+    #[arg(long, value_name = "A,B", value_delimiter = ',')]
+    pub presets: Option<Vec<String>>,
+    /// Localiser preset: amcl or mapkeeper (docs/localiser.md).
+    #[arg(long, value_name = "NAME", default_value = "amcl")]
+    pub localiser: String,
+    /// A short setting for tests: 2 trials (unless --trials is given), holds 0 and 2 s, a 6 m
+    /// drive, preset paper.
+    #[arg(long)]
+    pub quick: bool,
+    /// Parameter file (TOML): `[recovery]` (worlds, loop; docs/recovery.md) and `[table1]`
+    /// (any field of the experiment).
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Worker threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
+    pub jobs: Option<usize>,
+    /// Replace an existing non-empty output folder.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// The parameter file of `experiment table1`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct Table1File {
+    recovery: RecoveryParams,
+    table1: Table1HoldParams,
+}
+
+fn table1(args: Table1Args) -> anyhow::Result<()> {
+    let mut base = Table1File::default();
+    base.recovery.runner.set_localiser(&args.localiser).context("--localiser")?;
+    if args.quick {
+        base.table1.trials = 2;
+        base.table1.holds_s = vec![0.0, 2.0];
+        base.table1.route_length_m = 6.0;
+        base.table1.presets = vec!["paper".into()];
+    }
+    let mut file = load_params(base, args.params.as_deref(), |f: &Table1File| {
+        f.recovery.validate()?;
+        f.table1.validate()
+    })?;
+    let p = &mut file.table1;
+    if let Some(n) = args.trials {
+        p.trials = n;
+    }
+    if let Some(v) = args.presets {
+        p.presets = v;
+    }
+    p.validate().context("--trials / --presets")?;
+    let runs = p.trials * p.presets.len() * p.conditions().len() * VARIANTS.len();
+    let out = args.out.clone().unwrap_or_else(|| default_out("table1", args.seed, p.trials));
+    let dir = super::output_dir(&out, args.force)?;
+    let bar = super::progress_bar(runs as u64, "runs");
+    let pool = super::thread_pool(args.jobs)?;
+    let start = Instant::now();
+    let w1 = World::default_warehouse();
+    let progress = || bar.inc(1);
+    let mut r = pool.install(|| run_table1_hold(&w1, &file.recovery, &file.table1, args.seed, &progress))?;
+    bar.finish_and_clear();
+    r.summary.wall_time_s = start.elapsed().as_secs_f64();
+    write_table1_hold(&dir, &r)?;
+    let out = dir.finish()?;
+    println!(
+        "table1: seed {}, {} trials, {} runs, localiser {}, {:.1} s wall",
+        args.seed, r.summary.params.trials, runs, r.summary.recovery.runner.localiser, r.summary.wall_time_s
+    );
+    for (preset, by_cond) in &r.summary.table1 {
+        for (cond, by_var) in by_cond {
+            let line: Vec<String> =
+                by_var.iter().map(|(v, c)| format!("{v} CC {:.2} MS {:.2} OPDF {:.2}", c.cc, c.ms, c.opdf)).collect();
+            println!("{preset:<10} {cond:<11} {}", line.join(" | "));
+        }
+    }
+    println!("wrote {}", out.display());
+    Ok(())
 }
 
 /// Arguments of `mapkeeper experiment check-detection`.
@@ -97,6 +196,7 @@ fn default_out(stem: &str, seed: u64, trials: usize) -> PathBuf {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
         Which::CheckDetection(a) => check_detection(a),
+        Which::Table1(a) => table1(a),
     }
 }
 

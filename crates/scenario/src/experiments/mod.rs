@@ -10,6 +10,7 @@ pub mod recovery;
 pub mod run_events;
 pub mod runner;
 pub mod sweep;
+pub mod table1_hold;
 pub mod validation;
 
 use crate::worlds::WorldsError;

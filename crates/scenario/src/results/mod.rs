@@ -8,6 +8,7 @@ pub mod figures;
 pub mod merge;
 pub mod recovery_report;
 pub mod report;
+pub mod table1_hold_report;
 
 use std::path::PathBuf;
 
