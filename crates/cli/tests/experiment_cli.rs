@@ -107,3 +107,40 @@ fn table1_writes_every_cell_of_the_table_and_the_held_error_costs_always_update(
     assert_eq!(csv.lines().count(), 1 + 2 * 3 * 3);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
+    let dir = scratch("experiment", "kidnap-robot");
+    let out = dir.join("k");
+    let o = mapkeeper(&["experiment", "kidnap-robot", "--quick", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["summary.json", "trials.csv", "report.md"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let k = &v["kidnap_robot"];
+    assert_eq!(k["trials"], 3);
+    let applied = k["applied"].as_u64().unwrap();
+    assert!(applied >= 1, "{k}");
+    let sum: f64 = ["recovered_rate_pose_updating", "recovered_rate_filter", "failed_rate"]
+        .iter()
+        .map(|f| k[f].as_f64().unwrap())
+        .sum();
+    assert!((sum - 1.0).abs() < 1e-9, "{k}");
+    for m in ["cc", "ms", "opdf"] {
+        assert!(k["map_damage"][m].is_number(), "{k}");
+    }
+    let csv = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    for r in rows.iter().filter(|r| r[7] == "true") {
+        // The robot really moved, by 0.5-3 m, and the localiser (told nothing) was wrong after it.
+        let d: f64 = r[8].parse().unwrap();
+        assert!((0.49..=3.01).contains(&d), "{r:?}");
+        assert_eq!(r[9], "true", "a moved robot is said Lost: {r:?}");
+    }
+    let o = mapkeeper(&["experiment", "kidnap-robot", "--quick", "--preset", "nope", "--out", s(&dir.join("x"))]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--preset"), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

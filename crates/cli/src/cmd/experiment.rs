@@ -6,8 +6,10 @@ use super::load_params;
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::check_detection::{CheckDetectionParams, run_check_detection};
+use mapkeeper_scenario::experiments::kidnap_robot::{KidnapRobotParams, run_kidnap_robot};
 use mapkeeper_scenario::experiments::table1_hold::{Table1HoldParams, VARIANTS, run_table1_hold};
 use mapkeeper_scenario::results::check_detection_report::write_check_detection;
+use mapkeeper_scenario::results::kidnap_robot_report::write_kidnap_robot;
 use mapkeeper_scenario::results::table1_hold_report::write_table1_hold;
 use mapkeeper_sim::World;
 use serde::{Deserialize, Serialize};
@@ -33,6 +35,111 @@ pub enum Which {
     /// Table 1 for real: the pose held wrong for T s (or the localiser from a 0.7 m start) on
     /// the whole tour of W_2; always-update / check / check without pose updating per preset.
     Table1(Table1Args),
+    /// Real kidnaps: the robot itself moved 0.5-3 m and up to ±180° (odometry blind) in late,
+    /// stale worlds; recoveries by pose updating apart from the filter's own, map damage.
+    KidnapRobot(KidnapRobotArgs),
+}
+
+/// Arguments of `mapkeeper experiment kidnap-robot`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Each trial drives up to 60 m of the tour from a seeded place in a seeded world W_k (k = 50..100) on the map of W_1; at 3-6 s the robot itself is put 0.5-3 m away in free space, turned by up to ±180°, and its odometry does not see the move. Each trial is paired with the same run without the kidnap. Output in OUT (default results/kidnap-robot-s<SEED>-<N>t-<counter>): summary.json (kidnap_robot.{trials, recovered_rate_pose_updating, recovered_rate_filter, failed_rate, false_lost_rate, median_recovery_s, map_damage.{cc,ms,opdf}}), trials.csv, report.md. Definitions: docs/recovery.md, \"Real kidnaps\"."
+)]
+pub struct KidnapRobotArgs {
+    /// Trials, 1 to 100000 (default 100).
+    #[arg(long, value_name = "N", value_parser = super::count_in(1, MAX_TRIALS), allow_hyphen_values = true)]
+    pub trials: Option<usize>,
+    /// Run seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 41, value_parser = super::seed, allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Updater preset (default paper).
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
+    /// Localiser preset: amcl or mapkeeper (docs/localiser.md).
+    #[arg(long, value_name = "NAME", default_value = "amcl")]
+    pub localiser: String,
+    /// A short setting for tests: 3 trials (unless --trials is given), worlds W_2-W_3, a 6 s
+    /// recovery window, a 15 m drive.
+    #[arg(long)]
+    pub quick: bool,
+    /// Parameter file (TOML): `[recovery]` and `[kidnap_robot]` (any field of the experiment).
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Worker threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
+    pub jobs: Option<usize>,
+    /// Replace an existing non-empty output folder.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// The parameter file of `experiment kidnap-robot`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct KidnapRobotFile {
+    recovery: RecoveryParams,
+    kidnap_robot: KidnapRobotParams,
+}
+
+fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
+    let mut base = KidnapRobotFile::default();
+    base.recovery.runner.set_localiser(&args.localiser).context("--localiser")?;
+    if args.quick {
+        let k = &mut base.kidnap_robot;
+        k.trials = 3;
+        k.min_world = 2;
+        k.max_world = 3;
+        k.recovery_window_s = 6.0;
+        k.route_length_m = 15.0;
+    }
+    let mut file = load_params(base, args.params.as_deref(), |f: &KidnapRobotFile| {
+        f.recovery.validate()?;
+        f.kidnap_robot.validate()
+    })?;
+    let p = &mut file.kidnap_robot;
+    if let Some(n) = args.trials {
+        p.trials = n;
+    }
+    if let Some(v) = args.preset {
+        p.preset = v;
+    }
+    p.validate().context("--trials / --preset")?;
+    let out = args.out.clone().unwrap_or_else(|| default_out("kidnap-robot", args.seed, p.trials));
+    let dir = super::output_dir(&out, args.force)?;
+    let bar = super::progress_bar(p.trials as u64, "trials");
+    let pool = super::thread_pool(args.jobs)?;
+    let start = Instant::now();
+    let w1 = World::default_warehouse();
+    let progress = || bar.inc(1);
+    let mut r = pool.install(|| run_kidnap_robot(&w1, &file.recovery, &file.kidnap_robot, args.seed, &progress))?;
+    bar.finish_and_clear();
+    r.wall_time_s = start.elapsed().as_secs_f64();
+    write_kidnap_robot(&dir, &r)?;
+    let out = dir.finish()?;
+    let k = &r.kidnap_robot;
+    println!(
+        "kidnap-robot: seed {}, preset {}, {} trials ({} moved), {:.1} s wall: recovered by pose updating {:.1} %, by \
+         the filter {:.1} %, failed {:.1} %, false Lost {:.1} %, median recovery {}, map damage CC {:.2} MS {:.2} OPDF \
+         {:.2}",
+        r.seed,
+        k.preset,
+        k.trials,
+        k.applied,
+        r.wall_time_s,
+        100.0 * k.recovered_rate_pose_updating,
+        100.0 * k.recovered_rate_filter,
+        100.0 * k.failed_rate,
+        100.0 * k.false_lost_rate,
+        k.median_recovery_s.map_or_else(|| "–".into(), |v| format!("{v:.2} s")),
+        k.map_damage.cc,
+        k.map_damage.ms,
+        k.map_damage.opdf
+    );
+    println!("wrote {}", out.display());
+    Ok(())
 }
 
 /// Arguments of `mapkeeper experiment table1`.
@@ -120,8 +227,16 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     );
     for (preset, by_cond) in &r.summary.table1 {
         for (cond, by_var) in by_cond {
-            let line: Vec<String> =
-                by_var.iter().map(|(v, c)| format!("{v} CC {:.2} MS {:.2} OPDF {:.2}", c.cc, c.ms, c.opdf)).collect();
+            let line: Vec<String> = by_var
+                .iter()
+                .map(|(v, c)| {
+                    format!(
+                        "{v} CC {:.2} MS {:.2} OPDF \
+         {:.2}",
+                        c.cc, c.ms, c.opdf
+                    )
+                })
+                .collect();
             println!("{preset:<10} {cond:<11} {}", line.join(" | "));
         }
     }
@@ -197,6 +312,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
         Which::CheckDetection(a) => check_detection(a),
         Which::Table1(a) => table1(a),
+        Which::KidnapRobot(a) => kidnap_robot(a),
     }
 }
 

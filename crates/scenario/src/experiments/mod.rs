@@ -6,6 +6,7 @@
 
 pub mod check_detection;
 pub mod convergence;
+pub mod kidnap_robot;
 pub mod recovery;
 pub mod run_events;
 pub mod runner;

@@ -46,6 +46,39 @@ impl Kidnap {
     }
 }
 
+/// A kidnapping of the robot itself: at the first scan tick at or after `at_s` the simulated
+/// robot is moved to `to` (map frame) at once; its odometry does not see the jump, and the
+/// localiser and the updater are not told. The experiment chooses `to` in free space.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotKidnap {
+    /// When, seconds of simulated time.
+    pub at_s: f64,
+    /// Where the robot is put, map frame.
+    pub to: Pose2,
+}
+
+impl RobotKidnap {
+    pub(crate) fn validate(&self) -> Result<(), ExperimentError> {
+        let ok = self.at_s.is_finite()
+            && self.at_s >= 0.0
+            && [self.to.x, self.to.y, self.to.yaw].iter().all(|v| v.is_finite());
+        if !ok {
+            return Err(ExperimentError::InvalidParam {
+                name: "robot_kidnap",
+                problem: format!("needs a finite at_s ≥ 0 and a finite pose, got {self:?}"),
+            });
+        }
+        Ok(())
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum KidnapAction {
+    Estimate(Kidnap),
+    Robot(RobotKidnap),
+}
+
 /// The chain localiser's error at one scan tick.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrackSample {
@@ -57,14 +90,15 @@ pub struct TrackSample {
     pub yaw_error_rad: f64,
 }
 
-/// What happened around a [`Kidnap`].
+/// What happened around a [`Kidnap`] or a [`RobotKidnap`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KidnapRecord {
     /// When it was applied, seconds.
     pub at_s: f64,
-    /// The true pose then.
+    /// The true pose then (after the move, for a robot kidnap).
     pub truth: Pose2,
-    /// The displaced estimate.
+    /// The displaced estimate (for a robot kidnap: the true pose before the move, where the
+    /// estimate still believes the robot is).
     pub estimate: Pose2,
     /// Lost verdicts before the kidnap.
     pub lost_before: u64,
@@ -107,10 +141,11 @@ fn seconds(step: &Step) -> f64 {
     step.frame.stamp_ns as f64 / 1e9
 }
 
-/// Applies a [`Kidnap`] of the estimate at its time and records what followed.
+/// Applies a [`Kidnap`] of the estimate (or a [`RobotKidnap`] of the robot) at its time and
+/// records what followed.
 #[derive(Clone, Debug)]
 pub struct KidnapControl {
-    kidnap: Kidnap,
+    action: KidnapAction,
     lost_seen: u64,
     record: Option<KidnapRecord>,
 }
@@ -118,7 +153,12 @@ pub struct KidnapControl {
 impl KidnapControl {
     /// A control that will apply `kidnap`.
     pub fn new(kidnap: Kidnap) -> Self {
-        Self { kidnap, lost_seen: 0, record: None }
+        Self { action: KidnapAction::Estimate(kidnap), lost_seen: 0, record: None }
+    }
+
+    /// A control that will move the robot as `kidnap` says.
+    pub fn robot(kidnap: RobotKidnap) -> Self {
+        Self { action: KidnapAction::Robot(kidnap), lost_seen: 0, record: None }
     }
 
     /// What happened, if the kidnap's time was reached.
@@ -132,16 +172,32 @@ impl Control for KidnapControl {
         &mut self,
         step: &Step,
         session: &mut Session<'_>,
-        _robot: Option<&mut dyn RobotControl>,
+        robot: Option<&mut dyn RobotControl>,
     ) -> Result<(), HarnessError> {
-        let (k, t_s) = (self.kidnap, seconds(step));
-        let Some(truth) = step.truth.map(|t| t.pose_in_map) else { return Ok(()) };
-        if self.record.is_some() || t_s < k.at_s {
+        let t_s = seconds(step);
+        let Some(before) = step.truth.map(|t| t.pose_in_map) else { return Ok(()) };
+        let at_s = match self.action {
+            KidnapAction::Estimate(k) => k.at_s,
+            KidnapAction::Robot(r) => r.at_s,
+        };
+        if self.record.is_some() || t_s < at_s {
             return Ok(());
         }
-        let estimate = Pose2::new(truth.x + k.dx_m, truth.y + k.dy_m, wrap_angle(truth.yaw + k.dyaw_rad));
-        let (s2, a2) = (k.sigma_xy_m.powi(2), k.sigma_yaw_rad.powi(2));
-        session.set_estimate(estimate, [[s2, 0.0, 0.0], [0.0, s2, 0.0], [0.0, 0.0, a2]])?;
+        let (truth, estimate) = match self.action {
+            KidnapAction::Estimate(k) => {
+                let estimate = Pose2::new(before.x + k.dx_m, before.y + k.dy_m, wrap_angle(before.yaw + k.dyaw_rad));
+                let (s2, a2) = (k.sigma_xy_m.powi(2), k.sigma_yaw_rad.powi(2));
+                session.set_estimate(estimate, [[s2, 0.0, 0.0], [0.0, s2, 0.0], [0.0, 0.0, a2]])?;
+                (before, estimate)
+            }
+            KidnapAction::Robot(r) => {
+                let Some(robot) = robot else {
+                    return Err(HarnessError::Unsupported("a robot kidnap needs a source that drives a robot".into()));
+                };
+                robot.move_robot(r.to);
+                (r.to, before)
+            }
+        };
         self.record = Some(KidnapRecord {
             at_s: t_s,
             truth,

@@ -14,7 +14,7 @@
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{
     Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEpisode, LostPolicy, PoseErrorControl, PoseErrorHold,
-    PoseErrorRecord, TimelineRecorder, TimelineSample,
+    PoseErrorRecord, RobotKidnap, TimelineRecorder, TimelineSample,
 };
 use crate::sim_source::SimSource;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
@@ -86,6 +86,10 @@ pub struct RunnerParams {
     /// runs on unbiased; [`PoseErrorHold`]). Default none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pose_error: Option<PoseErrorHold>,
+    /// Move the robot itself once during the run (odometry does not see it; [`RobotKidnap`]).
+    /// Not with `kidnap`. Default none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_kidnap: Option<RobotKidnap>,
 }
 
 /// How the fresh map of a run is made ([`RunnerParams::fresh_map`]).
@@ -120,6 +124,7 @@ impl Default for RunnerParams {
             record_timeline: false,
             fresh_map: None,
             pose_error: None,
+            robot_kidnap: None,
         }
     }
 }
@@ -181,6 +186,15 @@ impl RunnerParams {
         }
         if let Some(h) = &self.pose_error {
             h.validate()?;
+        }
+        if let Some(r) = &self.robot_kidnap {
+            if self.kidnap.is_some() {
+                return Err(ExperimentError::InvalidParam {
+                    name: "robot_kidnap",
+                    problem: "a run has one kidnap: of the estimate (kidnap) or of the robot (robot_kidnap)".into(),
+                });
+            }
+            r.validate()?;
         }
         Ok(())
     }
@@ -320,7 +334,7 @@ pub fn run_world(
     let mut score = LocScore::new(params.record_trajectories);
     let mut work = UpdaterWork::default();
     let mut timeline = TimelineRecorder::default();
-    let mut kidnap = params.kidnap.map(KidnapControl::new);
+    let mut kidnap = params.kidnap.map(KidnapControl::new).or(params.robot_kidnap.map(KidnapControl::robot));
     let mut pose_error = params.pose_error.map(PoseErrorControl::new);
     let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
     let mut fresh = match params.fresh_map {

@@ -5,6 +5,7 @@
 pub mod check_detection_report;
 pub mod comparison;
 pub mod figures;
+pub mod kidnap_robot_report;
 pub mod merge;
 pub mod recovery_report;
 pub mod report;

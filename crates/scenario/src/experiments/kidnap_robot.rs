@@ -1,0 +1,439 @@
+//! Real kidnaps (issue 12, item 6; `docs/recovery.md`, "Real kidnaps"): the robot itself is
+//! moved (its odometry does not see it) in a late, stale world, and nobody tells the localiser
+//! or the updater. Each trial draws a world W_k (k in `min_world..=max_world`), a place on the
+//! tour, a time, a displacement (0.5-3 m, any direction) and a turn (up to ±180°); the target
+//! is put in free space of G_k (the drawn direction first, then others, then shorter). Each
+//! trial is paired with the same run without the kidnap (identical until then): the false-Lost
+//! rate of a well-localised robot in a stale world, and the map damage (CC, MS, OPDF of the
+//! reference's M_k minus the kidnapped run's, against G_k). A recovery (the localiser's error
+//! under the success criterion from some time on, to the end) counts for pose updating if a
+//! pose from pose updating came at or before the start of that good stretch, for the filter
+//! otherwise.
+
+use super::ExperimentError;
+use super::recovery::{RecoveryParams, prepare, recovery_time, tour_from, with_start};
+use super::run_events::RobotKidnap;
+use super::runner::{NoClock, RunInputs, run_world};
+use super::validation::Scores;
+use crate::stats::{frac, mean, median};
+use mapkeeper_grid::metrics::map_metrics;
+use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
+use mapkeeper_sim::World;
+use mapkeeper_sim::seeds::stream_rng;
+use mapkeeper_updater::UpdaterParams;
+use rand::RngExt;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Parameters (`[kidnap_robot]` of a parameter file).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct KidnapRobotParams {
+    /// Trials. Default 100.
+    pub trials: usize,
+    /// Updater preset. Default `paper`.
+    pub preset: String,
+    /// Worlds W_min … W_max. Default 50.
+    pub min_world: usize,
+    /// Default 100.
+    pub max_world: usize,
+    /// Displacement range, metres. Default 0.5.
+    pub min_displacement_m: f64,
+    /// Default 3.0.
+    pub max_displacement_m: f64,
+    /// Largest turn, radians. Default π.
+    pub max_yaw_rad: f64,
+    /// Kidnap time range, seconds. Default 3.
+    pub kidnap_min_s: f64,
+    /// Default 6.
+    pub kidnap_max_s: f64,
+    /// A trial recovers if its good stretch starts within this long of the kidnap, seconds.
+    /// Default 20.
+    pub recovery_window_s: f64,
+    /// Length of the drive from the start place, metres. Default 60.
+    pub route_length_m: f64,
+    /// The target must have free cells of G_k within this radius, metres. Default 0.5.
+    pub free_radius_m: f64,
+}
+
+impl Default for KidnapRobotParams {
+    fn default() -> Self {
+        Self {
+            trials: 100,
+            preset: "paper".into(),
+            min_world: 50,
+            max_world: 100,
+            min_displacement_m: 0.5,
+            max_displacement_m: 3.0,
+            max_yaw_rad: PI,
+            kidnap_min_s: 3.0,
+            kidnap_max_s: 6.0,
+            recovery_window_s: 20.0,
+            route_length_m: 60.0,
+            free_radius_m: 0.5,
+        }
+    }
+}
+
+fn invalid(name: &'static str, problem: String) -> ExperimentError {
+    ExperimentError::InvalidParam { name, problem }
+}
+
+impl KidnapRobotParams {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ExperimentError> {
+        if self.trials == 0 {
+            return Err(invalid("kidnap_robot.trials", "must be ≥ 1".into()));
+        }
+        UpdaterParams::preset(&self.preset).map_err(|e| invalid("kidnap_robot.preset", e.to_string()))?;
+        if self.min_world < 2 || self.min_world > self.max_world || self.max_world > 1000 {
+            return Err(invalid(
+                "kidnap_robot.min_world",
+                format!("needs 2 ≤ min_world ≤ max_world ≤ 1000, got {}..{}", self.min_world, self.max_world),
+            ));
+        }
+        for (name, v) in [
+            ("kidnap_robot.min_displacement_m", self.min_displacement_m),
+            ("kidnap_robot.max_displacement_m", self.max_displacement_m),
+            ("kidnap_robot.max_yaw_rad", self.max_yaw_rad),
+            ("kidnap_robot.kidnap_min_s", self.kidnap_min_s),
+            ("kidnap_robot.kidnap_max_s", self.kidnap_max_s),
+            ("kidnap_robot.free_radius_m", self.free_radius_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(name, format!("must be finite and ≥ 0, got {v}")));
+            }
+        }
+        for (name, v) in [
+            ("kidnap_robot.recovery_window_s", self.recovery_window_s),
+            ("kidnap_robot.route_length_m", self.route_length_m),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(name, format!("must be finite and > 0, got {v}")));
+            }
+        }
+        if self.min_displacement_m > self.max_displacement_m || self.kidnap_min_s > self.kidnap_max_s {
+            return Err(invalid("kidnap_robot.min_displacement_m", "ranges need min ≤ max".into()));
+        }
+        Ok(())
+    }
+}
+
+/// One trial's draw.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotKidnapDraw {
+    /// Trial index.
+    pub trial: usize,
+    /// k of W_k.
+    pub world: usize,
+    /// Start on the tour, metres.
+    pub tour_position_m: f64,
+    /// Kidnap time, seconds.
+    pub kidnap_s: f64,
+    /// Drawn displacement, metres.
+    pub displacement_m: f64,
+    /// Its direction, map frame, radians.
+    pub direction_rad: f64,
+    /// Turn, radians.
+    pub yaw_rad: f64,
+}
+
+/// The draw of trial `t`.
+pub fn draw_robot_kidnap(p: &KidnapRobotParams, tour_length_m: f64, seed: u64, t: usize) -> RobotKidnapDraw {
+    let mut rng = stream_rng(seed, &format!("kidnap-robot/{t:05}"));
+    let mut u = |a: f64, b: f64| if b > a { rng.random_range(a..b) } else { a };
+    RobotKidnapDraw {
+        trial: t,
+        world: p.min_world
+            + (u(0.0, (p.max_world - p.min_world + 1) as f64).floor() as usize).min(p.max_world - p.min_world),
+        tour_position_m: u(0.0, tour_length_m),
+        kidnap_s: u(p.kidnap_min_s, p.kidnap_max_s),
+        displacement_m: u(p.min_displacement_m, p.max_displacement_m),
+        direction_rad: u(-PI, PI),
+        yaw_rad: u(-p.max_yaw_rad, p.max_yaw_rad),
+    }
+}
+
+/// Whether every cell of `g` within `r` of `p` is free.
+fn free_disc(g: &OccupancyGrid, p: Point2, r: f64) -> bool {
+    let res = g.geometry().resolution_m();
+    let n = (r / res).ceil() as i64;
+    for dy in -n..=n {
+        for dx in -n..=n {
+            let (ox, oy) = (dx as f64 * res, dy as f64 * res);
+            if ox * ox + oy * oy > r * r {
+                continue;
+            }
+            let q = Point2::new(p.x + ox, p.y + oy);
+            match g.geometry().world_to_cell(q).and_then(|c| g.get(c)) {
+                Some(CellState::Free) => {}
+                _ => return false,
+            }
+        }
+    }
+    true
+}
+
+/// The target of a kidnap from `from`: the drawn direction and distance if the disc there is
+/// free in `g`, else the other directions (15° steps, nearest first), then 3/4 and 1/2 of the
+/// distance (never below `min_m`). `None` if nothing is free.
+pub fn kidnap_target(g: &OccupancyGrid, from: Pose2, d: &RobotKidnapDraw, min_m: f64, r: f64) -> Option<Pose2> {
+    for scale in [1.0, 0.75, 0.5] {
+        let dist = (d.displacement_m * scale).max(min_m);
+        for j in 0..24 {
+            let k = if j % 2 == 0 { j / 2 } else { -(j / 2 + 1) };
+            let a = d.direction_rad + f64::from(k) * 15f64.to_radians();
+            let p = Point2::new(from.x + dist * a.cos(), from.y + dist * a.sin());
+            if free_disc(g, p, r) {
+                return Some(Pose2::new(p.x, p.y, wrap_angle(from.yaw + d.yaw_rad)));
+            }
+        }
+    }
+    None
+}
+
+/// One trial.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotKidnapTrial {
+    /// The draw.
+    pub draw: RobotKidnapDraw,
+    /// The robot was moved (a free target was found and the time reached).
+    pub applied: bool,
+    /// The displacement applied, metres.
+    pub applied_displacement_m: Option<f64>,
+    /// The check said Lost after the kidnap.
+    pub detected: bool,
+    /// Kidnap to the first Lost, seconds.
+    pub detection_delay_s: Option<f64>,
+    /// Recovered within the window, by pose updating.
+    pub recovered_pose_updating: bool,
+    /// Recovered within the window, by the filter alone.
+    pub recovered_filter: bool,
+    /// Kidnap to the start of the good stretch, seconds.
+    pub recovery_s: Option<f64>,
+    /// Poses from pose updating after the kidnap.
+    pub pose_recoveries: usize,
+    /// …of them wrong (error above the criterion).
+    pub wrong_pose_recoveries: usize,
+    /// The localiser's final error, metres.
+    pub final_error_m: Option<f64>,
+    /// Lost verdicts of the run without kidnap.
+    pub reference_lost: u64,
+    /// The reference's map against G_k.
+    pub reference_scores: Scores,
+    /// The kidnapped run's map against G_k.
+    pub kidnap_scores: Scores,
+}
+
+/// `summary.json` `kidnap_robot`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct KidnapRobotSummary {
+    /// Updater preset.
+    pub preset: String,
+    /// Trials drawn.
+    pub trials: usize,
+    /// Trials in which the robot was moved (the rates are over these).
+    pub applied: usize,
+    /// Recovered within the window with a pose from pose updating.
+    pub recovered_rate_pose_updating: f64,
+    /// Recovered within the window by the filter alone.
+    pub recovered_rate_filter: f64,
+    /// Not recovered within the window.
+    pub failed_rate: f64,
+    /// Said Lost after the kidnap.
+    pub detected_rate: f64,
+    /// Reference runs (no kidnap) with any Lost.
+    pub false_lost_rate: f64,
+    /// Median time from the kidnap to recovery, seconds.
+    pub median_recovery_s: Option<f64>,
+    /// Mean reference − kidnapped score against G_k, points (> 0: damage).
+    pub map_damage: Scores,
+    /// Largest OPDF damage of a trial, points.
+    pub map_damage_opdf_max: f64,
+    /// Poses from pose updating, and the wrong ones.
+    pub pose_recoveries: usize,
+    /// Wrong poses accepted.
+    pub wrong_pose_recoveries: usize,
+}
+
+/// The whole result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct KidnapRobotResults {
+    /// Producer and version.
+    pub tool: String,
+    /// Run seed.
+    pub seed: u64,
+    /// Wall time (set by the caller).
+    pub wall_time_s: f64,
+    /// The summary.
+    pub kidnap_robot: KidnapRobotSummary,
+    /// The trials.
+    #[serde(skip)]
+    pub trials: Vec<RobotKidnapTrial>,
+    /// Parameters.
+    pub params: KidnapRobotParams,
+    /// The loop and worlds.
+    pub recovery: RecoveryParams,
+}
+
+fn run_trial(
+    setup: &super::recovery::Setup,
+    recovery: &RecoveryParams,
+    p: &KidnapRobotParams,
+    updater: &UpdaterParams,
+    d: RobotKidnapDraw,
+    seed: u64,
+) -> Result<RobotKidnapTrial, ExperimentError> {
+    let c = &recovery.success;
+    let (world, g) = setup.world(d.world)?;
+    let map = setup.initial_map(recovery.initial_map);
+    let (start, route) = tour_from(&recovery.tour, d.tour_position_m, p.route_length_m);
+    let world = with_start(world, start);
+    let mut rp = recovery.runner.clone();
+    rp.updater = updater.clone();
+    rp.max_sim_time_s = d.kidnap_s + p.recovery_window_s + c.hold_s;
+    rp.record_trajectories = true;
+    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+    let label = format!("kidnap-robot-{:05}", d.trial);
+    let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
+    let reference_scores = Scores::from(map_metrics(&reference.map, g, &recovery.metrics)?);
+    let at_ns = (d.kidnap_s * 1e9).ceil() as u64;
+    let from =
+        reference.trajectories.as_ref().and_then(|t| t.truth.iter().find(|s| s.stamp_ns >= at_ns)).map(|s| s.pose);
+    let target = from.and_then(|f| kidnap_target(g, f, &d, p.min_displacement_m, p.free_radius_m));
+    let mut out = RobotKidnapTrial {
+        draw: d,
+        applied: false,
+        applied_displacement_m: None,
+        detected: false,
+        detection_delay_s: None,
+        recovered_pose_updating: false,
+        recovered_filter: false,
+        recovery_s: None,
+        pose_recoveries: 0,
+        wrong_pose_recoveries: 0,
+        final_error_m: None,
+        reference_lost: reference.updater.lost,
+        reference_scores,
+        kidnap_scores: reference_scores,
+    };
+    let (Some(from), Some(to)) = (from, target) else { return Ok(out) };
+    rp.record_trajectories = false;
+    rp.robot_kidnap = Some(RobotKidnap { at_s: d.kidnap_s, to });
+    let run = run_world(&inputs, &rp, seed, &label, &NoClock)?;
+    out.kidnap_scores = Scores::from(map_metrics(&run.map, g, &recovery.metrics)?);
+    let Some(rec) = run.kidnap.as_ref() else { return Ok(out) };
+    out.applied = true;
+    out.applied_displacement_m = Some(from.distance(&to));
+    out.detected = rec.first_lost_s.is_some();
+    out.detection_delay_s = rec.first_lost_s.map(|t| t - rec.at_s);
+    // The first sample is the kidnap tick itself, scored against the pose before the move.
+    let track = rec.track.get(1..).unwrap_or_default();
+    let t_r = recovery_time(track, c);
+    out.recovery_s = t_r.map(|t| t - rec.at_s);
+    let within = out.recovery_s.is_some_and(|t| t <= p.recovery_window_s + 1e-9);
+    let by_pose = rec.recoveries.first().is_some_and(|r| t_r.is_some_and(|t| r.t_s <= t + 1e-9));
+    out.recovered_pose_updating = within && by_pose;
+    out.recovered_filter = within && !by_pose;
+    out.pose_recoveries = rec.recoveries.len();
+    out.wrong_pose_recoveries =
+        rec.recoveries.iter().filter(|s| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad).count();
+    out.final_error_m = track.last().map(|s| s.error_m);
+    Ok(out)
+}
+
+/// Summary of the trials.
+pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> KidnapRobotSummary {
+    let a: Vec<&RobotKidnapTrial> = trials.iter().filter(|t| t.applied).collect();
+    let dmg = |f: fn(&Scores) -> f64| mean(a.iter().map(|t| f(&t.reference_scores) - f(&t.kidnap_scores)));
+    KidnapRobotSummary {
+        preset: preset.to_string(),
+        trials: trials.len(),
+        applied: a.len(),
+        recovered_rate_pose_updating: frac(a.iter().map(|t| t.recovered_pose_updating)),
+        recovered_rate_filter: frac(a.iter().map(|t| t.recovered_filter)),
+        failed_rate: frac(a.iter().map(|t| !t.recovered_pose_updating && !t.recovered_filter)),
+        detected_rate: frac(a.iter().map(|t| t.detected)),
+        false_lost_rate: frac(trials.iter().map(|t| t.reference_lost > 0)),
+        median_recovery_s: median(
+            a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
+        ),
+        map_damage: Scores { cc: dmg(|s| s.cc), ms: dmg(|s| s.ms), opdf: dmg(|s| s.opdf) },
+        map_damage_opdf_max: a.iter().map(|t| t.reference_scores.opdf - t.kidnap_scores.opdf).fold(0.0, f64::max),
+        pose_recoveries: a.iter().map(|t| t.pose_recoveries).sum(),
+        wrong_pose_recoveries: a.iter().map(|t| t.wrong_pose_recoveries).sum(),
+    }
+}
+
+/// Generates the worlds and runs every trial (in parallel, collected in order).
+pub fn run_kidnap_robot(
+    w1: &World,
+    recovery: &RecoveryParams,
+    p: &KidnapRobotParams,
+    seed: u64,
+    progress: &(dyn Fn() + Sync),
+) -> Result<KidnapRobotResults, ExperimentError> {
+    p.validate()?;
+    let mut rp = recovery.clone();
+    rp.kidnap.stale_max_world = rp.kidnap.stale_max_world.max(p.max_world);
+    let setup = prepare(w1, &rp, seed)?;
+    let updater = UpdaterParams::preset(&p.preset)?;
+    let tour_len = recovery.tour.length_m();
+    let trials: Vec<RobotKidnapTrial> = (0..p.trials)
+        .into_par_iter()
+        .map(|t| {
+            let r = run_trial(&setup, recovery, p, &updater, draw_robot_kidnap(p, tour_len, seed, t), seed);
+            progress();
+            r
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(KidnapRobotResults {
+        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+        seed,
+        wall_time_s: 0.0,
+        kidnap_robot: summarise_robot_kidnap(&p.preset, &trials),
+        trials,
+        params: p.clone(),
+        recovery: recovery.clone(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mapkeeper_grid::GridGeometry;
+
+    #[test]
+    fn the_target_is_free_and_the_drawn_direction_comes_first() {
+        let geo = GridGeometry::new(100, 100, 0.1, Pose2::IDENTITY).unwrap_or_else(|e| panic!("{e}"));
+        let mut g = OccupancyGrid::filled(geo, CellState::Free);
+        // A wall along x = 5 m.
+        for y in 0..100 {
+            g.cells_mut()[y * 100 + 50] = CellState::Occupied;
+        }
+        let d = RobotKidnapDraw {
+            trial: 0,
+            world: 50,
+            tour_position_m: 0.0,
+            kidnap_s: 3.0,
+            displacement_m: 2.0,
+            direction_rad: 0.0,
+            yaw_rad: 1.0,
+        };
+        let from = Pose2::new(2.0, 5.0, 0.0);
+        let t = kidnap_target(&g, from, &d, 0.5, 0.5).unwrap_or_else(|| panic!("no target"));
+        assert!((t.x - 4.0).abs() < 1e-9 && (t.y - 5.0).abs() < 1e-9 && (t.yaw - 1.0).abs() < 1e-9);
+        // Towards the wall: another direction is taken, never a pose within 0.5 m of it.
+        let from = Pose2::new(3.6, 5.0, 0.0);
+        let t = kidnap_target(&g, from, &d, 0.5, 0.5).unwrap_or_else(|| panic!("no target"));
+        assert!(t.x < 4.5 && (t.x - from.x).hypot(t.y - from.y) > 0.49, "{t:?}");
+        assert!(free_disc(&g, Point2::new(t.x, t.y), 0.5));
+        assert_eq!(
+            draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3),
+            draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3)
+        );
+        let dr = draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3);
+        assert!((50..=100).contains(&dr.world) && (0.5..=3.0).contains(&dr.displacement_m));
+    }
+}

@@ -1,0 +1,137 @@
+//! The files of an `experiment kidnap-robot` folder: `summary.json`, `trials.csv`, `report.md`
+//! (`docs/recovery.md`, "Real kidnaps").
+
+use crate::experiments::kidnap_robot::KidnapRobotResults;
+use crate::results::ResultsError;
+use mapkeeper_grid::StagedDir;
+use std::fmt::Write as _;
+
+/// The columns of `trials.csv`, in order.
+pub const TRIALS_CSV_COLUMNS: &[&str] = &[
+    "trial",
+    "world",
+    "tour_position_m",
+    "kidnap_s",
+    "displacement_m",
+    "direction_deg",
+    "yaw_deg",
+    "applied",
+    "applied_displacement_m",
+    "detected",
+    "detection_delay_s",
+    "recovered_pose_updating",
+    "recovered_filter",
+    "recovery_s",
+    "pose_recoveries",
+    "wrong_pose_recoveries",
+    "final_error_m",
+    "reference_lost",
+    "reference_cc",
+    "reference_ms",
+    "reference_opdf",
+    "kidnap_cc",
+    "kidnap_ms",
+    "kidnap_opdf",
+];
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or_else(String::new, |x| format!("{x:.3}"))
+}
+
+/// `trials.csv`.
+pub fn trials_csv(r: &KidnapRobotResults) -> String {
+    let mut s = TRIALS_CSV_COLUMNS.join(",");
+    s.push('\n');
+    for t in &r.trials {
+        let d = &t.draw;
+        let _ = writeln!(
+            s,
+            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            d.trial,
+            d.world,
+            d.tour_position_m,
+            d.kidnap_s,
+            d.displacement_m,
+            d.direction_rad.to_degrees(),
+            d.yaw_rad.to_degrees(),
+            t.applied,
+            opt(t.applied_displacement_m),
+            t.detected,
+            opt(t.detection_delay_s),
+            t.recovered_pose_updating,
+            t.recovered_filter,
+            opt(t.recovery_s),
+            t.pose_recoveries,
+            t.wrong_pose_recoveries,
+            opt(t.final_error_m),
+            t.reference_lost,
+            t.reference_scores.cc,
+            t.reference_scores.ms,
+            t.reference_scores.opdf,
+            t.kidnap_scores.cc,
+            t.kidnap_scores.ms,
+            t.kidnap_scores.opdf
+        );
+    }
+    s
+}
+
+/// `report.md`.
+pub fn report_md(r: &KidnapRobotResults) -> String {
+    let k = &r.kidnap_robot;
+    let p = &r.params;
+    let mut o = String::new();
+    let _ = writeln!(o, "# Real kidnaps: the robot moved, odometry blind\n");
+    let _ = writeln!(
+        o,
+        "Seed {}, preset `{}`, localiser `{}`, {} trials in W_{}-W_{} on the map of W_1 ({:?}); the robot is moved \
+         {:.1}-{:.1} m and up to ±{:.0}° at {:.0}-{:.0} s into a drive; recovered = the localiser's error under {:.2} m \
+         and {:.1}° from some time within {:.0} s of the kidnap to the end. Wall time {:.1} s.\n",
+        r.seed,
+        k.preset,
+        r.recovery.runner.localiser,
+        k.trials,
+        p.min_world,
+        p.max_world,
+        r.recovery.initial_map,
+        p.min_displacement_m,
+        p.max_displacement_m,
+        p.max_yaw_rad.to_degrees(),
+        p.kidnap_min_s,
+        p.kidnap_max_s,
+        r.recovery.success.max_error_m,
+        r.recovery.success.max_yaw_error_rad.to_degrees(),
+        p.recovery_window_s,
+        r.wall_time_s
+    );
+    let pc = |v: f64| format!("{:.1} %", 100.0 * v);
+    let _ = writeln!(o, "| | |\n|---|---|");
+    let _ = writeln!(o, "| trials moved (a free target found) | {} of {} |", k.applied, k.trials);
+    let _ = writeln!(o, "| said Lost after the kidnap | {} |", pc(k.detected_rate));
+    let _ = writeln!(o, "| recovered by pose updating | {} |", pc(k.recovered_rate_pose_updating));
+    let _ = writeln!(o, "| recovered by the filter alone | {} |", pc(k.recovered_rate_filter));
+    let _ = writeln!(o, "| not recovered | {} |", pc(k.failed_rate));
+    let _ = writeln!(
+        o,
+        "| median time to recover | {} |",
+        k.median_recovery_s.map_or_else(|| "–".into(), |v| format!("{v:.2} s"))
+    );
+    let _ = writeln!(o, "| false Lost (runs without kidnap) | {} |", pc(k.false_lost_rate));
+    let _ = writeln!(
+        o,
+        "| map damage CC / MS / OPDF (points, mean) | {:.2} / {:.2} / {:.2} (OPDF max {:.2}) |",
+        k.map_damage.cc, k.map_damage.ms, k.map_damage.opdf, k.map_damage_opdf_max
+    );
+    let _ = writeln!(o, "| poses from pose updating / wrong | {} / {} |", k.pose_recoveries, k.wrong_pose_recoveries);
+    o
+}
+
+/// Writes the folder's files into `dir`.
+pub fn write_kidnap_robot(dir: &StagedDir, r: &KidnapRobotResults) -> Result<(), ResultsError> {
+    let json = serde_json::to_string_pretty(r)
+        .map_err(|e| ResultsError::Serialise { what: "summary.json".into(), message: e.to_string() })?;
+    dir.write("summary.json", format!("{json}\n").as_bytes())?;
+    dir.write("trials.csv", trials_csv(r).as_bytes())?;
+    dir.write("report.md", report_md(r).as_bytes())?;
+    Ok(())
+}
