@@ -597,3 +597,51 @@ fn check_intervals(all: &Path) {
         ci(&d[m]["ci95"], bounds, m);
     }
 }
+
+#[test]
+fn update_every_k_updates_only_every_kth_world_and_reports_the_check_under_heavy_change() {
+    let dir = common::scratch("validate", "update-every");
+    let out = dir.join("v");
+    let args = common::validate_args(&[
+        "validate",
+        "--worlds",
+        "5",
+        "--route-length",
+        "10",
+        "--update-every",
+        "2",
+        "--route-clearance",
+        "0.5",
+        "--no-timing",
+        "--out",
+        common::s(&out),
+    ]);
+    let o = common::mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(v["params"]["update_every"], 2);
+    assert_eq!(v["params"]["generator"]["route_clearance_m"], 0.5);
+    let h = &v["heavy_change"];
+    assert_eq!((h["update_every"].as_u64(), h["update_worlds"].as_u64()), (Some(2), Some(2)), "{h}");
+    // W_2 and W_4 are updated; W_3 and W_5 are driven with the updater off (nothing processed, no change).
+    let csv = std::fs::read_to_string(out.join("worlds.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
+    for line in csv.lines().skip(1) {
+        let r: Vec<&str> = line.split(',').collect();
+        let world: usize = r[col("world")].parse().unwrap();
+        let processed: u64 = r[col("processed_scans")].parse().unwrap();
+        let changed: u64 = r[col("cells_changed")].parse().unwrap();
+        if world.is_multiple_of(2) {
+            assert!(processed > 0, "W_{world} should be updated");
+        } else {
+            assert_eq!((processed, changed), (0, 0), "W_{world} should not be updated");
+        }
+    }
+    assert!(std::fs::read_to_string(out.join("report.md")).unwrap().contains("Heavy change"));
+    // A k of 0 is refused, naming the flag.
+    let o = common::mapkeeper(&["validate", "--update-every", "0", "--out", common::s(&dir.join("x"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--update-every"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

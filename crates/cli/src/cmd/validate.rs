@@ -79,6 +79,16 @@ pub struct Args {
     /// (the default tour is 72 m: longer values drive all of it).
     #[arg(long, value_name = "METRES", value_parser = super::route_length, allow_hyphen_values = true)]
     pub route_length: Option<f64>,
+    /// Update the map only in every k-th world (W_2, W_{2+k}, …; the robot drives the others
+    /// with the updater off), 1 to 10000 [default: 1]: k worlds of change meet the check at once.
+    /// summary.json gains `heavy_change` (Suspend and Lost shares, stuck worlds).
+    #[arg(long, value_name = "K", value_parser = super::count_in(1, 10_000), allow_hyphen_values = true)]
+    pub update_every: Option<usize>,
+    /// Smallest distance from an edited item to the route, metres (the generator's
+    /// `route_clearance_m`, default 0.98: the robot's width plus 0.3 m); smaller values put
+    /// edits near the route.
+    #[arg(long, value_name = "METRES", value_parser = super::real_in(0.0, 100.0, "m"), allow_hyphen_values = true)]
+    pub route_clearance: Option<f64>,
     /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
     #[arg(long)]
     pub no_timing: bool,
@@ -146,6 +156,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for p in &mut plan.params {
             p.runner.updater = super::load_params(p.runner.updater.clone(), Some(file), UpdaterParams::validate)?;
         }
+    }
+    for p in &mut plan.params {
+        if let Some(k) = args.update_every {
+            p.update_every = k;
+        }
+        if let Some(c) = args.route_clearance {
+            p.generator.route_clearance_m = c;
+        }
+        p.validate().context("--update-every / --route-clearance")?;
     }
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;

@@ -96,6 +96,21 @@ pub struct ValidationParams {
     /// Worlds whose maps (M_i, G_i) and trajectories are kept for the outputs. Default
     /// [2, 50, 100] (those ≤ `worlds`).
     pub saved_worlds: Vec<usize>,
+    /// Update the map only in every k-th world (W_2, W_{2+k}, …; the others are driven with the
+    /// updater off, M_i = M_{i-1}), so that k worlds of change meet the check at once (the heavy
+    /// change of the experiments issue). Default 1 (every world; not written when 1).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub update_every: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+// serde's skip_serializing_if passes a reference.
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_one(v: &usize) -> bool {
+    *v == 1
 }
 
 impl Default for ValidationParams {
@@ -116,6 +131,7 @@ impl Default for ValidationParams {
             metrics: MetricParams::default(),
             ground_truth: GroundTruth::Exact,
             saved_worlds: vec![2, 50, 100],
+            update_every: 1,
         }
     }
 }
@@ -154,6 +170,12 @@ impl ValidationParams {
 
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
+        if self.update_every == 0 || self.update_every > 10_000 {
+            return Err(ExperimentError::InvalidParam {
+                name: "update_every",
+                problem: format!("must lie in 1..=10000, got {}", self.update_every),
+            });
+        }
         if self.worlds < 2 {
             return Err(ExperimentError::InvalidParam {
                 name: "worlds",
@@ -575,6 +597,7 @@ pub fn run_seed_in(
         let keep = params.saved_worlds.contains(&i);
         let mut rp = params.runner.clone();
         rp.record_trajectories = keep;
+        rp.run_updater = rp.run_updater && (i - 2).is_multiple_of(params.update_every);
         let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
         let run = run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?;
         // Validated: runner.fresh_map is set, so every run returns its fresh map.
@@ -807,6 +830,9 @@ pub struct Summary {
     /// The reaction to Lost, summed over all worlds and seeds.
     #[serde(default)]
     pub lost_handling: LostCounts,
+    /// The check under heavy change (only with `params.update_every` > 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heavy_change: Option<HeavyChange>,
     /// The parameters.
     pub params: ValidationParams,
 }
@@ -954,7 +980,61 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         rows: rows().count(),
         sim_time_s: rows().map(|w| w.sim_time_s).sum(),
         lost_handling: rows().fold(LostCounts::default(), |a, w| a.add(&w.lost)),
+        heavy_change: (params.update_every > 1).then(|| heavy_change(params.update_every, runs)),
         params: params.clone(),
+    }
+}
+
+/// How the localisation check behaves when k worlds of change meet it at once
+/// ([`ValidationParams::update_every`]), over the worlds whose map was updated.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeavyChange {
+    /// k.
+    pub update_every: usize,
+    /// World rows whose map was updated (over all seeds).
+    pub update_worlds: usize,
+    /// Suspend among their processed steps.
+    pub suspend_share: f64,
+    /// Lost among them.
+    pub lost_share: f64,
+    /// Mean position error of the chain localiser in those worlds, metres (how well localised
+    /// the robot was while the check said so).
+    pub mean_error_m: f64,
+    /// Update worlds where fewer than half the processed steps said Update ("stuck").
+    pub stuck_worlds: usize,
+    /// Longest run of consecutive stuck update worlds in one seed.
+    pub longest_stuck_run: usize,
+    /// Mean cells changed per update world.
+    pub mean_cells_changed: f64,
+}
+
+fn heavy_change(k: usize, runs: &[SeedRecord]) -> HeavyChange {
+    let updated = |w: &&WorldRow| (w.world - 2).is_multiple_of(k);
+    let rows: Vec<&WorldRow> = runs.iter().flat_map(|r| r.rows.iter()).filter(updated).collect();
+    let processed: u64 = rows.iter().map(|w| w.updater.processed).sum();
+    let share = |n: u64| if processed == 0 { 0.0 } else { n as f64 / processed as f64 };
+    let stuck = |w: &WorldRow| w.updater.processed == 0 || 2 * w.updater.update < w.updater.processed;
+    let longest = runs
+        .iter()
+        .map(|r| {
+            let (mut best, mut cur) = (0, 0);
+            for w in r.rows.iter().filter(updated) {
+                cur = if stuck(w) { cur + 1 } else { 0 };
+                best = best.max(cur);
+            }
+            best
+        })
+        .max()
+        .unwrap_or(0);
+    HeavyChange {
+        update_every: k,
+        update_worlds: rows.len(),
+        suspend_share: share(rows.iter().map(|w| w.updater.suspend).sum()),
+        lost_share: share(rows.iter().map(|w| w.updater.lost).sum()),
+        mean_error_m: mean(rows.iter().map(|w| w.loc_updated.mean_error_m)),
+        stuck_worlds: rows.iter().filter(|w| stuck(w)).count(),
+        longest_stuck_run: longest,
+        mean_cells_changed: mean(rows.iter().map(|w| w.cells_changed as f64)),
     }
 }
 

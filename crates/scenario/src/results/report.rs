@@ -390,6 +390,24 @@ fn updater_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
         l.give_ups,
         l.stopped_s()
     );
+    if let Some(h) = &summary.heavy_change {
+        let _ = writeln!(
+            s,
+            "Heavy change (the map updated only in every {}-th world, {} worlds of change at once): over the {} \
+             updated worlds, {:.2} % of the processed steps said Suspend and {:.2} % Lost while the chain localiser's \
+             mean error was {:.3} m; {} of them were stuck (fewer than half the steps said Update), at most {} in a \
+             row; {:.0} cells changed per updated world.\n",
+            h.update_every,
+            h.update_every,
+            h.update_worlds,
+            100.0 * h.suspend_share,
+            100.0 * h.lost_share,
+            h.mean_error_m,
+            h.stuck_worlds,
+            h.longest_stuck_run,
+            h.mean_cells_changed
+        );
+    }
     figure_lines(s, figures, &["fig27a_updater_time", "fig27b_updater_memory"]);
     let _ = writeln!(s, "## The paper's figures\n");
     s.push_str(PAPER_CLAIMS);
