@@ -83,6 +83,30 @@ const FLAGS: &[Flag] = &[
     num("validate", "--jobs", Count),
     num("validate", "--route-length", Real),
     num("validate", "--shard", Shard),
+    num("validate", "--update-every", Count),
+    ok("validate", "--route-clearance", Real, &["0"], "edits may touch the route (0 m clearance)"),
+    num("experiment check-detection", "--trials", Count),
+    ok("experiment check-detection", "--seed", Count, SEED_OK, SEED_WHY),
+    other("experiment check-detection", "--presets", Names),
+    num("experiment check-detection", "--max-world", Count),
+    other("experiment check-detection", "--localiser", Name),
+    other("experiment check-detection", "--params", Path),
+    other("experiment check-detection", "--out", Path),
+    num("experiment check-detection", "--jobs", Count),
+    num("experiment table1", "--trials", Count),
+    ok("experiment table1", "--seed", Count, SEED_OK, SEED_WHY),
+    other("experiment table1", "--presets", Names),
+    other("experiment table1", "--localiser", Name),
+    other("experiment table1", "--params", Path),
+    other("experiment table1", "--out", Path),
+    num("experiment table1", "--jobs", Count),
+    num("experiment kidnap-robot", "--trials", Count),
+    ok("experiment kidnap-robot", "--seed", Count, SEED_OK, SEED_WHY),
+    other("experiment kidnap-robot", "--preset", Name),
+    other("experiment kidnap-robot", "--localiser", Name),
+    other("experiment kidnap-robot", "--params", Path),
+    other("experiment kidnap-robot", "--out", Path),
+    num("experiment kidnap-robot", "--jobs", Count),
     ok("recover", "--trials", Count, &["0"], "0 trials runs the demo, Table 1 and the lost robot only"),
     ok("recover", "--seed", Count, SEED_OK, SEED_WHY),
     other("recover", "--out", Path),
@@ -210,7 +234,14 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
     let p = |name: &str| base.join(name).to_str().unwrap().to_string();
     let o = out.to_str().unwrap().to_string();
     let v: Vec<String> = match cmd {
-        "validate" | "recover" | "converge" | "generate" | "simulate" => vec!["--out".into(), o],
+        "validate"
+        | "recover"
+        | "converge"
+        | "generate"
+        | "simulate"
+        | "experiment check-detection"
+        | "experiment table1"
+        | "experiment kidnap-robot" => vec!["--out".into(), o],
         "run" => vec!["--world".into(), p("w.toml"), "--map".into(), p("m.yaml"), "--out".into(), o],
         "merge" => vec![p("dir"), "--out".into(), o],
         "map" => vec!["--log".into(), p("log"), "--out".into(), o],
@@ -261,7 +292,7 @@ fn run(args: &[String]) -> Ran {
 
 /// `mapkeeper [cmd] --help` on stdout.
 fn help(cmd: Option<&str>) -> String {
-    let mut args: Vec<String> = cmd.map(str::to_string).into_iter().collect();
+    let mut args: Vec<String> = cmd.map(|c| c.split(' ').map(str::to_string).collect()).unwrap_or_default();
     args.push("--help".into());
     let r = run(&args);
     assert_eq!(r.code, Some(0), "{args:?}: {}", r.stderr);
@@ -347,8 +378,19 @@ fn every_numeric_flag_refuses_nan_infinite_negative_zero_huge_and_malformed_valu
         assert!(f.accepts.is_empty() || !f.why.is_empty(), "{} {}: accepted values need a reason", f.cmd, f.flag);
         assert!(f.accepts.iter().all(|a| BAD.contains(a)), "{} {}: accepts lists a value not tested", f.cmd, f.flag);
     }
-    let cmds = commands(&help(None));
-    assert!(cmds.len() >= 12 && cmds.iter().any(|c| c == "validate"), "{cmds:?}");
+    let top = commands(&help(None));
+    assert!(top.len() >= 12 && top.iter().any(|c| c == "validate"), "{top:?}");
+    // A command with subcommands of its own (`experiment`) is walked one level down.
+    let mut cmds = Vec::new();
+    for c in top {
+        let h = help(Some(&c));
+        if h.contains("Commands:\n") {
+            cmds.extend(commands(&h).into_iter().map(|sub| format!("{c} {sub}")));
+        } else {
+            cmds.push(c);
+        }
+    }
+    assert!(cmds.iter().any(|c| c == "experiment table1"), "{cmds:?}");
     let mut seen = BTreeSet::new();
     let (mut refused, mut accepted) = (0, 0);
     for cmd in &cmds {
@@ -364,7 +406,7 @@ fn every_numeric_flag_refuses_nan_infinite_negative_zero_huge_and_malformed_valu
             let scalar_bad = BAD.iter().copied();
             for value in scalar_bad.chain(extra(f.kind).iter().copied()) {
                 for joined in [false, true] {
-                    let mut args = vec![cmd.clone()];
+                    let mut args: Vec<String> = cmd.split(' ').map(str::to_string).collect();
                     args.extend(placeholders(cmd, &base, &out));
                     if joined {
                         args.push(format!("{flag}={value}"));
