@@ -4,6 +4,7 @@
 
 use super::load_params;
 use anyhow::Context;
+use mapkeeper_grid::StagedDir;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::check_detection::{CheckDetectionParams, run_check_detection};
 use mapkeeper_scenario::experiments::kidnap_robot::{KidnapRobotParams, run_kidnap_robot};
@@ -55,25 +56,13 @@ pub struct KidnapRobotArgs {
     /// Updater preset (default paper).
     #[arg(long, value_name = "NAME")]
     pub preset: Option<String>,
-    /// Localiser preset: amcl or mapkeeper (docs/localiser.md).
-    #[arg(long, value_name = "NAME", default_value = "amcl")]
-    pub localiser: String,
     /// A short setting for tests: 3 trials (unless --trials is given), worlds W_2-W_3, a 6 s
     /// recovery window, a 15 m drive.
     #[arg(long)]
     pub quick: bool,
-    /// Parameter file (TOML): `[recovery]` and `[kidnap_robot]` (any field of the experiment).
-    #[arg(long, value_name = "FILE")]
-    pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    /// The flags every experiment has.
+    #[command(flatten)]
+    pub common: Common,
 }
 
 /// The parameter file of `experiment kidnap-robot`.
@@ -86,7 +75,7 @@ struct KidnapRobotFile {
 
 fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
     let mut base = KidnapRobotFile::default();
-    base.recovery.runner.set_localiser(&args.localiser).context("--localiser")?;
+    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
     if args.quick {
         let k = &mut base.kidnap_robot;
         k.trials = 3;
@@ -95,7 +84,7 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
         k.recovery_window_s = 6.0;
         k.route_length_m = 15.0;
     }
-    let mut file = load_params(base, args.params.as_deref(), |f: &KidnapRobotFile| {
+    let mut file = load_params(base, args.common.params.as_deref(), |f: &KidnapRobotFile| {
         f.recovery.validate()?;
         f.kidnap_robot.validate()
     })?;
@@ -107,16 +96,11 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
         p.preset = v;
     }
     p.validate().context("--trials / --preset")?;
-    let out = args.out.clone().unwrap_or_else(|| default_out("kidnap-robot", args.seed, p.trials));
-    let dir = super::output_dir(&out, args.force)?;
-    let bar = super::progress_bar(p.trials as u64, "trials");
-    let pool = super::thread_pool(args.jobs)?;
-    let start = Instant::now();
-    let w1 = World::default_warehouse();
-    let progress = || bar.inc(1);
-    let mut r = pool.install(|| run_kidnap_robot(&w1, &file.recovery, &file.kidnap_robot, args.seed, &progress))?;
-    bar.finish_and_clear();
-    r.wall_time_s = start.elapsed().as_secs_f64();
+    let (default, total) = (default_out("kidnap-robot", args.seed, p.trials), p.trials);
+    let (mut r, wall_time_s, dir) = run_timed(&args.common, default, total, "trials", |w1, progress| {
+        Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
+    })?;
+    r.wall_time_s = wall_time_s;
     write_kidnap_robot(&dir, &r)?;
     let out = dir.finish()?;
     let k = &r.kidnap_robot;
@@ -157,26 +141,13 @@ pub struct Table1Args {
     /// Updater presets compared, comma-separated (default paper,mapkeeper).
     #[arg(long, value_name = "A,B", value_delimiter = ',')]
     pub presets: Option<Vec<String>>,
-    /// Localiser preset: amcl or mapkeeper (docs/localiser.md).
-    #[arg(long, value_name = "NAME", default_value = "amcl")]
-    pub localiser: String,
     /// A short setting for tests: 2 trials (unless --trials is given), holds 0 and 2 s, a 6 m
     /// drive, preset paper.
     #[arg(long)]
     pub quick: bool,
-    /// Parameter file (TOML): `[recovery]` (worlds, loop; docs/recovery.md) and `[table1]`
-    /// (any field of the experiment).
-    #[arg(long, value_name = "FILE")]
-    pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    /// The flags every experiment has.
+    #[command(flatten)]
+    pub common: Common,
 }
 
 /// The parameter file of `experiment table1`.
@@ -189,14 +160,14 @@ struct Table1File {
 
 fn table1(args: Table1Args) -> anyhow::Result<()> {
     let mut base = Table1File::default();
-    base.recovery.runner.set_localiser(&args.localiser).context("--localiser")?;
+    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
     if args.quick {
         base.table1.trials = 2;
         base.table1.holds_s = vec![0.0, 2.0];
         base.table1.route_length_m = 6.0;
         base.table1.presets = vec!["paper".into()];
     }
-    let mut file = load_params(base, args.params.as_deref(), |f: &Table1File| {
+    let mut file = load_params(base, args.common.params.as_deref(), |f: &Table1File| {
         f.recovery.validate()?;
         f.table1.validate()
     })?;
@@ -209,16 +180,11 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --presets")?;
     let runs = p.trials * p.presets.len() * p.conditions().len() * VARIANTS.len();
-    let out = args.out.clone().unwrap_or_else(|| default_out("table1", args.seed, p.trials));
-    let dir = super::output_dir(&out, args.force)?;
-    let bar = super::progress_bar(runs as u64, "runs");
-    let pool = super::thread_pool(args.jobs)?;
-    let start = Instant::now();
-    let w1 = World::default_warehouse();
-    let progress = || bar.inc(1);
-    let mut r = pool.install(|| run_table1_hold(&w1, &file.recovery, &file.table1, args.seed, &progress))?;
-    bar.finish_and_clear();
-    r.summary.wall_time_s = start.elapsed().as_secs_f64();
+    let (mut r, wall_time_s, dir) =
+        run_timed(&args.common, default_out("table1", args.seed, p.trials), runs, "runs", |w1, progress| {
+            Ok(run_table1_hold(w1, &file.recovery, &file.table1, args.seed, progress)?)
+        })?;
+    r.summary.wall_time_s = wall_time_s;
     write_table1_hold(&dir, &r)?;
     let out = dir.finish()?;
     println!(
@@ -244,6 +210,50 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The flags every experiment has.
+#[derive(clap::Args, Debug)]
+pub struct Common {
+    /// Localiser preset: amcl or mapkeeper (docs/localiser.md).
+    #[arg(long, value_name = "NAME", default_value = "amcl")]
+    pub localiser: String,
+    /// Parameter file (TOML): `[recovery]` (worlds, loop; docs/recovery.md) and the
+    /// experiment's own table (`[check_detection]`, `[table1]` or `[kidnap_robot]`: any of its
+    /// fields).
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Worker threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
+    pub jobs: Option<usize>,
+    /// Replace an existing non-empty output folder.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 = the default
+/// warehouse on the `--jobs` pool with a progress bar of `total` `unit`s; returns its result,
+/// the wall time in seconds and the folder to write into.
+fn run_timed<R: Send>(
+    c: &Common,
+    default: PathBuf,
+    total: usize,
+    unit: &str,
+    work: impl FnOnce(&World, &(dyn Fn() + Sync)) -> anyhow::Result<R> + Send,
+) -> anyhow::Result<(R, f64, StagedDir)> {
+    let out = c.out.clone().unwrap_or(default);
+    let dir = super::output_dir(&out, c.force)?;
+    let bar = super::progress_bar(total as u64, unit);
+    let pool = super::thread_pool(c.jobs)?;
+    let start = Instant::now();
+    let w1 = World::default_warehouse();
+    let progress = || bar.inc(1);
+    let r = pool.install(|| work(&w1, &progress))?;
+    bar.finish_and_clear();
+    Ok((r, start.elapsed().as_secs_f64(), dir))
+}
+
 /// Arguments of `mapkeeper experiment check-detection`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Each trial drives a few seconds of the tour from a seeded place in a seeded world W_k \
@@ -266,26 +276,13 @@ pub struct CheckDetectionArgs {
     /// Worlds are drawn from W_2 … W_N, 2 to 1000 (default 100).
     #[arg(long, value_name = "N", value_parser = super::count_in(2, 1000), allow_hyphen_values = true)]
     pub max_world: Option<usize>,
-    /// Localiser preset: amcl or mapkeeper (docs/localiser.md).
-    #[arg(long, value_name = "NAME", default_value = "amcl")]
-    pub localiser: String,
     /// A short setting for tests: 6 trials (unless --trials is given), worlds up to W_4, 1.5 s
     /// after the onset.
     #[arg(long)]
     pub quick: bool,
-    /// Parameter file (TOML): `[recovery]` (worlds, loop; docs/recovery.md) and
-    /// `[check_detection]` (any field of the experiment).
-    #[arg(long, value_name = "FILE")]
-    pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    /// The flags every experiment has.
+    #[command(flatten)]
+    pub common: Common,
 }
 
 /// The parameter file of `experiment check-detection`.
@@ -318,13 +315,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
     let mut base = CheckDetectionFile::default();
-    base.recovery.runner.set_localiser(&args.localiser).context("--localiser")?;
+    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
     if args.quick {
         base.check_detection.trials = 6;
         base.check_detection.max_world = 4;
         base.check_detection.window_s = 1.5;
     }
-    let mut file = load_params(base, args.params.as_deref(), |f: &CheckDetectionFile| {
+    let mut file = load_params(base, args.common.params.as_deref(), |f: &CheckDetectionFile| {
         f.recovery.validate()?;
         f.check_detection.validate()
     })?;
@@ -339,17 +336,11 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
         p.max_world = k;
     }
     p.validate().context("--trials / --presets / --max-world")?;
-    let out = args.out.clone().unwrap_or_else(|| default_out("check-detection", args.seed, p.trials));
-    let dir = super::output_dir(&out, args.force)?;
-    let bar = super::progress_bar((p.trials * p.presets.len()) as u64, "runs");
-    let pool = super::thread_pool(args.jobs)?;
-    let start = Instant::now();
-    let w1 = World::default_warehouse();
-    let progress = || bar.inc(1);
-    let mut r =
-        pool.install(|| run_check_detection(&w1, &file.recovery, &file.check_detection, args.seed, &progress))?;
-    bar.finish_and_clear();
-    r.summary.wall_time_s = start.elapsed().as_secs_f64();
+    let (default, total) = (default_out("check-detection", args.seed, p.trials), p.trials * p.presets.len());
+    let (mut r, wall_time_s, dir) = run_timed(&args.common, default, total, "runs", |w1, progress| {
+        Ok(run_check_detection(w1, &file.recovery, &file.check_detection, args.seed, progress)?)
+    })?;
+    r.summary.wall_time_s = wall_time_s;
     write_check_detection(&dir, &r)?;
     let out = dir.finish()?;
     println!(

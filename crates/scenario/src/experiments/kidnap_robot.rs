@@ -11,12 +11,11 @@
 //! otherwise.
 
 use super::ExperimentError;
-use super::recovery::{RecoveryParams, prepare, recovery_time, tour_from, with_start};
+use super::recovery::{RecoveryParams, prepare, recovery_time, scores, tour_from, with_start};
 use super::run_events::RobotKidnap;
 use super::runner::{NoClock, RunInputs, run_world};
 use super::validation::Scores;
 use crate::stats::{frac, mean, median};
-use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
@@ -297,7 +296,7 @@ fn run_trial(
     let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
     let label = format!("kidnap-robot-{:05}", d.trial);
     let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
-    let reference_scores = Scores::from(map_metrics(&reference.map, g, &recovery.metrics)?);
+    let reference_scores = scores(&reference.map, g, &recovery.metrics)?;
     let at_ns = (d.kidnap_s * 1e9).ceil() as u64;
     let from =
         reference.trajectories.as_ref().and_then(|t| t.truth.iter().find(|s| s.stamp_ns >= at_ns)).map(|s| s.pose);
@@ -322,7 +321,7 @@ fn run_trial(
     rp.record_trajectories = false;
     rp.robot_kidnap = Some(RobotKidnap { at_s: d.kidnap_s, to });
     let run = run_world(&inputs, &rp, seed, &label, &NoClock)?;
-    out.kidnap_scores = Scores::from(map_metrics(&run.map, g, &recovery.metrics)?);
+    out.kidnap_scores = scores(&run.map, g, &recovery.metrics)?;
     let Some(rec) = run.kidnap.as_ref() else { return Ok(out) };
     out.applied = true;
     out.applied_displacement_m = Some(from.distance(&to));

@@ -12,12 +12,11 @@
 //! the initial map and from G_2, where G_2 is known).
 
 use super::ExperimentError;
-use super::recovery::{RecoveryParams, prepare, tour_from, with_start};
+use super::recovery::{RecoveryParams, mean_scores, prepare, scores, tour_from, with_start};
 use super::run_events::{Kidnap, PoseErrorHold};
 use super::runner::{NoClock, RunInputs, run_world};
 use super::validation::Scores;
 use crate::stats::{mean, paired_diff};
-use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
@@ -326,11 +325,7 @@ fn static_scores(runs: &[Table1HoldRun], p: &Table1HoldParams, conditions: &[Str
         .iter()
         .filter(|r| r.preset == p.presets[0] && r.condition == conditions[0] && r.variant == VARIANTS[0])
         .collect();
-    Scores {
-        cc: mean(first.iter().map(|r| r.static_scores.cc)),
-        ms: mean(first.iter().map(|r| r.static_scores.ms)),
-        opdf: mean(first.iter().map(|r| r.static_scores.opdf)),
-    }
+    mean_scores(first.iter().map(|r| &r.static_scores))
 }
 
 /// Condition `c` of `p.conditions()` on the run's parameters: a held error or a start error.
@@ -417,8 +412,8 @@ pub fn run_table1_hold(
                 preset: p.presets[k].clone(),
                 condition: cond.clone(),
                 variant: VARIANTS[v].to_string(),
-                scores: Scores::from(map_metrics(&run.map, g, &recovery.metrics)?),
-                static_scores: Scores::from(map_metrics(map, g, &recovery.metrics)?),
+                scores: scores(&run.map, g, &recovery.metrics)?,
+                static_scores: scores(map, g, &recovery.metrics)?,
                 wrong_flips: wrong,
                 cells_changed: changed,
                 suspends: run.updater.suspend + run.updater.lost,
