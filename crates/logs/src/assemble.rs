@@ -1,0 +1,555 @@
+//! From decoded messages to a sensor log: the part every reader shares.
+//!
+//! A reader decodes its file into [`RawScan`], [`RawOdometry`], [`RawTransform`] and
+//! [`RawPose`] events, in file order, and hands them to an [`Assembler`]. The assembler picks
+//! the lidars (by topic), finds each lidar's mount from the static transforms (or a mount the
+//! reader knows, as CARMEN's `PARAM` lines give), projects a mount that is upside down or tilted
+//! onto the plane, takes the odometry from a topic or from the `odom → base` transform, counts
+//! and clamps timestamps that step back, re-bases time on the log's first stamp and validates
+//! every scan.
+
+use crate::ImportError;
+use crate::options::{ImportOptions, OdometryFrom};
+use crate::report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
+use crate::rigid::Rigid3;
+use mapkeeper_grid::Pose2;
+use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, TruePose};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
+use std::path::{Path, PathBuf};
+
+/// One decoded laser scan (ROS `sensor_msgs/LaserScan` fields), stamped on the log's clock.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawScan {
+    /// Topic (ROS) or message name (CARMEN `FLASER`).
+    pub topic: String,
+    /// The lidar's frame (`header.frame_id`).
+    pub frame_id: String,
+    /// Stamp, nanoseconds on the log's clock (absolute; the assembler re-bases it).
+    pub stamp_ns: u64,
+    /// First beam's angle in the lidar frame, radians.
+    pub angle_min_rad: f64,
+    /// Angle between beams, radians.
+    pub angle_increment_rad: f64,
+    /// Smallest valid range, metres.
+    pub range_min_m: f32,
+    /// Readings at or beyond this are invalid, metres (a ROS reader passes the next float above
+    /// the message's inclusive `range_max`).
+    pub range_max_m: f32,
+    /// One reading per beam, metres.
+    pub ranges_m: Vec<f32>,
+    /// Where the message is in the file, for errors (`line 12`, `message 40`).
+    pub place: String,
+}
+
+/// One decoded odometry message (`nav_msgs/Odometry`, CARMEN `ODOM`) or a reference pose topic.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawOdometry {
+    /// Topic or message name.
+    pub topic: String,
+    /// Stamp, nanoseconds on the log's clock.
+    pub stamp_ns: u64,
+    /// The base pose in the message's frame, projected on the plane.
+    pub pose: Pose2,
+}
+
+/// One transform of `/tf` or `/tf_static` (`geometry_msgs/TransformStamped`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawTransform {
+    /// Stamp, nanoseconds on the log's clock.
+    pub stamp_ns: u64,
+    /// Parent frame (`header.frame_id`).
+    pub parent: String,
+    /// Child frame (`child_frame_id`).
+    pub child: String,
+    /// The child frame in the parent frame.
+    pub transform: Rigid3,
+    /// Whether it came from `/tf_static`.
+    pub is_static: bool,
+}
+
+/// A reference pose in the map frame (CARMEN's corrected poses, a ground-truth topic).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawPose {
+    /// Stamp, nanoseconds on the log's clock.
+    pub stamp_ns: u64,
+    /// The base pose in the map frame.
+    pub pose: Pose2,
+}
+
+/// Collects a reader's events and turns them into a [`SensorLog`] and an [`ImportReport`].
+#[derive(Debug)]
+pub struct Assembler {
+    path: PathBuf,
+    format: &'static str,
+    scans: BTreeMap<String, Vec<RawScan>>,
+    odometry: BTreeMap<String, Vec<RawOdometry>>,
+    transforms: Vec<RawTransform>,
+    truth: Vec<RawPose>,
+    truth_source: Option<String>,
+    mounts: HashMap<String, (Pose2, String)>,
+    topics: BTreeMap<String, TopicCount>,
+    notes: Vec<String>,
+}
+
+impl Assembler {
+    /// An empty assembler for the file `path` of format `format` (named in the report).
+    pub fn new(path: &Path, format: &'static str) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            format,
+            scans: BTreeMap::new(),
+            odometry: BTreeMap::new(),
+            transforms: Vec::new(),
+            truth: Vec::new(),
+            truth_source: None,
+            mounts: HashMap::new(),
+            topics: BTreeMap::new(),
+            notes: Vec::new(),
+        }
+    }
+
+    /// Counts one message of `topic` with type `type_name`, used or not (the report lists every
+    /// topic of the file).
+    pub fn count_message(&mut self, topic: &str, type_name: &str) {
+        let e = self
+            .topics
+            .entry(topic.to_string())
+            .or_insert_with(|| TopicCount { type_name: type_name.to_string(), messages: 0 });
+        e.messages += 1;
+    }
+
+    /// Adds a scan.
+    pub fn scan(&mut self, scan: RawScan) {
+        self.scans.entry(scan.topic.clone()).or_default().push(scan);
+    }
+
+    /// Adds an odometry message.
+    pub fn odometry(&mut self, odom: RawOdometry) {
+        self.odometry.entry(odom.topic.clone()).or_default().push(odom);
+    }
+
+    /// Adds a transform.
+    pub fn transform(&mut self, tf: RawTransform) {
+        self.transforms.push(tf);
+    }
+
+    /// Adds a reference pose; `source` names where the reference comes from (in the report).
+    pub fn truth(&mut self, pose: RawPose, source: &str) {
+        if self.truth_source.is_none() {
+            self.truth_source = Some(source.to_string());
+        }
+        self.truth.push(pose);
+    }
+
+    /// Gives the mount of lidar frame `frame_id` in the base frame directly (for formats without
+    /// transforms); `source` says where it comes from.
+    pub fn known_mount(&mut self, frame_id: &str, mount: Pose2, source: &str) {
+        self.mounts.insert(frame_id.to_string(), (mount, source.to_string()));
+    }
+
+    /// Whether a mount for `frame_id` was given with [`Assembler::known_mount`].
+    pub fn has_mount(&self, frame_id: &str) -> bool {
+        self.mounts.contains_key(frame_id)
+    }
+
+    /// Adds a free-form note to the report (a skipped message type, a field ignored).
+    pub fn note(&mut self, note: impl Into<String>) {
+        self.notes.push(note.into());
+    }
+
+    /// Builds the sensor log.
+    pub fn finish(mut self, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
+        let (lidars, scan_records, mut backward) = self.lidar_streams(options)?;
+        let (odom_source, mut odom) = self.odometry_track(options)?;
+        backward.extend(clamp_track(&odom_source, &mut odom));
+        let mut truth: Vec<(u64, Pose2)> =
+            std::mem::take(&mut self.truth).into_iter().map(|p| (p.stamp_ns, p.pose)).collect();
+        let truth_source = self.truth_source.clone();
+        if let Some(src) = &truth_source {
+            backward.extend(clamp_track(src, &mut truth));
+        }
+        let firsts = scan_records
+            .iter()
+            .filter_map(|r| r.3.first().map(|s| s.stamp_ns))
+            .chain(odom.first().map(|o| o.0))
+            .chain(truth.first().map(|p| p.0));
+        let epoch_ns = firsts.min().unwrap_or(0);
+        let mut records: Vec<(u64, u8, u32, LogRecord)> = Vec::new();
+        for (t, pose) in &odom {
+            let o = OdometryReading { stamp_ns: t - epoch_ns, pose_in_odom: *pose };
+            records.push((o.stamp_ns, 0, 0, LogRecord::Odom(o)));
+        }
+        for (t, pose) in &truth {
+            let p = TruePose { stamp_ns: t - epoch_ns, pose_in_map: *pose };
+            records.push((p.stamp_ns, 1, 0, LogRecord::Truth(p)));
+        }
+        let n_scans: usize = scan_records.iter().map(|r| r.3.len()).sum();
+        for (id, mount, mirrored, scans) in scan_records {
+            for s in scans {
+                let scan = to_scan(&self.path, s, id, mount, mirrored, epoch_ns)?;
+                records.push((scan.stamp_ns, 2, id, LogRecord::Scan(scan)));
+            }
+        }
+        records.sort_by_key(|r| (r.0, r.1, r.2));
+        let duration_s = records.last().map_or(0.0, |r| r.0 as f64 * 1e-9);
+        let report = ImportReport {
+            source: self.path.display().to_string(),
+            format: self.format.to_string(),
+            epoch_ns,
+            duration_s,
+            scans: n_scans,
+            odometry_source: odom_source,
+            odometry_messages: odom.len(),
+            truth_source,
+            truth_poses: truth.len(),
+            lidars,
+            backward_steps: backward,
+            topics: self.topics,
+            notes: self.notes,
+        };
+        let meta = match serde_json::to_value(&report) {
+            Ok(serde_json::Value::Object(mut m)) => {
+                m.insert("tool".into(), format!("mapkeeper-logs {}", env!("CARGO_PKG_VERSION")).into());
+                m
+            }
+            _ => serde_json::Map::new(),
+        };
+        let log = SensorLog { header: LogHeader::new(meta), records: records.into_iter().map(|r| r.3).collect() };
+        Ok((log, report))
+    }
+
+    /// The chosen lidars: their report entries, (id, mount, mirrored, scans with clamped
+    /// stamps), and the streams whose stamps stepped back.
+    #[allow(clippy::type_complexity)]
+    fn lidar_streams(
+        &mut self,
+        options: &ImportOptions,
+    ) -> Result<(Vec<LidarInfo>, Vec<(u32, Pose2, bool, Vec<RawScan>)>, Vec<BackwardSteps>), ImportError> {
+        let scan_topics = self.select_scan_topics(options)?;
+        let (mut lidars, mut streams, mut backward) = (Vec::new(), Vec::new(), Vec::new());
+        for (id, topic) in scan_topics.iter().enumerate() {
+            let mut scans = self.scans.remove(topic).unwrap_or_default();
+            let frame = scans[0].frame_id.clone();
+            let (mount, mount_source, mirrored, tilt_deg) = self.mount_of(&frame, options)?;
+            let mut stamps: Vec<u64> = scans.iter().map(|s| s.stamp_ns).collect();
+            backward.extend(clamp_backward(topic, &mut stamps));
+            for (s, t) in scans.iter_mut().zip(stamps) {
+                s.stamp_ns = t;
+            }
+            lidars.push(LidarInfo {
+                id: id as u32,
+                topic: topic.clone(),
+                frame_id: frame,
+                mount,
+                mount_source,
+                mirrored,
+                tilt_deg,
+                scans: scans.len(),
+                beams: scans[0].ranges_m.len(),
+            });
+            streams.push((id as u32, mount, mirrored, scans));
+        }
+        Ok((lidars, streams, backward))
+    }
+
+    fn select_scan_topics(&self, options: &ImportOptions) -> Result<Vec<String>, ImportError> {
+        let available: Vec<&String> = self.scans.keys().collect();
+        if available.is_empty() {
+            let topics: Vec<String> =
+                self.topics.iter().map(|(t, c)| format!("{t} ({}, {})", c.type_name, c.messages)).collect();
+            return Err(ImportError::unusable(
+                &self.path,
+                format!("no laser scans in the log; its topics: [{}]", topics.join(", ")),
+            ));
+        }
+        if options.scan_topics.is_empty() {
+            return Ok(available.into_iter().cloned().collect());
+        }
+        let mut seen = BTreeSet::new();
+        for t in &options.scan_topics {
+            if !self.scans.contains_key(t) {
+                return Err(ImportError::unusable(
+                    &self.path,
+                    format!(
+                        "scan topic '{t}' has no laser scans; the log's scan topics: [{}]",
+                        available.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+            if !seen.insert(t) {
+                return Err(ImportError::unusable(&self.path, format!("scan topic '{t}' is named twice")));
+            }
+        }
+        Ok(options.scan_topics.clone())
+    }
+
+    /// The lidar's mount in the base frame, where it came from, whether the scan is mirrored
+    /// (the lidar upside down) and its tilt from level, degrees.
+    fn mount_of(&self, frame: &str, options: &ImportOptions) -> Result<(Pose2, String, bool, f64), ImportError> {
+        if let Some((m, src)) = self.mounts.get(frame) {
+            return Ok((*m, src.clone(), false, 0.0));
+        }
+        if frame == options.base_frame {
+            return Ok((Pose2::IDENTITY, format!("the lidar frame is the base frame '{frame}'"), false, 0.0));
+        }
+        let static_edges: Vec<&RawTransform> = self.transforms.iter().filter(|t| t.is_static).collect();
+        let (rigid, source) = match chain(&static_edges, &options.base_frame, frame) {
+            Some(r) => (r, format!("/tf_static {} -> {frame}", options.base_frame)),
+            None => {
+                // Fixed mounts published on /tf (older ROS 1 drivers): the first transform of
+                // each edge other than the odometry's.
+                let mut firsts: Vec<&RawTransform> = Vec::new();
+                for t in self.transforms.iter().filter(|t| !t.is_static) {
+                    let odom_edge = t.parent == options.odom_frame && t.child == options.base_frame;
+                    if !odom_edge && !firsts.iter().any(|f| f.parent == t.parent && f.child == t.child) {
+                        firsts.push(t);
+                    }
+                }
+                let r = chain(&firsts, &options.base_frame, frame).ok_or_else(|| {
+                    ImportError::unusable(
+                        &self.path,
+                        format!(
+                            "no transform from the base frame '{}' to the lidar frame '{frame}' in /tf_static or /tf \
+(set the base frame with --base-frame, or record the robot's static transforms)",
+                            options.base_frame
+                        ),
+                    )
+                })?;
+                (r, format!("/tf (first transform) {} -> {frame}", options.base_frame))
+            }
+        };
+        let (mount, mirrored, tilt_deg) = rigid.planar();
+        Ok((mount, source, mirrored, tilt_deg))
+    }
+
+    /// The odometry track: its name and (stamp, pose) in file order.
+    fn odometry_track(&mut self, options: &ImportOptions) -> Result<(String, Vec<(u64, Pose2)>), ImportError> {
+        let from_topic = |me: &mut Self, topic: &str| {
+            me.odometry.remove(topic).map(|v| v.into_iter().map(|o| (o.stamp_ns, o.pose)).collect())
+        };
+        let from_tf = |me: &Self| -> Vec<(u64, Pose2)> {
+            me.transforms
+                .iter()
+                .filter(|t| !t.is_static && t.parent == options.odom_frame && t.child == options.base_frame)
+                .map(|t| (t.stamp_ns, t.transform.planar().0))
+                .collect()
+        };
+        let tf_name = format!("/tf {} -> {}", options.odom_frame, options.base_frame);
+        match &options.odometry {
+            OdometryFrom::Topic(topic) => match from_topic(self, topic) {
+                Some(v) => Ok((topic.clone(), v)),
+                None => Err(ImportError::unusable(
+                    &self.path,
+                    format!(
+                        "odometry topic '{topic}' has no odometry messages; odometry topics: [{}]",
+                        self.odometry_topics()
+                    ),
+                )),
+            },
+            OdometryFrom::Tf => {
+                let v = from_tf(self);
+                if v.is_empty() {
+                    return Err(ImportError::unusable(&self.path, format!("no transforms {tf_name} in the log")));
+                }
+                Ok((tf_name, v))
+            }
+            OdometryFrom::Auto => {
+                if let Some(v) = from_topic(self, "/odom") {
+                    return Ok(("/odom".into(), v));
+                }
+                if self.odometry.len() == 1 {
+                    let topic = self.odometry.keys().next().cloned().unwrap_or_default();
+                    if let Some(v) = from_topic(self, &topic) {
+                        return Ok((topic, v));
+                    }
+                }
+                let v = from_tf(self);
+                if !v.is_empty() {
+                    return Ok((tf_name, v));
+                }
+                Err(ImportError::unusable(
+                    &self.path,
+                    format!(
+                        "no odometry: no topic '/odom', {} odometry topics [{}] (choose one with --odom-topic), and no {tf_name}",
+                        self.odometry.len(),
+                        self.odometry_topics()
+                    ),
+                ))
+            }
+        }
+    }
+
+    fn odometry_topics(&self) -> String {
+        self.odometry.keys().cloned().collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// Clamps stamps that step back to the previous stamp, in place; reports how many and the
+/// largest step.
+fn clamp_backward(stream: &str, stamps: &mut [u64]) -> Option<BackwardSteps> {
+    let (mut count, mut largest) = (0usize, 0u64);
+    for i in 1..stamps.len() {
+        if stamps[i] < stamps[i - 1] {
+            count += 1;
+            largest = largest.max(stamps[i - 1] - stamps[i]);
+            stamps[i] = stamps[i - 1];
+        }
+    }
+    (count > 0).then(|| BackwardSteps { stream: stream.to_string(), count, largest_s: largest as f64 * 1e-9 })
+}
+
+/// [`clamp_backward`] on a track of stamped poses.
+fn clamp_track(stream: &str, track: &mut [(u64, Pose2)]) -> Option<BackwardSteps> {
+    let mut stamps: Vec<u64> = track.iter().map(|p| p.0).collect();
+    let b = clamp_backward(stream, &mut stamps);
+    for (p, t) in track.iter_mut().zip(stamps) {
+        p.0 = t;
+    }
+    b
+}
+
+fn to_scan(
+    path: &Path,
+    s: RawScan,
+    id: u32,
+    mount: Pose2,
+    mirrored: bool,
+    epoch_ns: u64,
+) -> Result<LaserScan, ImportError> {
+    let (angle_min_rad, angle_increment_rad) =
+        if mirrored { (-s.angle_min_rad, -s.angle_increment_rad) } else { (s.angle_min_rad, s.angle_increment_rad) };
+    let scan = LaserScan {
+        stamp_ns: s.stamp_ns - epoch_ns,
+        lidar_id: id,
+        lidar_in_robot: mount,
+        angle_min_rad,
+        angle_increment_rad,
+        range_min_m: s.range_min_m,
+        range_max_m: s.range_max_m,
+        ranges_m: s.ranges_m,
+    };
+    scan.validate()
+        .map_err(|e| ImportError::parse(path, format!("{} ({})", s.place, s.topic), format!("scan: {e}")))?;
+    Ok(scan)
+}
+
+/// The transform of frame `to` in frame `from` through `edges` (each usable both ways), by a
+/// breadth-first search; `None` without a path.
+fn chain(edges: &[&RawTransform], from: &str, to: &str) -> Option<Rigid3> {
+    let mut seen: HashMap<&str, Rigid3> = HashMap::new();
+    seen.insert(from, Rigid3::IDENTITY);
+    let mut queue = VecDeque::from([from]);
+    while let Some(f) = queue.pop_front() {
+        let here = seen[f];
+        if f == to {
+            return Some(here);
+        }
+        for e in edges {
+            let (next, step) = if e.parent == f {
+                (e.child.as_str(), e.transform)
+            } else if e.child == f {
+                (e.parent.as_str(), e.transform.inverse())
+            } else {
+                continue;
+            };
+            if !seen.contains_key(next) {
+                seen.insert(next, here.compose(&step));
+                queue.push_back(next);
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(topic: &str, frame: &str, t: u64) -> RawScan {
+        RawScan {
+            topic: topic.into(),
+            frame_id: frame.into(),
+            stamp_ns: t,
+            angle_min_rad: -1.0,
+            angle_increment_rad: 0.5,
+            range_min_m: 0.1,
+            range_max_m: 20.0,
+            ranges_m: vec![1.0; 5],
+            place: format!("message at {t}"),
+        }
+    }
+
+    fn tf(parent: &str, child: &str, t: Rigid3, is_static: bool) -> RawTransform {
+        RawTransform { stamp_ns: 0, parent: parent.into(), child: child.into(), transform: t, is_static }
+    }
+
+    #[test]
+    fn mounts_chain_through_static_transforms_and_upside_down_lidars_are_mirrored() {
+        let mut a = Assembler::new(Path::new("x.bag"), "test");
+        a.transform(tf("base_link", "plate", Rigid3::from_xyz_rpy([0.2, 0.0, 0.3], [0.0, 0.0, 0.0]), true));
+        a.transform(tf(
+            "plate",
+            "laser",
+            Rigid3::from_xyz_rpy([0.1, -0.2, 0.0], [std::f64::consts::PI, 0.0, 0.5]),
+            true,
+        ));
+        a.scan(scan("/scan", "laser", 1_000_000_000));
+        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 1_000_000_000, pose: Pose2::IDENTITY });
+        let (log, report) = a.finish(&ImportOptions::default()).unwrap();
+        let s = log.scans().next().unwrap();
+        assert!(
+            (s.lidar_in_robot.x - 0.3).abs() < 1e-9 && (s.lidar_in_robot.y + 0.2).abs() < 1e-9,
+            "{:?}",
+            s.lidar_in_robot
+        );
+        // Roll π, yaw 0.5: the lidar's x axis points at 0.5 rad in the base frame and its beams
+        // turn clockwise there, so the scan is mirrored (angles negated).
+        assert!(report.lidars[0].mirrored);
+        assert!((s.angle_min_rad - 1.0).abs() < 1e-12 && (s.angle_increment_rad + 0.5).abs() < 1e-12);
+        assert!((s.lidar_in_robot.yaw - 0.5).abs() < 1e-9, "{}", s.lidar_in_robot.yaw);
+        assert_eq!(s.stamp_ns, 0, "time is re-based on the first stamp");
+        assert_eq!(report.epoch_ns, 1_000_000_000);
+    }
+
+    #[test]
+    fn missing_transform_and_unknown_topic_are_named() {
+        let mut a = Assembler::new(Path::new("x.bag"), "test");
+        a.scan(scan("/scan", "laser", 0));
+        let e = a.finish(&ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("x.bag") && e.contains("'laser'") && e.contains("base_link"), "{e}");
+        let mut a = Assembler::new(Path::new("x.bag"), "test");
+        a.scan(scan("/scan", "base_link", 0));
+        let opts = ImportOptions { scan_topics: vec!["/front".into()], ..ImportOptions::default() };
+        let e = a.finish(&opts).unwrap_err().to_string();
+        assert!(e.contains("'/front'") && e.contains("/scan"), "{e}");
+    }
+
+    #[test]
+    fn backward_stamps_are_clamped_and_counted() {
+        let mut a = Assembler::new(Path::new("x.log"), "test");
+        for t in [10, 20, 15, 30, 5, 40] {
+            a.scan(scan("/scan", "base_link", t * 1_000_000));
+        }
+        a.transform(tf("odom", "base_link", Rigid3::IDENTITY, false));
+        let (log, report) = a.finish(&ImportOptions::default()).unwrap();
+        assert_eq!(report.backward_steps.len(), 1);
+        assert_eq!(report.backward_steps[0].count, 2);
+        assert!((report.backward_steps[0].largest_s - 0.025).abs() < 1e-12);
+        let stamps: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
+        // The odometry transform at 0 s is the log's first stamp.
+        assert_eq!(stamps, vec![10_000_000, 20_000_000, 20_000_000, 30_000_000, 30_000_000, 40_000_000]);
+        assert_eq!(report.odometry_source, "/tf odom -> base_link");
+    }
+
+    #[test]
+    fn bad_scans_are_refused_with_their_place() {
+        let mut a = Assembler::new(Path::new("x.log"), "test");
+        let mut s = scan("/scan", "base_link", 0);
+        s.angle_increment_rad = 0.0;
+        s.place = "line 7".into();
+        a.scan(s);
+        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY });
+        let e = a.finish(&ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.starts_with("x.log: line 7 (/scan): scan:"), "{e}");
+    }
+}

@@ -1,0 +1,124 @@
+//! What an import found: the lidars, the odometry, the reference, every topic, and the
+//! timestamps that stepped back. Printed by the CLI and kept in the sensor log's header `meta`.
+
+use mapkeeper_grid::Pose2;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Messages of one topic of the file.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TopicCount {
+    /// The message type (`sensor_msgs/msg/LaserScan`, `FLASER`).
+    pub type_name: String,
+    /// How many.
+    pub messages: usize,
+}
+
+/// One lidar of the imported log.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LidarInfo {
+    /// Its `lidar_id` in the sensor log.
+    pub id: u32,
+    /// Its topic.
+    pub topic: String,
+    /// Its frame.
+    pub frame_id: String,
+    /// Its mount in the base frame, projected on the plane.
+    pub mount: Pose2,
+    /// Where the mount comes from.
+    pub mount_source: String,
+    /// Whether it is mounted upside down (its scans mirrored: angles negated).
+    pub mirrored: bool,
+    /// Its tilt from level, degrees (the projection ignores it).
+    pub tilt_deg: f64,
+    /// Its scans.
+    pub scans: usize,
+    /// Beams of its first scan.
+    pub beams: usize,
+}
+
+/// Timestamps of one stream that stepped back: each is replaced by the stamp before it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BackwardSteps {
+    /// The stream (topic).
+    pub stream: String,
+    /// How many stamps stepped back.
+    pub count: usize,
+    /// The largest step back, seconds.
+    pub largest_s: f64,
+}
+
+/// What an import found.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ImportReport {
+    /// The file read.
+    pub source: String,
+    /// Its format.
+    pub format: String,
+    /// The log's first stamp on its own clock, nanoseconds: every stamp of the sensor log is
+    /// relative to it.
+    pub epoch_ns: u64,
+    /// From the first to the last record, seconds.
+    pub duration_s: f64,
+    /// Scans imported, all lidars.
+    pub scans: usize,
+    /// Where the odometry came from.
+    pub odometry_source: String,
+    /// Odometry readings imported.
+    pub odometry_messages: usize,
+    /// Where the reference poses came from, if any.
+    pub truth_source: Option<String>,
+    /// Reference poses imported.
+    pub truth_poses: usize,
+    /// The lidars.
+    pub lidars: Vec<LidarInfo>,
+    /// Streams whose timestamps stepped back (clamped to the stamp before).
+    pub backward_steps: Vec<BackwardSteps>,
+    /// Every topic of the file with its type and message count.
+    pub topics: BTreeMap<String, TopicCount>,
+    /// Anything else worth knowing (messages skipped, fields ignored).
+    pub notes: Vec<String>,
+}
+
+impl ImportReport {
+    /// A few lines for a terminal.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = vec![format!(
+            "{} ({}): {} scans from {} lidar(s), {} odometry readings from {}, {:.1} s",
+            self.source,
+            self.format,
+            self.scans,
+            self.lidars.len(),
+            self.odometry_messages,
+            self.odometry_source,
+            self.duration_s
+        )];
+        for l in &self.lidars {
+            out.push(format!(
+                "  lidar {}: {} (frame {}), {} scans of {} beams, mount ({:.3}, {:.3}, {:.3} rad){}{} from {}",
+                l.id,
+                l.topic,
+                l.frame_id,
+                l.scans,
+                l.beams,
+                l.mount.x,
+                l.mount.y,
+                l.mount.yaw,
+                if l.mirrored { ", upside down (mirrored)" } else { "" },
+                if l.tilt_deg > 2.0 { format!(", tilted {:.1} deg (ignored)", l.tilt_deg) } else { String::new() },
+                l.mount_source
+            ));
+        }
+        if let Some(t) = &self.truth_source {
+            out.push(format!("  reference: {} poses from {t}", self.truth_poses));
+        }
+        for b in &self.backward_steps {
+            out.push(format!(
+                "  {}: {} timestamps step back (largest {:.3} s), each clamped to the one before",
+                b.stream, b.count, b.largest_s
+            ));
+        }
+        out.extend(self.notes.iter().map(|n| format!("  note: {n}")));
+        out
+    }
+}
