@@ -38,6 +38,8 @@ enum Command {
     Map(cmd::map::Args),
     /// Run the particle-filter localiser over a sensor log.
     Localise(cmd::localise::Args),
+    /// Convert a recorded log (ROS 2 MCAP, ROS 1 bag, CARMEN) into the project's sensor log.
+    Convert(cmd::convert::Args),
     /// Run the map updater over recorded data (scans and poses or odometry) and a map.
     Update(cmd::update::Args),
     /// CC, MS and OPDF between two ROS map_server maps.
@@ -62,6 +64,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Map(a) => cmd::map::run(a),
         Command::Localise(a) => cmd::localise::run(a),
+        Command::Convert(a) => cmd::convert::run(a),
         Command::Update(a) => cmd::update::run(a),
         Command::Metrics(a) => cmd::metrics::run(a),
         Command::Render(a) => cmd::render::run(a),

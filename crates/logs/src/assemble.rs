@@ -5,7 +5,7 @@
 //! the lidars (by topic), finds each lidar's mount from the static transforms (or a mount the
 //! reader knows, as CARMEN's `PARAM` lines give), projects a mount that is upside down or tilted
 //! onto the plane, takes the odometry from a topic or from the `odom → base` transform, counts
-//! and clamps timestamps that step back, re-bases time on the log's first stamp and validates
+//! and clamps timestamps that step back (to 1 ns after the stamp before), re-bases time on the log's first stamp and validates
 //! every scan.
 
 use crate::ImportError;
@@ -384,15 +384,16 @@ impl Assembler {
     }
 }
 
-/// Clamps stamps that step back to the previous stamp, in place; reports how many and the
-/// largest step.
+/// Moves stamps that step back to 1 ns after the stamp before, in place (so the order of the
+/// file is kept and no two messages of the stream share a stamp they did not have: a scan and
+/// its odometry reading, clamped alike, stay paired); reports how many and the largest step.
 fn clamp_backward(stream: &str, stamps: &mut [u64]) -> Option<BackwardSteps> {
     let (mut count, mut largest) = (0usize, 0u64);
     for i in 1..stamps.len() {
         if stamps[i] < stamps[i - 1] {
             count += 1;
             largest = largest.max(stamps[i - 1] - stamps[i]);
-            stamps[i] = stamps[i - 1];
+            stamps[i] = stamps[i - 1] + 1;
         }
     }
     (count > 0).then(|| BackwardSteps { stream: stream.to_string(), count, largest_s: largest as f64 * 1e-9 })
@@ -536,8 +537,9 @@ mod tests {
         assert_eq!(report.backward_steps[0].count, 2);
         assert!((report.backward_steps[0].largest_s - 0.025).abs() < 1e-12);
         let stamps: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
-        // The odometry transform at 0 s is the log's first stamp.
-        assert_eq!(stamps, vec![10_000_000, 20_000_000, 20_000_000, 30_000_000, 30_000_000, 40_000_000]);
+        // The odometry transform at 0 s is the log's first stamp; a stamp that steps back lands
+        // 1 ns after the one before.
+        assert_eq!(stamps, vec![10_000_000, 20_000_000, 20_000_001, 30_000_000, 30_000_001, 40_000_000]);
         assert_eq!(report.odometry_source, "/tf odom -> base_link");
     }
 

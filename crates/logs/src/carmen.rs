@@ -4,15 +4,19 @@
 //!
 //! - `FLASER n r_1 … r_n x y θ odom_x odom_y odom_θ ipc_timestamp host logger_timestamp`
 //!   (`RLASER` alike): beams from −π/2 counter-clockwise over 180°, one degree apart for 180 or
-//!   181 beams, half a degree for 360 or 361 (in general π/n for even n, π/(n−1) for odd n); the
-//!   lidar sits `robot_frontlaser_offset` (`robot_rearlaser_offset`, facing back) ahead of the
-//!   base along x.
+//!   181 beams, half a degree for 360 or 361 (in general π/n for even n, π/(n−1) for odd n). The
+//!   first triplet is the lidar's pose, the second the robot's: the mount is `robot⁻¹ ∘ laser` of
+//!   the first message. In a corrected log both hold the corrected lidar pose, so the mount is
+//!   the identity and `robot_frontlaser_offset` is not applied again (a note says so): on
+//!   Freiburg 079 a map built with its −0.04 m offset is measurably blurrier (7.8 % against
+//!   7.2 % distinct hit cells per hit at 0.05 m).
 //! - `ROBOTLASER1 type start_angle fov resolution max_range accuracy remission_mode n r_1 … r_n
 //!   m e_1 … e_m laser_x laser_y laser_θ robot_x robot_y robot_θ tv rv fwd_safety side_safety
 //!   turn_axis ipc_timestamp host logger_timestamp`: the geometry is given; the mount is
 //!   `robot⁻¹ ∘ laser` of the first message.
 //! - `ODOM x y θ tv rv accel ipc_timestamp host logger_timestamp`.
-//! - `PARAM name value …`: `robot_frontlaser_offset`, `robot_rearlaser_offset` are used.
+//! - `PARAM name value …`: `robot_frontlaser_offset`, `robot_rearlaser_offset` are compared
+//!   with the mounts the poses give (a note when they differ).
 //! - Other messages (`NEFF`, `SYNC`, `TRUEPOS`, …) are counted and skipped.
 //!
 //! **No return.** CARMEN writes "no return" as the sensor's largest reading. The largest reading
@@ -28,6 +32,9 @@
 //! increments `p_k⁻¹ ∘ q_{k+1}` (`p_k` the corrected pose of scan `k`, `q_{k+1}` the last `ODOM`
 //! before scan `k + 1`), one reading at each scan's stamp, starting at the identity. Otherwise
 //! the `ODOM` lines are the odometry as written and the log has no reference.
+//!
+//! Negative timestamps (a few in real logs) read as 0, so where they are used they count as
+//! steps back in the report.
 
 use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan};
 use crate::options::{ImportOptions, StampFrom};
@@ -170,17 +177,18 @@ impl Fields<'_> {
         Ok(Pose2::new(self.num(i, "x")?, self.num(i + 1, "y")?, wrap_angle(self.num(i + 2, "theta")?)))
     }
 
-    /// The stamp: `ipc_timestamp` at `i` or `logger_timestamp` at `i + 2`, seconds.
+    /// The stamp: `ipc_timestamp` at `i` or `logger_timestamp` at `i + 2`, seconds. A negative
+    /// stamp (real logs have a few) reads as 0, so it counts as a step back where it is used.
     fn stamp(&self, i: usize, from: StampFrom) -> Result<u64, ImportError> {
         let (i, what) = match from {
             StampFrom::Header => (i, "ipc_timestamp"),
             StampFrom::Record => (i + 2, "logger_timestamp"),
         };
         let t = self.num(i, what)?;
-        if !(0.0..=1.8e10).contains(&t) {
-            return Err(self.err(format!("field {i} ({what}) is {t} s: expected 0 to 1.8e10 s")));
+        if t.abs() > 1.8e10 {
+            return Err(self.err(format!("field {i} ({what}) is {t} s: expected at most 1.8e10 s")));
         }
-        Ok((t * 1e9).round() as u64)
+        Ok((t.max(0.0) * 1e9).round() as u64)
     }
 
     fn ranges(&self, from: usize, n: usize) -> Result<Vec<f32>, ImportError> {
@@ -259,13 +267,23 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
     let largest = p.lasers.iter().flat_map(|l| l.ranges.iter().copied()).fold(0.0f32, f32::max);
     let file_max = no_return.unwrap_or_else(|| largest.next_up());
     for l in &p.lasers {
-        let (mount, src) = match l.name {
-            "FLASER" => (Pose2::new(p.front_offset, 0.0, 0.0), "PARAM robot_frontlaser_offset"),
-            "RLASER" => (Pose2::new(p.rear_offset, 0.0, PI), "PARAM robot_rearlaser_offset (facing back)"),
-            _ => (l.robot.between(&l.pose), "ROBOTLASER1 robot⁻¹ ∘ laser pose (first message)"),
-        };
         if !a.has_mount(l.name) {
-            a.known_mount(l.name, mount, src);
+            let mount = l.robot.between(&l.pose);
+            a.known_mount(l.name, mount, &format!("{} robot pose⁻¹ ∘ laser pose (first message)", l.name));
+            let param = match l.name {
+                "FLASER" => Some(("robot_frontlaser_offset", p.front_offset)),
+                "RLASER" => Some(("robot_rearlaser_offset", p.rear_offset)),
+                _ => None,
+            };
+            if let Some((name, offset)) = param.filter(|(_, o)| (o - mount.x).abs() > 1e-9) {
+                a.note(format!(
+                    "PARAM {name} {offset} m not applied: the {} poses place the lidar at ({:.3}, {:.3}) in the base frame{}",
+                    l.name,
+                    mount.x,
+                    mount.y,
+                    if corrected { " (a corrected log's poses are the lidar's own)" } else { "" }
+                ));
+            }
         }
         a.scan(RawScan {
             topic: l.name.to_string(),
@@ -311,22 +329,23 @@ fn rechain(p: &Parsed, a: &mut Assembler) {
     for (k, l) in p.lasers.iter().enumerate() {
         if k > 0 {
             let prev = &p.lasers[k - 1];
-            // The last ODOM after scan k − 1 and before scan k, skipping the re-anchoring line.
-            let q = p
-                .odometry
-                .iter()
-                .rev()
-                .find(|(before, o)| *before == k && o.stamp_ns != 0)
-                .map_or(prev.robot, |(_, o)| o.pose);
+            // The last ODOM after scan k − 1 and before scan k (the re-anchoring line, equal to
+            // scan k − 1's pose, if it is the only one: no motion).
+            let q = p.odometry.iter().rev().find(|(before, _)| *before == k).map_or(prev.robot, |(_, o)| o.pose);
             odom = odom.compose(&prev.robot.between(&q));
         }
         a.odometry(RawOdometry { topic: RECHAINED.into(), stamp_ns: l.stamp_ns, pose: odom });
         a.truth(RawPose { stamp_ns: l.stamp_ns, pose: l.robot }, "the corrected poses of the laser messages");
     }
-    let anchors = p.odometry.iter().filter(|(_, o)| o.stamp_ns == 0).count();
+    // A re-anchoring line: the first ODOM after a scan, equal to that scan's pose.
+    let anchors = (1..=p.lasers.len())
+        .filter(|&k| {
+            p.odometry.iter().find(|(before, _)| *before == k).is_some_and(|(_, o)| o.pose == p.lasers[k - 1].robot)
+        })
+        .count();
     a.note(format!(
-        "corrected log: reference = the laser messages' corrected poses; odometry = raw increments re-chained, one reading per scan \
-({} ODOM lines read, {anchors} of them re-anchoring lines with timestamp 0)",
+        "corrected log: reference = the laser messages' corrected poses; odometry = raw increments re-chained, one reading per \
+scan ({} ODOM lines read, {anchors} of them re-anchoring lines equal to the scan before)",
         p.odometry.len()
     ));
 }
@@ -382,7 +401,12 @@ mod tests {
         assert!((s[0].angle_min_rad + PI / 2.0).abs() < 1e-12 && (s[0].angle_increment_rad - PI / 4.0).abs() < 1e-12);
         assert_eq!(s[0].range_max_m, 81.83, "the repeated largest reading is the no-return value");
         assert_eq!(s[0].valid_count(), 2);
-        assert_eq!(s[0].lidar_in_robot, Pose2::new(0.1, 0.0, 0.0));
+        assert_eq!(s[0].lidar_in_robot, Pose2::IDENTITY, "a corrected log's poses are the lidar's");
+        assert!(
+            report.notes.iter().any(|n| n.contains("robot_frontlaser_offset 0.1 m not applied")),
+            "{:?}",
+            report.notes
+        );
         assert_eq!(report.truth_poses, 3);
         assert!(report.notes.iter().any(|n| n.contains("1 NEFF")), "{:?}", report.notes);
     }
@@ -407,7 +431,7 @@ mod tests {
             ("FLASER 3 1 2\n", "line 1: FLASER: missing field"),
             ("ODOM 0 0 zero 0 0 0 1 h 1\n", "line 1: ODOM: field 3 (theta) is 'zero'"),
             ("ODOM 0 0 0 0 0 0 1 h 1\nFLASER 2.5 1 2\n", "line 2: FLASER: field 1 (num_readings) is 2.5"),
-            ("ODOM 0 0 0 0 0 0 -1 h 1\n", "line 1: ODOM: field 7 (ipc_timestamp) is -1"),
+            ("ODOM 0 0 0 0 0 0 -2e10 h 1\n", "line 1: ODOM: field 7 (ipc_timestamp) is -20000000000"),
             ("ODOM 0 0 0 0 0 0 1 h 1\n", "no laser scans"),
         ] {
             let p = write("bad", text);

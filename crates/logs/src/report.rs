@@ -37,7 +37,7 @@ pub struct LidarInfo {
     pub beams: usize,
 }
 
-/// Timestamps of one stream that stepped back: each is replaced by the stamp before it.
+/// Timestamps of one stream that stepped back: each is replaced by 1 ns after the stamp before it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BackwardSteps {
     /// The stream (topic).
@@ -72,7 +72,7 @@ pub struct ImportReport {
     pub truth_poses: usize,
     /// The lidars.
     pub lidars: Vec<LidarInfo>,
-    /// Streams whose timestamps stepped back (clamped to the stamp before).
+    /// Streams whose timestamps stepped back (each moved to 1 ns after the stamp before).
     pub backward_steps: Vec<BackwardSteps>,
     /// Every topic of the file with its type and message count.
     pub topics: BTreeMap<String, TopicCount>,
@@ -114,7 +114,7 @@ impl ImportReport {
         }
         for b in &self.backward_steps {
             out.push(format!(
-                "  {}: {} timestamps step back (largest {:.3} s), each clamped to the one before",
+                "  {}: {} timestamps step back (largest {:.3} s), each moved to 1 ns after the one before",
                 b.stream, b.count, b.largest_s
             ));
         }

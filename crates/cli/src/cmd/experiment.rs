@@ -39,6 +39,9 @@ pub enum Which {
     /// Real kidnaps: the robot itself moved 0.5-3 m and up to ±180° (odometry blind) in late,
     /// stale worlds; recoveries by pose updating apart from the filter's own, map damage.
     KidnapRobot(KidnapRobotArgs),
+    /// Real logs with reference poses (CARMEN, bags): the localiser's error against the
+    /// reference, where odometry contradicts it, the updater on each log's own map.
+    RealData(super::real_data::Args),
 }
 
 /// Arguments of `mapkeeper experiment kidnap-robot`.
@@ -310,6 +313,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::CheckDetection(a) => check_detection(a),
         Which::Table1(a) => table1(a),
         Which::KidnapRobot(a) => kidnap_robot(a),
+        Which::RealData(a) => super::real_data::run(a),
     }
 }
 

@@ -6,14 +6,15 @@ use mapkeeper_grid::{Pose2, map_io};
 use mapkeeper_harness::jobs::localise::localise_log;
 use mapkeeper_harness::{LogSource, ReplayOptions};
 use mapkeeper_localiser::FilterParams;
-use mapkeeper_sensor::{SensorLog, write_tum_with_comment};
+use mapkeeper_sensor::write_tum_with_comment;
 use std::path::PathBuf;
 
 /// Arguments of `mapkeeper localise`.
 #[derive(clap::Args, Debug)]
 #[command(
     long_about = "Run the particle-filter localiser (likelihood field, KLD sampling, multi-lidar; \
-docs/localiser.md) over a recorded sensor log and a map.\n\n\
+docs/localiser.md) over a recorded log (a folder holding log.jsonl, a ROS 2 MCAP bag, a ROS 1 bag or a CARMEN log; \
+docs/real-data.md) and a map.\n\n\
 Scans with the same stamp_ns (one per lidar) form one filter update, driven by the latest odometry \
 reading at or before that time; updates before the first odometry reading are skipped. The filter \
 starts at --init with the preset's initial covariance (initial_cov_*: AMCL's default, σ 0.5 m, 0.5 m, \
@@ -29,9 +30,9 @@ position and yaw RMSE of the estimates against the truth interpolated at their t
 mapkeeper localise --log run1 --map m0.yaml --out loc --init 0.5,-2.0,1.57 --params amcl.toml --seed 3"
 )]
 pub struct Args {
-    /// Folder holding the sensor log `log.jsonl`.
-    #[arg(long, value_name = "DIR")]
-    pub log: PathBuf,
+    /// The recorded log and how to read it.
+    #[command(flatten)]
+    pub input: super::log_input::LogInput,
     /// The map to localise on (ROS map_server YAML).
     #[arg(long, value_name = "MAP.yaml")]
     pub map: PathBuf,
@@ -62,8 +63,8 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let preset = FilterParams::preset(&args.localiser).context("--localiser")?;
     let params = load_params(preset, args.params.as_deref(), FilterParams::validate)?;
-    let log_path = args.log.join("log.jsonl");
-    let source = LogSource::new(SensorLog::read(&log_path)?, log_path.display().to_string(), ReplayOptions::default());
+    let (log, log_path) = args.input.read()?;
+    let source = LogSource::new(log, log_path.display().to_string(), ReplayOptions::default());
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
     let dir = super::output_dir(&args.out, args.force)?;
 

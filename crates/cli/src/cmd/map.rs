@@ -8,14 +8,14 @@ use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::{CellState, map_io};
 use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
 use mapkeeper_harness::{LogSource, ReplayOptions};
-use mapkeeper_sensor::SensorLog;
 use std::path::PathBuf;
 
 /// Arguments of `mapkeeper map`.
 #[derive(clap::Args, Debug)]
 #[command(
     long_about = "Build an occupancy map from a sensor log at the logged true poses (log-odds mapper).\n\n\
-Reads DIR/log.jsonl (or --log FILE directly). Each scan is placed at the true robot pose at its \
+Reads --log (a folder holding log.jsonl, a .jsonl file, a ROS 2 MCAP bag, a ROS 1 bag or a CARMEN \
+log with reference poses; docs/real-data.md). Each scan is placed at the true robot pose at its \
 timestamp: linearly interpolated between the truth records around it (yaw along the shorter arc) \
 when they are at most 2 × --max-pose-gap-s apart, else the nearest truth record if it is within \
 --max-pose-gap-s, else the scan is skipped. Beams start at the lidar (the scan's lidar_in_robot \
@@ -31,9 +31,9 @@ as ROS map_server YAML + trinary PGM.",
 mapkeeper map --log runs/explore --out m1.yaml --like worlds/g1.yaml --params mapper.toml"
 )]
 pub struct Args {
-    /// Folder holding log.jsonl (or the log file itself).
-    #[arg(long, value_name = "DIR")]
-    pub log: PathBuf,
+    /// The recorded log and how to read it.
+    #[command(flatten)]
+    pub input: super::log_input::LogInput,
     /// Output map (ROS map_server YAML; the PGM is written beside it).
     #[arg(long, value_name = "MAP.yaml")]
     pub out: PathBuf,
@@ -66,10 +66,10 @@ pub struct Args {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let params = load_params(MapperParams::default(), args.params.as_deref(), MapperParams::validate)?;
-    let log_path = if args.log.is_dir() { args.log.join("log.jsonl") } else { args.log.clone() };
     mapkeeper_grid::check_output_file(&args.out, args.force)?;
+    let (log, log_path) = args.input.read()?;
     let options = ReplayOptions { max_truth_gap_ns: (args.max_pose_gap_s * 1e9) as u64, ..ReplayOptions::default() };
-    let source = LogSource::new(SensorLog::read(&log_path)?, log_path.display().to_string(), options);
+    let source = LogSource::new(log, log_path.display().to_string(), options);
     let geometry = match &args.like {
         Some(like) => Some(*load(like)?.geometry()),
         None => None,

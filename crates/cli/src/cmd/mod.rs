@@ -1,12 +1,15 @@
 //! One module per subcommand: its arguments and the glue that calls the libraries.
 
 pub mod converge;
+pub mod convert;
 pub mod experiment;
 pub mod generate;
 pub mod localise;
+pub mod log_input;
 pub mod map;
 pub mod merge;
 pub mod metrics;
+pub mod real_data;
 pub mod recover;
 pub mod render;
 pub mod run;

@@ -6,15 +6,16 @@ use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
 use mapkeeper_harness::{LogSource, OdometryAt, ReplayOptions};
-use mapkeeper_sensor::{SensorLog, read_tum, write_tum};
+use mapkeeper_sensor::{read_tum, write_tum};
 use mapkeeper_updater::{PRESET_NAMES, UpdaterParams};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `mapkeeper update`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Runs the safe and robust map updater (Stefanini et al. 2023) over recorded data.\n\n\
-Input: a ROS map_server map (M_{i-1}) and a sensor-log folder holding log.jsonl (scans with their \
-lidar mounting poses, odometry, optionally true poses). Scans from several lidars are processed \
+Input: a ROS map_server map (M_{i-1}) and a recorded log (--log: a folder holding log.jsonl, a ROS 2 \
+MCAP bag, a ROS 1 bag or a CARMEN log; scans with their lidar mounting poses, odometry, optionally true \
+poses; docs/real-data.md). Scans from several lidars are processed \
 together as one step when their stamps lie within --sync-window-s of the step's first scan (at most one \
 scan per lidar: a second scan of a lidar starts a new step; 0 = only equal stamps); the step's stamp is \
 its latest scan's.\n\n\
@@ -36,9 +37,9 @@ pub struct Args {
     /// The map to update, ROS map_server YAML (with its PGM/PNG image).
     #[arg(long, value_name = "MAP.yaml")]
     pub map: PathBuf,
-    /// Sensor-log folder containing log.jsonl.
-    #[arg(long, value_name = "DIR")]
-    pub log: PathBuf,
+    /// The recorded log and how to read it.
+    #[command(flatten)]
+    pub input: super::log_input::LogInput,
     /// Robot poses in the map from a TUM trajectory file.
     #[arg(long, value_name = "FILE.tum", conflicts_with = "true_poses")]
     pub poses: Option<PathBuf>,
@@ -88,9 +89,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let sync_window_ns = sync_window_ns(args.sync_window_s)?;
     let params = load_updater_params(&args.preset, args.params.as_deref())?;
     let map = load_map(&args.map)?;
-    let log_path = args.log.join("log.jsonl");
+    let (log, log_path) = args.input.read()?;
     let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, sync_window_ns, ..ReplayOptions::default() };
-    let source = LogSource::new(SensorLog::read(&log_path)?, log_path.display().to_string(), options);
+    let source = LogSource::new(log, log_path.display().to_string(), options);
     let poses = match (&args.poses, args.true_poses) {
         (Some(p), _) => {
             let track = read_tum(p)?;

@@ -180,7 +180,7 @@ impl Observer for Placer {
 }
 
 /// How to map a log.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct MapLogParams {
     /// The mapper.
     pub mapper: MapperParams,

@@ -7,6 +7,7 @@
 pub mod check_detection;
 pub mod convergence;
 pub mod kidnap_robot;
+pub mod real_data;
 pub mod recovery;
 pub mod run_events;
 pub mod runner;
@@ -45,4 +46,7 @@ pub enum ExperimentError {
     /// A map-quality metric failed (e.g. geometry mismatch).
     #[error("metrics: {0}")]
     Metrics(#[from] mapkeeper_grid::metrics::MetricsError),
+    /// An input cannot be used (a recorded log without reference poses, a preset unknown).
+    #[error("{0}")]
+    Invalid(String),
 }

@@ -7,6 +7,7 @@ pub mod comparison;
 pub mod figures;
 pub mod kidnap_robot_report;
 pub mod merge;
+pub mod real_data_report;
 pub mod recovery_report;
 pub mod report;
 pub mod table1_hold_report;

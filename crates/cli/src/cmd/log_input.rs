@@ -1,0 +1,97 @@
+//! `--log` and its companions, shared by every command that reads a recorded log (`localise`,
+//! `update`, `map`, `convert`): the project's own log, a ROS 2 MCAP bag, a ROS 1 bag or a CARMEN
+//! log, detected from the content (`docs/real-data.md`).
+
+use mapkeeper_logs::{ImportOptions, Imported, LogFormat, OdometryFrom, StampFrom, read_log};
+use mapkeeper_sensor::SensorLog;
+use std::path::PathBuf;
+
+/// Where a recorded log comes from and how it is read.
+#[derive(clap::Args, Debug, Clone)]
+pub struct LogInput {
+    /// The log: a folder holding log.jsonl, a mapkeeper .jsonl log, a ROS 2 bag (a folder with
+    /// metadata.yaml, or a .mcap file), a ROS 1 .bag, or a CARMEN log (plain or gzipped); the
+    /// format is detected from the content (docs/real-data.md).
+    #[arg(long, value_name = "PATH")]
+    pub log: PathBuf,
+    /// The log's format, instead of detecting it: jsonl, mcap, bag or carmen.
+    #[arg(long, value_name = "FORMAT", value_parser = log_format)]
+    pub log_format: Option<LogFormat>,
+    /// A lidar's scan topic (repeat for several lidars, in lidar-id order; default: every topic
+    /// with sensor_msgs/LaserScan messages, sorted by name; CARMEN: FLASER, RLASER, ROBOTLASER1).
+    #[arg(long = "scan-topic", value_name = "TOPIC")]
+    pub scan_topics: Vec<String>,
+    /// The odometry topic (nav_msgs/Odometry; default: /odom if present, else the only odometry
+    /// topic, else the odom → base transform of /tf).
+    #[arg(long, value_name = "TOPIC", conflicts_with = "odom_from_tf")]
+    pub odom_topic: Option<String>,
+    /// Take the odometry from the odom → base transform of /tf (--odom-frame, --base-frame).
+    #[arg(long)]
+    pub odom_from_tf: bool,
+    /// The robot's base frame (lidar mounts are read from the static transforms from it).
+    #[arg(long, value_name = "FRAME", default_value = "base_link")]
+    pub base_frame: String,
+    /// The odometry frame.
+    #[arg(long, value_name = "FRAME", default_value = "odom")]
+    pub odom_frame: String,
+    /// A topic of reference poses in the map frame (nav_msgs/Odometry, geometry_msgs/PoseStamped
+    /// or PoseWithCovarianceStamped), read as the log's true poses (CARMEN corrected logs: their
+    /// corrected poses, always).
+    #[arg(long, value_name = "TOPIC")]
+    pub truth_topic: Option<String>,
+    /// Which clock stamps a message: header (its own stamp, as a ROS node sees it) or record
+    /// (when the recorder received it).
+    #[arg(long, value_name = "CLOCK", default_value = "header", value_parser = stamp_from)]
+    pub stamp: StampFrom,
+}
+
+fn log_format(s: &str) -> Result<LogFormat, String> {
+    LogFormat::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = LogFormat::NAMES.iter().map(|(n, _)| *n).collect();
+        format!("'{}' is not a log format (known: {})", s.escape_debug(), names.join(", "))
+    })
+}
+
+fn stamp_from(s: &str) -> Result<StampFrom, String> {
+    match s {
+        "header" => Ok(StampFrom::Header),
+        "record" => Ok(StampFrom::Record),
+        _ => Err(format!("'{}' is not a clock (known: header, record)", s.escape_debug())),
+    }
+}
+
+impl LogInput {
+    /// The import options these flags give.
+    pub fn options(&self) -> ImportOptions {
+        let odometry = match (&self.odom_topic, self.odom_from_tf) {
+            (Some(t), _) => OdometryFrom::Topic(t.clone()),
+            (None, true) => OdometryFrom::Tf,
+            (None, false) => OdometryFrom::Auto,
+        };
+        ImportOptions {
+            scan_topics: self.scan_topics.clone(),
+            odometry,
+            base_frame: self.base_frame.clone(),
+            odom_frame: self.odom_frame.clone(),
+            truth_topic: self.truth_topic.clone(),
+            stamp: self.stamp,
+        }
+    }
+
+    /// Reads the log; prints what an import found on stderr. Returns the log and the path read
+    /// (a folder's log.jsonl).
+    pub fn read(&self) -> anyhow::Result<(SensorLog, PathBuf)> {
+        let Imported { log, report, path } = self.read_imported()?;
+        if let Some(r) = report {
+            for line in r.lines() {
+                eprintln!("import: {line}");
+            }
+        }
+        Ok((log, path))
+    }
+
+    /// Reads the log with its import report.
+    pub fn read_imported(&self) -> anyhow::Result<Imported> {
+        Ok(read_log(&self.log, self.log_format, &self.options())?)
+    }
+}

@@ -1,0 +1,175 @@
+//! `mapkeeper experiment real-data`: the localiser and the updater on recorded logs with
+//! reference poses (the CARMEN logs of `../shared/data/carmen/`, or the user's own).
+
+use super::load_params;
+use super::log_input::LogInput;
+use anyhow::Context;
+use mapkeeper_grid::mapper::MapperParams;
+use mapkeeper_harness::config::params_from_toml_str;
+use mapkeeper_harness::jobs::map::MapLogParams;
+use mapkeeper_localiser::FilterParams;
+use mapkeeper_scenario::experiments::real_data::{
+    Dataset, LocaliserConfig, REAL_DATA_LOCALISER_TOML, RealDataParams, run_real_data,
+};
+use mapkeeper_scenario::results::real_data_report::write_real_data;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The shared CARMEN logs, relative to the working folder, used when no `--log` is given.
+const SHARED_LOGS: [&str; 3] = [
+    "../shared/data/carmen/intel-corrected.log.gz",
+    "../shared/data/carmen/freiburg-079-corrected.log.gz",
+    "../shared/data/carmen/aces-corrected.log.gz",
+];
+
+/// Arguments of `mapkeeper experiment real-data`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "For each log (with reference poses: a CARMEN corrected log, or a bag with --truth-topic): \
+the map at the reference poses (0.05 m, no-return beams do not clear), the localiser from the first reference pose \
+with the raw odometry, the error against the reference (targets: RMSE <= 0.05 m, largest <= 0.25 m), where the \
+odometry contradicts the reference, and the updater over the log on its own map with the reference poses and with \
+the estimate. Two localiser configurations: `mapkeeper` (the preset as it is) and `real-data` (the preset with the \
+overrides of --params, by default crates/scenario/params/real_data_localiser.toml, tuned on the Intel log only). \
+Without --log: the three logs of ../shared/data/carmen/. Output in OUT (default results/real-data-s<SEED>-<counter>): \
+summary.json, report.md, and per log map.yaml, reference.tum, estimate_<config>.tum (TUM, for evo), errors_<config>.csv, \
+odometry_vs_reference.csv, changes_<preset>_<poses>.png. Definitions: docs/real-data.md.")]
+pub struct Args {
+    /// A log to run (repeat for several; the reading flags apply to each). Default: the three
+    /// CARMEN logs of ../shared/data/carmen/.
+    #[arg(long = "log", value_name = "PATH")]
+    pub logs: Vec<PathBuf>,
+    /// How the logs are read (--log is taken from above).
+    #[command(flatten)]
+    pub reading: ReadingFlags,
+    /// TOML overriding any FilterParams field of the `mapkeeper` preset for the `real-data`
+    /// configuration (default: the embedded real_data_localiser.toml).
+    #[arg(long, value_name = "FILE.toml")]
+    pub params: Option<PathBuf>,
+    /// Updater presets run over each log, comma-separated.
+    #[arg(long, value_name = "A,B", value_delimiter = ',', default_value = "paper,mapkeeper")]
+    pub presets: Vec<String>,
+    /// First localiser seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Localiser seeds: S, S + 1, …, 1 to 1000 (each configuration runs once per seed).
+    #[arg(long, value_name = "K", default_value_t = 3, value_parser = super::count_in(1, 1000), allow_hyphen_values = true)]
+    pub seeds: usize,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Replace an existing non-empty output folder.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// The reading flags of [`LogInput`] without `--log` (real-data takes several logs).
+#[derive(clap::Args, Debug, Clone)]
+pub struct ReadingFlags {
+    /// A topic of reference poses (bags; CARMEN corrected logs carry theirs).
+    #[arg(long, value_name = "TOPIC")]
+    pub truth_topic: Option<String>,
+    /// A lidar's scan topic (repeat for several).
+    #[arg(long = "scan-topic", value_name = "TOPIC")]
+    pub scan_topics: Vec<String>,
+    /// The odometry topic.
+    #[arg(long, value_name = "TOPIC")]
+    pub odom_topic: Option<String>,
+}
+
+fn read(path: &Path, flags: &ReadingFlags) -> anyhow::Result<Dataset> {
+    let input = LogInput {
+        log: path.to_path_buf(),
+        log_format: None,
+        scan_topics: flags.scan_topics.clone(),
+        odom_topic: flags.odom_topic.clone(),
+        odom_from_tf: false,
+        base_frame: "base_link".into(),
+        odom_frame: "odom".into(),
+        truth_topic: flags.truth_topic.clone(),
+        stamp: mapkeeper_logs::StampFrom::Header,
+    };
+    let (log, read_path) = input.read()?;
+    let stem = path.file_name().map_or_else(|| "log".into(), |s| s.to_string_lossy().into_owned());
+    let name = stem.split('.').next().unwrap_or("log").trim_end_matches("-corrected").to_string();
+    Ok(Dataset { name, source: read_path.display().to_string(), log })
+}
+
+fn default_out(seed: u64) -> PathBuf {
+    (1..)
+        .map(|k| PathBuf::from(format!("results/real-data-s{seed}-{k:03}")))
+        .find(|p| !p.exists())
+        .unwrap_or_else(|| PathBuf::from("results/real-data"))
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let logs: Vec<PathBuf> = if args.logs.is_empty() {
+        let shared: Vec<PathBuf> = SHARED_LOGS.iter().map(PathBuf::from).collect();
+        anyhow::ensure!(
+            shared.iter().all(|p| p.is_file()),
+            "--log: none given, and the shared CARMEN logs are not at ../shared/data/carmen/ (run from the clone's \
+folder with ../shared beside it, or name logs with --log)"
+        );
+        shared
+    } else {
+        args.logs.clone()
+    };
+    for p in &args.presets {
+        mapkeeper_updater::UpdaterParams::preset(p).with_context(|| format!("--presets: '{p}'"))?;
+    }
+    let base = FilterParams::preset("mapkeeper")?;
+    let tuned = match &args.params {
+        Some(p) => load_params(base, Some(p), FilterParams::validate)?,
+        None => params_from_toml_str(base, REAL_DATA_LOCALISER_TOML, FilterParams::validate)
+            .map_err(|e| anyhow::anyhow!("the embedded real_data_localiser.toml: {e}"))?,
+    };
+    let tuned_description = match &args.params {
+        Some(p) => format!("the mapkeeper preset with the overrides of {}", p.display()),
+        None => "the mapkeeper preset with the overrides of crates/scenario/params/real_data_localiser.toml (tuned on \
+the Intel log only)"
+            .into(),
+    };
+    let params = RealDataParams {
+        mapper: MapLogParams {
+            mapper: MapperParams::default(),
+            no_return_clear_m: 0.0,
+            resolution_m: 0.05,
+            margin_m: 1.0,
+        },
+        localisers: vec![
+            LocaliserConfig {
+                name: "mapkeeper".into(),
+                description: "the mapkeeper preset as it is".into(),
+                params: base,
+            },
+            LocaliserConfig { name: "real-data".into(), description: tuned_description, params: tuned },
+        ],
+        updater_presets: args.presets.clone(),
+        seeds: (0..args.seeds as u64).map(|k| args.seed.wrapping_add(k)).collect(),
+    };
+    let datasets = logs.iter().map(|p| read(p, &args.reading)).collect::<anyhow::Result<Vec<_>>>()?;
+    let out = args.out.clone().unwrap_or_else(|| default_out(args.seed));
+    let dir = super::output_dir(&out, args.force)?;
+    let start = Instant::now();
+    let results = run_real_data(&datasets, &params)?;
+    let wall = start.elapsed().as_secs_f64();
+    write_real_data(&dir, &results, &params, wall)?;
+    let out = dir.finish()?;
+    for d in &results {
+        for l in &d.localisers {
+            println!(
+                "{} ({} scans, {:.0} m): {} mean RMSE {:.4} m, mean max {:.3} m over {} seeds; both targets met by {} of them",
+                d.name,
+                d.scans,
+                d.path_m,
+                l.localiser,
+                l.mean_rmse_m,
+                l.mean_max_m,
+                l.by_seed.len(),
+                l.seeds_meeting_targets
+            );
+        }
+    }
+    println!("{:.1} s wall; wrote {}", wall, out.display());
+    Ok(())
+}

@@ -1,0 +1,395 @@
+//! Real data (issue 14, item 4): for each recorded log with reference poses (the CARMEN logs of
+//! `../shared/data/carmen/`, or a user's own), build the map at the reference poses, localise
+//! with the raw odometry from the reference's first pose, score the estimate against the
+//! reference, and run the updater over the log on the log's own map (`docs/real-data.md`).
+//!
+//! Each localiser configuration is scored on every log; the figures say where a log's
+//! odometry contradicts its reference (steps whose odometry increment differs from the
+//! reference increment by more than [`DISAGREEMENT_M`]), which is where a filter that trusts
+//! odometry loses track.
+
+use crate::experiments::ExperimentError;
+use crate::stats::{median, percentile};
+use mapkeeper_grid::{OccupancyGrid, Pose2, angle_diff};
+use mapkeeper_harness::jobs::localise::localise_log;
+use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
+use mapkeeper_harness::jobs::update::{PoseInput, update_log};
+use mapkeeper_harness::{DEFAULT_SYNC_WINDOW_NS, LogSource, NoClock, OdometryAt, ReplayOptions};
+use mapkeeper_localiser::FilterParams;
+use mapkeeper_sensor::{SensorLog, StampedPose, interpolate};
+use mapkeeper_updater::UpdaterParams;
+use serde::Serialize;
+
+/// The overrides of the `real-data` localiser configuration (TOML over the `mapkeeper` preset;
+/// tuned on the Intel log only).
+pub const REAL_DATA_LOCALISER_TOML: &str = include_str!("../../params/real_data_localiser.toml");
+
+/// Position RMSE target, metres (issue 14).
+pub const TARGET_RMSE_M: f64 = 0.05;
+/// Largest-error target, metres (issue 14).
+pub const TARGET_MAX_M: f64 = 0.25;
+/// An estimate farther than this from the reference counts as lost, metres.
+pub const LOST_M: f64 = 0.5;
+/// A step whose odometry increment differs from the reference increment by more than this
+/// contradicts the reference, metres.
+pub const DISAGREEMENT_M: f64 = 0.1;
+/// Largest time from a scan to a reference pose used to map it, nanoseconds.
+const MAP_POSE_GAP_NS: u64 = 100_000_000;
+
+/// One recorded log.
+#[derive(Clone, Debug)]
+pub struct Dataset {
+    /// Its name in tables (the file's stem).
+    pub name: String,
+    /// Where it came from.
+    pub source: String,
+    /// The log (with truth records: the reference poses).
+    pub log: SensorLog,
+}
+
+/// A localiser configuration.
+#[derive(Clone, Debug)]
+pub struct LocaliserConfig {
+    /// Its name in tables.
+    pub name: String,
+    /// What it is (preset, overrides, what it was tuned on).
+    pub description: String,
+    /// Its parameters.
+    pub params: FilterParams,
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct RealDataParams {
+    /// The mapper building each log's map at its reference poses.
+    pub mapper: MapLogParams,
+    /// The localiser configurations, each scored on every log.
+    pub localisers: Vec<LocaliserConfig>,
+    /// The updater presets run over each log on its own map.
+    pub updater_presets: Vec<String>,
+    /// The localiser seeds: each configuration runs once per seed on every log.
+    pub seeds: Vec<u64>,
+}
+
+/// The estimate's error against the reference.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ErrorStats {
+    /// Estimates scored.
+    pub estimates: usize,
+    /// Position RMSE, metres.
+    pub rmse_m: f64,
+    /// Largest position error, metres.
+    pub max_m: f64,
+    /// Median position error, metres.
+    pub median_m: f64,
+    /// 95th percentile of the position error, metres.
+    pub p95_m: f64,
+    /// Yaw RMSE, degrees.
+    pub yaw_rmse_deg: f64,
+    /// Share of estimates farther than [`LOST_M`].
+    pub lost_share: f64,
+    /// Whether both targets ([`TARGET_RMSE_M`], [`TARGET_MAX_M`]) are met.
+    pub targets_met: bool,
+}
+
+/// One localiser configuration on one log, over the seeds.
+#[derive(Clone, Debug, Serialize)]
+pub struct LocaliserResult {
+    /// The configuration's name.
+    pub localiser: String,
+    /// The error of each seed's run, in seed order.
+    pub by_seed: Vec<ErrorStats>,
+    /// The mean over the seeds of the position RMSE, metres.
+    pub mean_rmse_m: f64,
+    /// The mean over the seeds of the largest error, metres.
+    pub mean_max_m: f64,
+    /// Seeds whose run met both targets.
+    pub seeds_meeting_targets: usize,
+    /// Per estimate of the first seed's run: (time s, position error m, yaw error deg).
+    #[serde(skip)]
+    pub series: Vec<(f64, f64, f64)>,
+    /// The first seed's estimates.
+    #[serde(skip)]
+    pub estimates: Vec<StampedPose>,
+}
+
+/// The updater over one log on the log's own map.
+#[derive(Clone, Debug, Serialize)]
+pub struct UpdaterResult {
+    /// The preset.
+    pub preset: String,
+    /// The poses given to it: `reference` or the name of a localiser configuration.
+    pub poses: String,
+    /// Steps processed by the updater.
+    pub processed: u64,
+    /// Verdicts: Update, Suspend, Lost.
+    pub updates: u64,
+    /// Suspend verdicts.
+    pub suspends: u64,
+    /// Lost verdicts.
+    pub losts: u64,
+    /// Cells that became occupied.
+    pub to_occupied: usize,
+    /// Cells that became free.
+    pub to_free: usize,
+    /// Other changes (to or from unknown).
+    pub other_changes: usize,
+    /// The updated map.
+    #[serde(skip)]
+    pub map: Option<OccupancyGrid>,
+}
+
+/// Where the log's odometry contradicts its reference.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Disagreement {
+    /// Steps (consecutive scans) compared.
+    pub steps: usize,
+    /// Steps whose odometry and reference increments differ by more than [`DISAGREEMENT_M`].
+    pub contradicting: usize,
+    /// The longest run of consecutive contradicting steps.
+    pub longest_run: usize,
+    /// When that run starts, seconds.
+    pub longest_run_start_s: f64,
+    /// Per step: (time s, |odometry increment − reference increment| m).
+    #[serde(skip)]
+    pub series: Vec<(f64, f64)>,
+}
+
+/// One log's results.
+#[derive(Clone, Debug, Serialize)]
+pub struct DatasetResult {
+    /// Its name.
+    pub name: String,
+    /// Its source.
+    pub source: String,
+    /// Scans.
+    pub scans: usize,
+    /// From the first to the last scan, seconds.
+    pub duration_s: f64,
+    /// Length of the reference path, metres.
+    pub path_m: f64,
+    /// The map's size, cells (width, height) and occupied cells.
+    pub map_cells: (usize, usize, usize),
+    /// Where odometry contradicts the reference.
+    pub disagreement: Disagreement,
+    /// Each localiser configuration.
+    pub localisers: Vec<LocaliserResult>,
+    /// Each updater run.
+    pub updaters: Vec<UpdaterResult>,
+    /// The map at the reference poses.
+    #[serde(skip)]
+    pub map: Option<OccupancyGrid>,
+    /// The reference at the scans.
+    #[serde(skip)]
+    pub reference: Vec<StampedPose>,
+}
+
+/// Runs the experiment on every dataset, in order.
+pub fn run_real_data(datasets: &[Dataset], params: &RealDataParams) -> Result<Vec<DatasetResult>, ExperimentError> {
+    if params.seeds.is_empty() {
+        return Err(ExperimentError::Invalid("real-data: no localiser seed".into()));
+    }
+    datasets.iter().map(|d| run_dataset(d, params)).collect()
+}
+
+fn invalid(name: &str, e: impl std::fmt::Display) -> ExperimentError {
+    ExperimentError::Invalid(format!("{name}: {e}"))
+}
+
+fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, ExperimentError> {
+    let source = |options: ReplayOptions| LogSource::new(d.log.clone(), d.source.clone(), options);
+    let replay = ReplayOptions::default();
+    let truth: Vec<StampedPose> = source(replay).truth().to_vec();
+    if truth.is_empty() {
+        return Err(invalid(&d.name, "the log has no reference poses (truth records)"));
+    }
+    let map_options = ReplayOptions { max_truth_gap_ns: MAP_POSE_GAP_NS, ..replay };
+    let map = map_log(source(map_options), None, &params.mapper).map_err(|e| invalid(&d.name, e))?.map;
+    let mut scan_stamps: Vec<u64> = d.log.scans().map(|s| s.stamp_ns).collect();
+    scan_stamps.sort_unstable();
+    scan_stamps.dedup();
+    let reference: Vec<StampedPose> = scan_stamps
+        .iter()
+        .filter_map(|&t| interpolate(&truth, t).map(|pose| StampedPose { stamp_ns: t, pose }))
+        .collect();
+    let odometry: Vec<StampedPose> = source(replay).odometry().to_vec();
+    let disagreement = disagreement(&reference, &odometry);
+    let mut localisers = Vec::new();
+    for c in &params.localisers {
+        let mut r = LocaliserResult {
+            localiser: c.name.clone(),
+            by_seed: Vec::new(),
+            mean_rmse_m: 0.0,
+            mean_max_m: 0.0,
+            seeds_meeting_targets: 0,
+            series: Vec::new(),
+            estimates: Vec::new(),
+        };
+        for (k, &seed) in params.seeds.iter().enumerate() {
+            let (run, _) = localise_log(source(replay), &map, c.params, None, seed).map_err(|e| invalid(&d.name, e))?;
+            let (error, series) = error_stats(&run.estimates, &truth);
+            if k == 0 {
+                (r.series, r.estimates) = (series, run.estimates);
+            }
+            r.by_seed.push(error);
+        }
+        let n = r.by_seed.len().max(1) as f64;
+        r.mean_rmse_m = r.by_seed.iter().map(|e| e.rmse_m).sum::<f64>() / n;
+        r.mean_max_m = r.by_seed.iter().map(|e| e.max_m).sum::<f64>() / n;
+        r.seeds_meeting_targets = r.by_seed.iter().filter(|e| e.targets_met).count();
+        localisers.push(r);
+    }
+    let mut updaters = Vec::new();
+    let update_options =
+        ReplayOptions { odometry_at: OdometryAt::Interpolated, sync_window_ns: DEFAULT_SYNC_WINDOW_NS, ..replay };
+    for preset in &params.updater_presets {
+        let up = UpdaterParams::preset(preset).map_err(|e| invalid(&d.name, e))?;
+        let mut inputs = vec![("reference".to_string(), PoseInput::LoggedTruth)];
+        if let Some(l) = localisers.last() {
+            inputs.push((l.localiser.clone(), PoseInput::Track(l.estimates.clone())));
+        }
+        for (poses, input) in inputs {
+            let r = update_log(source(update_options), map.clone(), up.clone(), input, &NoClock)
+                .map_err(|e| invalid(&d.name, e))?;
+            updaters.push(updater_result(preset, &poses, &map, r.map, &r.stats)?);
+        }
+    }
+    let path_m = reference.windows(2).map(|w| w[0].pose.distance(&w[1].pose)).sum();
+    let span = |v: &[u64]| v.last().zip(v.first()).map_or(0.0, |(b, a)| (b - a) as f64 * 1e-9);
+    let g = map.geometry();
+    Ok(DatasetResult {
+        name: d.name.clone(),
+        source: d.source.clone(),
+        scans: d.log.scans().count(),
+        duration_s: span(&scan_stamps),
+        path_m,
+        map_cells: (g.width(), g.height(), map.count(mapkeeper_grid::CellState::Occupied)),
+        disagreement,
+        localisers,
+        updaters,
+        map: Some(map),
+        reference,
+    })
+}
+
+fn updater_result(
+    preset: &str,
+    poses: &str,
+    before: &OccupancyGrid,
+    after: OccupancyGrid,
+    stats: &mapkeeper_updater::UpdaterStats,
+) -> Result<UpdaterResult, ExperimentError> {
+    use mapkeeper_grid::CellState::{Free, Occupied};
+    let diff = before.diff(&after).map_err(|e| invalid(preset, e))?;
+    let to_occupied = diff.iter().filter(|(_, _, b)| *b == Occupied).count();
+    let to_free = diff.iter().filter(|(_, _, b)| *b == Free).count();
+    Ok(UpdaterResult {
+        preset: preset.to_string(),
+        poses: poses.to_string(),
+        processed: stats.processed,
+        updates: stats.updates,
+        suspends: stats.suspends,
+        losts: stats.losts,
+        to_occupied,
+        to_free,
+        other_changes: diff.len() - to_occupied - to_free,
+        map: Some(after),
+    })
+}
+
+/// The estimate's error against the reference interpolated at each estimate, and the series.
+pub fn error_stats(estimates: &[StampedPose], truth: &[StampedPose]) -> (ErrorStats, Vec<(f64, f64, f64)>) {
+    let series: Vec<(f64, f64, f64)> = estimates
+        .iter()
+        .filter_map(|e| {
+            interpolate(truth, e.stamp_ns).map(|t| {
+                (e.stamp_ns as f64 * 1e-9, e.pose.distance(&t), angle_diff(e.pose.yaw, t.yaw).abs().to_degrees())
+            })
+        })
+        .collect();
+    let n = series.len().max(1) as f64;
+    let pos: Vec<f64> = series.iter().map(|s| s.1).collect();
+    let rmse_m = (pos.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+    let max_m = pos.iter().copied().fold(0.0, f64::max);
+    let stats = ErrorStats {
+        estimates: series.len(),
+        rmse_m,
+        max_m,
+        median_m: median(pos.clone()).unwrap_or(0.0),
+        p95_m: percentile(pos.clone(), 0.95).unwrap_or(0.0),
+        yaw_rmse_deg: (series.iter().map(|s| s.2 * s.2).sum::<f64>() / n).sqrt(),
+        lost_share: pos.iter().filter(|&&e| e > LOST_M).count() as f64 / n,
+        targets_met: !series.is_empty() && rmse_m <= TARGET_RMSE_M && max_m <= TARGET_MAX_M,
+    };
+    (stats, series)
+}
+
+/// Compares the odometry increment with the reference increment between consecutive scans.
+pub fn disagreement(reference: &[StampedPose], odometry: &[StampedPose]) -> Disagreement {
+    let at = |t: u64| interpolate(odometry, t);
+    let mut series = Vec::new();
+    let (mut contradicting, mut run, mut longest, mut longest_start, mut run_start) = (0, 0, 0, 0.0, 0.0);
+    for w in reference.windows(2) {
+        let (Some(o0), Some(o1)) = (at(w[0].stamp_ns), at(w[1].stamp_ns)) else { continue };
+        let odo: Pose2 = o0.between(&o1);
+        let refd: Pose2 = w[0].pose.between(&w[1].pose);
+        let d = ((odo.x - refd.x).powi(2) + (odo.y - refd.y).powi(2)).sqrt();
+        let t = w[1].stamp_ns as f64 * 1e-9;
+        series.push((t, d));
+        if d > DISAGREEMENT_M {
+            contradicting += 1;
+            if run == 0 {
+                run_start = t;
+            }
+            run += 1;
+            if run > longest {
+                (longest, longest_start) = (run, run_start);
+            }
+        } else {
+            run = 0;
+        }
+    }
+    Disagreement {
+        steps: series.len(),
+        contradicting,
+        longest_run: longest,
+        longest_run_start_s: longest_start,
+        series,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn track(poses: &[(f64, f64)]) -> Vec<StampedPose> {
+        poses
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| StampedPose { stamp_ns: i as u64 * 1_000_000_000, pose: Pose2::new(x, y, 0.0) })
+            .collect()
+    }
+
+    #[test]
+    fn errors_and_targets() {
+        let truth = track(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)]);
+        let est = track(&[(0.0, 0.03), (1.0, -0.03), (2.0, 0.03), (3.0, 0.6)]);
+        let (s, series) = error_stats(&est, &truth);
+        assert_eq!(series.len(), 4);
+        assert!((s.max_m - 0.6).abs() < 1e-12 && !s.targets_met);
+        assert!((s.rmse_m - ((3.0 * 0.0009 + 0.36) / 4.0f64).sqrt()).abs() < 1e-12);
+        assert!((s.lost_share - 0.25).abs() < 1e-12);
+        let (s, _) = error_stats(&est[..3], &truth);
+        assert!(s.targets_met && (s.rmse_m - 0.03).abs() < 1e-12);
+    }
+
+    #[test]
+    fn disagreement_counts_contradicting_runs() {
+        let reference = track(&[(0.0, 0.0), (0.1, 0.0), (0.2, 0.0), (0.1, 0.0), (0.0, 0.0), (0.1, 0.0)]);
+        // The odometry goes forward all along: steps 3 and 4 (reference backwards) contradict.
+        let odometry = track(&[(0.0, 0.0), (0.1, 0.0), (0.2, 0.0), (0.3, 0.0), (0.4, 0.0), (0.5, 0.0)]);
+        let d = disagreement(&reference, &odometry);
+        assert_eq!((d.steps, d.contradicting, d.longest_run), (5, 2, 2));
+        assert!((d.longest_run_start_s - 3.0).abs() < 1e-12);
+    }
+}
