@@ -27,12 +27,14 @@ mod error;
 mod options;
 mod report;
 mod rigid;
+pub mod ros2;
 
 pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 pub use error::ImportError;
 pub use options::{ImportOptions, OdometryFrom, StampFrom};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 pub use rigid::Rigid3;
+pub use ros2::{McapRunWriter, McapWriteError};
 
 use mapkeeper_sensor::SensorLog;
 use std::io::Read;
@@ -147,7 +149,13 @@ pub fn read_log(path: &Path, format: Option<LogFormat>, options: &ImportOptions)
             let (log, report) = carmen::read(path, options)?;
             Ok(Imported { log, report: Some(report), path: path.to_path_buf() })
         }
-        LogFormat::Mcap | LogFormat::Ros1Bag => {
+        LogFormat::Mcap => {
+            let (log, report) = ros2::read(path, options)?;
+            let files = ros2::bag_files(path)?;
+            let file = if files.len() == 1 { files[0].clone() } else { path.to_path_buf() };
+            Ok(Imported { log, report: Some(report), path: file })
+        }
+        LogFormat::Ros1Bag => {
             Err(ImportError::unusable(path, format!("the {} reader is not in this build", format.name())))
         }
     }
