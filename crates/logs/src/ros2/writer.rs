@@ -96,7 +96,7 @@ impl McapRunWriter {
     pub fn create(path: &Path) -> Result<Self, McapWriteError> {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
         let temp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-        let file = File::create(&temp).map_err(|source| McapWriteError::Io { path: temp.clone(), source })?;
+        let file = File::create(&temp).map_err(|source| McapWriteError::Io { path: path.to_path_buf(), source })?;
         let options = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("mapkeeper-logs {} (mcap-rust {})", env!("CARGO_PKG_VERSION"), mcap::VERSION))
