@@ -463,6 +463,33 @@ fn a_bag_from_another_writer_with_an_upside_down_lidar_and_odometry_from_tf() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+#[test]
+fn a_bag_written_by_rosbags_reads() {
+    // tests/data/make_rosbags_bag.py wrote it with the `rosbags` Python library.
+    let bag = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rosbags_bag");
+    assert_eq!(detect_format(&bag).unwrap(), LogFormat::Mcap);
+    let imported = read_log(&bag, None, &ImportOptions::default()).unwrap();
+    assert_eq!(imported.path, bag.join("rosbags_bag.mcap"), "one file: the file is the source");
+    let (log, report) = (imported.log, imported.report.unwrap());
+    assert_eq!(report.epoch_ns, T0);
+    assert_eq!(report.odometry_source, "/odom");
+    assert_eq!(report.topics["/chatter"].messages, 5);
+    assert!(report.lidars[0].mirrored);
+    let scans: Vec<&LaserScan> = log.scans().collect();
+    assert_eq!(scans.len(), 5);
+    let s = scans[2];
+    assert_eq!(s.stamp_ns, 2 * 100 * MS + 10 * MS);
+    assert_eq!((s.angle_min_rad, s.angle_increment_rad), (0.5, -0.25));
+    let m = s.lidar_in_robot;
+    assert!((m.x - 0.3).abs() < 1e-12 && (m.y + 0.2).abs() < 1e-12 && (m.yaw - 0.5).abs() < 1e-12, "{m:?}");
+    assert_eq!(s.range_max_m, 10.0f32.next_up());
+    assert_eq!(s.ranges_m, vec![1.0, 2.0, f32::INFINITY, 3.0, 10.0]);
+    assert_eq!(s.valid_count(), 4, "10 m is range_max, inclusive in ROS");
+    let o = log.odometry().nth(3).unwrap();
+    assert_eq!(o.stamp_ns, 3 * 100 * MS);
+    assert!((o.pose_in_odom.x - 0.3).abs() < 1e-12 && (o.pose_in_odom.yaw - 0.06).abs() < 1e-12);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Bad files.
 

@@ -323,7 +323,9 @@ impl McapRunWriter {
             }
         };
         if !self.channels.contains_key(topic) {
-            let id = writer.add_channel(schema_id, topic, "cdr", &BTreeMap::new()).map_err(mcap_err)?;
+            // As rosbag2 and rosbags write it; empty: the players' default QoS.
+            let metadata = BTreeMap::from([("offered_qos_profiles".to_string(), String::new())]);
+            let id = writer.add_channel(schema_id, topic, "cdr", &metadata).map_err(mcap_err)?;
             self.channels.insert(topic.to_string(), (id, 0));
         }
         let Some((channel_id, sequence)) = self.channels.get_mut(topic) else {
