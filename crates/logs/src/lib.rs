@@ -10,6 +10,9 @@
 //! `odom → base` transform, counts (and clamps) timestamps that step back, and re-bases time on
 //! the log's first stamp; the [`ImportReport`] says what it found.
 //!
+//! The other way, [`McapRunWriter`] writes a run (scans, odometry, truth, estimates, particles,
+//! maps, verdicts) as a ROS 2 bag in MCAP storage that Foxglove Studio and `ros2 bag` read.
+//!
 //! ```
 //! use mapkeeper_logs::{LogFormat, detect_format};
 //! let dir = std::env::temp_dir().join(format!("mapkeeper-logs-doc-{}", std::process::id()));

@@ -522,6 +522,12 @@ fn a_truncated_file_is_refused_at_every_cut() {
     bad[(chunk.chunk_start_offset + chunk.chunk_length / 2) as usize] ^= 0x55;
     std::fs::write(&cut_path, &bad).unwrap();
     read_err(&cut_path, &truth_options());
+    // A record claiming a terabyte is refused before anything is allocated for it.
+    let mut huge = b"\x89MCAP0\r\n\x01".to_vec();
+    huge.extend_from_slice(&(1u64 << 40).to_le_bytes());
+    std::fs::write(&cut_path, &huge).unwrap();
+    let e = read_err(&cut_path, &truth_options());
+    assert!(e.contains("a record of 1099511627776 bytes"), "{e}");
     std::fs::write(&cut_path, b"not an mcap file at all").unwrap();
     assert!(read_err(&cut_path, &truth_options()).contains("bad magic"));
     std::fs::remove_dir_all(&dir).ok();

@@ -39,8 +39,8 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 /// The largest record (a message, or a chunk's compressed bytes) read, bytes: a corrupt length
-/// cannot make the reader allocate more.
-const RECORD_LIMIT: usize = 1 << 30;
+/// cannot make the reader allocate more (a 16384² occupancy grid still fits).
+const RECORD_LIMIT: usize = 1 << 28;
 
 /// Reads a ROS 2 bag in MCAP storage (a `.mcap` file or a bag folder).
 pub fn read(path: &Path, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
@@ -392,6 +392,12 @@ recording cut short)"
                 .to_string()
         }
         mcap::McapError::BadMagic => "not an MCAP file, or its end is missing (bad magic bytes)".to_string(),
+        mcap::McapError::RecordTooLarge { len, .. } | mcap::McapError::ChunkTooLarge(len) => {
+            format!(
+                "a record of {len} bytes, more than the {} MiB this reader accepts (a corrupt length?)",
+                RECORD_LIMIT >> 20
+            )
+        }
         other => {
             let mut s = other.to_string();
             let mut source = std::error::Error::source(other);
