@@ -10,6 +10,9 @@
 //! `odom → base` transform, counts (and clamps) timestamps that step back, and re-bases time on
 //! the log's first stamp; the [`ImportReport`] says what it found.
 //!
+//! The other way, [`McapRunWriter`] writes a run (scans, odometry, truth, estimates, particles,
+//! maps, verdicts) as a ROS 2 bag in MCAP storage that Foxglove Studio and `ros2 bag` read.
+//!
 //! ```
 //! use mapkeeper_logs::{LogFormat, detect_format};
 //! let dir = std::env::temp_dir().join(format!("mapkeeper-logs-doc-{}", std::process::id()));
@@ -27,12 +30,14 @@ mod error;
 mod options;
 mod report;
 mod rigid;
+pub mod ros2;
 
 pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 pub use error::ImportError;
 pub use options::{ImportOptions, OdometryFrom, StampFrom};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 pub use rigid::Rigid3;
+pub use ros2::{McapRunWriter, McapWriteError};
 
 use mapkeeper_sensor::SensorLog;
 use std::io::Read;
@@ -147,7 +152,13 @@ pub fn read_log(path: &Path, format: Option<LogFormat>, options: &ImportOptions)
             let (log, report) = carmen::read(path, options)?;
             Ok(Imported { log, report: Some(report), path: path.to_path_buf() })
         }
-        LogFormat::Mcap | LogFormat::Ros1Bag => {
+        LogFormat::Mcap => {
+            let (log, report) = ros2::read(path, options)?;
+            let files = ros2::bag_files(path)?;
+            let file = if files.len() == 1 { files[0].clone() } else { path.to_path_buf() };
+            Ok(Imported { log, report: Some(report), path: file })
+        }
+        LogFormat::Ros1Bag => {
             Err(ImportError::unusable(path, format!("the {} reader is not in this build", format.name())))
         }
     }
