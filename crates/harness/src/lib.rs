@@ -25,6 +25,7 @@ pub mod config;
 pub mod driver;
 mod error;
 pub mod jobs;
+pub mod mcap_out;
 pub mod replay;
 pub mod session;
 pub mod source;

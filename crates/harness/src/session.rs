@@ -273,6 +273,14 @@ impl<'c> Session<'c> {
         }
     }
 
+    /// The chain localiser's particles (with [`PoseSource::Localiser`]).
+    pub fn particles(&self) -> Option<&[Pose2]> {
+        match &self.pose {
+            PoseSource::Localiser(l) => Some(l.particles()),
+            _ => None,
+        }
+    }
+
     /// The updater, if any.
     pub fn updater(&self) -> Option<&MapUpdater> {
         self.updater.as_ref()

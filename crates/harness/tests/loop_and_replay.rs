@@ -164,6 +164,7 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
         FilterParams::default(),
         None,
         3,
+        &mut [],
     )
     .unwrap();
     assert!(matches!(init, InitFrom::LoggedTruth(p) if p == Pose2::IDENTITY));
@@ -177,6 +178,7 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
         UpdaterParams::paper(),
         PoseInput::LoggedTruth,
         &NoClock,
+        &mut [],
     )
     .unwrap();
     // The robot never moves, and its 2 m ranges do not match the room (walls ~4.9 m away):
@@ -190,6 +192,7 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
         UpdaterParams::paper(),
         PoseInput::AlignedOdometry,
         &NoClock,
+        &mut [],
     )
     .unwrap_err();
     assert!(e.to_string().contains("empty.jsonl"), "{e}");
@@ -294,6 +297,7 @@ fn update_writes_every_pose_recovery_with_its_pose_or_refusal_reason() {
         UpdaterParams::paper(),
         PoseInput::Track(track),
         &NoClock,
+        &mut [],
     )
     .unwrap();
     assert_eq!((u.stats.steps, u.stats.processed, u.stats.losts), (2, 2, 2), "{}", u.steps_csv);

@@ -37,7 +37,7 @@ pub use error::ImportError;
 pub use options::{ImportOptions, OdometryFrom, StampFrom};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 pub use rigid::Rigid3;
-pub use ros2::{McapRunWriter, McapWriteError};
+pub use ros2::{McapRunWriter, McapWriteError, write_log_mcap};
 
 use mapkeeper_sensor::SensorLog;
 use std::io::Read;

@@ -4,7 +4,8 @@ use super::{load_params, parse_pose};
 use anyhow::Context;
 use mapkeeper_grid::{Pose2, map_io};
 use mapkeeper_harness::jobs::localise::localise_log;
-use mapkeeper_harness::{LogSource, ReplayOptions};
+use mapkeeper_harness::mcap_out::McapRecorder;
+use mapkeeper_harness::{Control, LogSource, ReplayOptions};
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_sensor::write_tum_with_comment;
 use std::path::PathBuf;
@@ -54,6 +55,10 @@ pub struct Args {
     /// 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
+    /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, truth, estimate, particle
+    /// cloud; docs/real-data.md) for Foxglove or ros2 bag.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub mcap: Option<PathBuf>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
@@ -68,7 +73,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
     let dir = super::output_dir(&args.out, args.force)?;
 
-    let (r, init) = localise_log(source, &map, params, args.init, args.seed).context("localisation")?;
+    let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
+    let mut controls: Vec<&mut dyn Control> = recorder.iter_mut().map(|r| r as &mut dyn Control).collect();
+    let (r, init) = localise_log(source, &map, params, args.init, args.seed, &mut controls).context("localisation")?;
+    let mcap = recorder.map(|r| r.finish(None)).transpose()?;
     let comment = format!(
         "mapkeeper localise: localiser {}, seed {}, log {}, map {}, init {init}",
         args.localiser,
@@ -90,6 +98,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("position RMSE {pos:.4} m, yaw RMSE {:.3} deg over {n} estimates", yaw.to_degrees());
     }
     println!("wrote {0}/estimate.tum, {0}/covariance.csv and {0}/params.json", out.display());
+    if let Some(p) = mcap {
+        println!("wrote {}", p.display());
+    }
     Ok(())
 }
 

@@ -4,7 +4,7 @@
 use super::load_params;
 use mapkeeper_grid::map_io;
 use mapkeeper_scenario::recording::{DriveSpec, record_drive};
-use mapkeeper_sensor::write_tum;
+use mapkeeper_sensor::{SensorLog, write_tum};
 use mapkeeper_sim::{Route, SimParams, World, ground_truth_map};
 use std::path::PathBuf;
 
@@ -45,6 +45,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Also write the drive as a ROS 2 MCAP bag (scans, odometry, /tf, /tf_static, true poses;
+    /// docs/real-data.md) for Foxglove, ros2 bag or a team's own stack.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub mcap: Option<PathBuf>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
@@ -76,6 +80,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let bar = indicatif::ProgressBar::new((seconds * 1e9 / params.tick_ns as f64).round() as u64);
     let d = record_drive(&spec, &dir.file("log.jsonl")?, &|k| bar.set_position(k))?;
     bar.finish_and_clear();
+    let mcap = match &args.mcap {
+        Some(p) => Some(mapkeeper_logs::write_log_mcap(&SensorLog::read(&dir.file("log.jsonl")?)?, p)?),
+        None => None,
+    };
     write_tum(&dir.file("truth.tum")?, &d.truth)?;
     dir.write("world.toml", world.to_toml_string()?.as_bytes())?;
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05)?);
@@ -106,5 +114,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         d.scans,
         out.display()
     );
+    if let Some(p) = mcap {
+        println!("wrote {}", p.display());
+    }
     Ok(())
 }

@@ -5,7 +5,8 @@ use super::load_params;
 use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
-use mapkeeper_harness::{LogSource, OdometryAt, ReplayOptions};
+use mapkeeper_harness::mcap_out::McapRecorder;
+use mapkeeper_harness::{Control, LogSource, OdometryAt, ReplayOptions};
 use mapkeeper_sensor::{read_tum, write_tum};
 use mapkeeper_updater::{PRESET_NAMES, UpdaterParams};
 use std::path::{Path, PathBuf};
@@ -60,6 +61,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "OUT")]
     pub out: PathBuf,
+    /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, the poses given, the
+    /// verdict per scan, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub mcap: Option<PathBuf>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
@@ -102,7 +107,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, false) => PoseInput::AlignedOdometry,
     };
     let dir = super::output_dir(&args.out, args.force)?;
-    let r = update_log(source, map, params, poses, &super::Wall::start()).context("map update")?;
+    let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
+    let mut controls: Vec<&mut dyn Control> = recorder.iter_mut().map(|r| r as &mut dyn Control).collect();
+    let r = update_log(source, map, params, poses, &super::Wall::start(), &mut controls).context("map update")?;
+    let mcap = recorder.map(|rec| rec.finish(Some(&r.map))).transpose()?;
     save_map(&r.map, &dir.file("map.yaml")?)?;
     dir.write("scans.csv", r.steps_csv.as_bytes())?;
     write_tum(&dir.file("recovered.tum")?, &r.recovered_poses)?;
@@ -124,5 +132,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         s.failed_recoveries,
         out.display()
     );
+    if let Some(p) = mcap {
+        println!("wrote {}", p.display());
+    }
     Ok(())
 }

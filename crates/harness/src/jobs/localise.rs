@@ -1,7 +1,7 @@
 //! The particle-filter localiser over a recorded log: estimates, covariances, and the error
 //! against the log's truth where it has any.
 
-use crate::driver::Observer;
+use crate::driver::{Control, Observer};
 use crate::replay::LogSource;
 use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
@@ -108,13 +108,15 @@ impl Observer for Recorder {
 
 /// Localises over `source` on `map`: the filter starts at `init`, else at the log's truth at
 /// the first scan, else globally; one filter call per step with odometry (the latest reading
-/// at or before the step; steps before the first are skipped).
+/// at or before the step; steps before the first are skipped). `controls` see every step (an
+/// MCAP recorder, say).
 pub fn localise_log(
     mut source: LogSource,
     map: &OccupancyGrid,
     params: FilterParams,
     init: Option<Pose2>,
     seed: u64,
+    controls: &mut [&mut dyn Control],
 ) -> Result<(LocaliseRun, InitFrom), HarnessError> {
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scans", source.name())));
@@ -131,7 +133,7 @@ pub fn localise_log(
     let mut session = Session::new(PoseSource::Localiser(Box::new(filter)), None, None, &NoClock);
     let mut rec = Recorder::default();
     rec.run.covariance_csv.push_str("time_s,trace,lambda_max,particles,ess\n");
-    crate::run(&mut source, &mut session, &mut [], &mut [&mut rec])?;
+    crate::run(&mut source, &mut session, controls, &mut [&mut rec])?;
     let n = rec.n_err as f64;
     rec.run.rmse = (rec.n_err > 0).then(|| ((rec.sq_pos / n).sqrt(), (rec.sq_yaw / n).sqrt(), rec.n_err));
     Ok((rec.run, init))

@@ -3,7 +3,7 @@
 
 use crate::HarnessError;
 use crate::clock::Clock;
-use crate::driver::Observer;
+use crate::driver::{Control, Observer};
 use crate::replay::LogSource;
 use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
@@ -149,13 +149,14 @@ fn pose_track(source: &LogSource, poses: PoseInput) -> Result<Vec<StampedPose>, 
 }
 
 /// Runs the updater over `source` (replayed with interpolated odometry) on `map`; the time
-/// per step is read from `clock`.
+/// per step is read from `clock`; `controls` see every step (an MCAP recorder, say).
 pub fn update_log(
     mut source: LogSource,
     map: OccupancyGrid,
     params: UpdaterParams,
     poses: PoseInput,
     clock: &dyn Clock,
+    controls: &mut [&mut dyn Control],
 ) -> Result<UpdateRun, HarnessError> {
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scan records", source.name())));
@@ -168,7 +169,7 @@ pub fn update_log(
         recovered: Vec::new(),
         recoveries: RECOVERIES_CSV_HEADER.into(),
     };
-    crate::run(&mut source, &mut session, &mut [], &mut [&mut rows])?;
+    crate::run(&mut source, &mut session, controls, &mut [&mut rows])?;
     let out = session.finish()?;
     let Some(u) = out.updater else { return Err(HarnessError::Invalid("the session lost its updater".into())) };
     Ok(UpdateRun {

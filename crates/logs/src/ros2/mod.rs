@@ -24,7 +24,7 @@ mod msgs;
 mod schemas;
 mod writer;
 
-pub use writer::{McapRunWriter, McapWriteError};
+pub use writer::{McapRunWriter, McapWriteError, write_log_mcap};
 
 use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 use crate::options::{ImportOptions, OdometryFrom, StampFrom};

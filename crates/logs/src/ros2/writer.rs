@@ -378,3 +378,17 @@ fn covariance(w: &mut CdrWriter, c: Option<&[[f64; 3]; 3]>) {
         w.f64(v);
     }
 }
+
+/// Writes a whole sensor log as a ROS 2 MCAP bag (`/lidar_{id}/scan`, `/tf_static`, `/odom`,
+/// `/tf`, and `/truth` for truth records), in the log's record order; returns the file written.
+pub fn write_log_mcap(log: &mapkeeper_sensor::SensorLog, path: &Path) -> Result<PathBuf, McapWriteError> {
+    let mut w = McapRunWriter::create(path)?;
+    for r in &log.records {
+        match r {
+            mapkeeper_sensor::LogRecord::Scan(s) => w.scan(s)?,
+            mapkeeper_sensor::LogRecord::Odom(o) => w.odometry(o.stamp_ns, o.pose_in_odom)?,
+            mapkeeper_sensor::LogRecord::Truth(t) => w.true_pose(t.stamp_ns, t.pose_in_map)?,
+        }
+    }
+    w.finish()
+}

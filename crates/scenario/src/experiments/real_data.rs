@@ -226,7 +226,7 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
             estimates: Vec::new(),
         };
         for (k, &seed) in params.seeds.iter().enumerate() {
-            let (run, _) = localise_log(source(replay), &map, c.params, None, seed).map_err(|e| invalid(&d.name, e))?;
+            let (run, _) = localise_log(source(replay), &map, c.params, None, seed, &mut []).map_err(|e| invalid(&d.name, e))?;
             let (error, series) = error_stats(&run.estimates, &truth);
             if k == 0 {
                 (r.series, r.estimates) = (series, run.estimates);
@@ -249,7 +249,7 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
             inputs.push((l.localiser.clone(), PoseInput::Track(l.estimates.clone())));
         }
         for (poses, input) in inputs {
-            let r = update_log(source(update_options), map.clone(), up.clone(), input, &NoClock)
+            let r = update_log(source(update_options), map.clone(), up.clone(), input, &NoClock, &mut [])
                 .map_err(|e| invalid(&d.name, e))?;
             updaters.push(updater_result(preset, &poses, &map, r.map, &r.stats)?);
         }
