@@ -27,6 +27,7 @@ mod error;
 mod options;
 mod report;
 mod rigid;
+pub mod ros1;
 
 pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 pub use error::ImportError;
@@ -147,7 +148,11 @@ pub fn read_log(path: &Path, format: Option<LogFormat>, options: &ImportOptions)
             let (log, report) = carmen::read(path, options)?;
             Ok(Imported { log, report: Some(report), path: path.to_path_buf() })
         }
-        LogFormat::Mcap | LogFormat::Ros1Bag => {
+        LogFormat::Ros1Bag => {
+            let (log, report) = ros1::read(path, options)?;
+            Ok(Imported { log, report: Some(report), path: path.to_path_buf() })
+        }
+        LogFormat::Mcap => {
             Err(ImportError::unusable(path, format!("the {} reader is not in this build", format.name())))
         }
     }
