@@ -2,7 +2,7 @@
 //!
 //! **The file.** The line `#ROSBAG V2.0\n`, then records, each `header_len: u32`, a header of
 //! `name=value` fields (one of them `op`, the record's kind), `data_len: u32` and the data, all
-//! little-endian ([`record`]). First comes the bag header (`op` 0x03: `index_pos`,
+//! little-endian (the `record` module). First comes the bag header (`op` 0x03: `index_pos`,
 //! `conn_count`, `chunk_count`, padded to 4096 bytes); then chunks (0x05: `compression` `none`,
 //! `bz2` or `lz4`, `size` uncompressed), each followed by one index data record (0x04) per
 //! connection in it; then, from `index_pos`, the index section: a connection record (0x07) per
@@ -10,8 +10,8 @@
 //! (`conn` id and `topic` in the header; the data a run of fields `topic`, `type`, `md5sum`,
 //! `message_definition`, `callerid`, `latching`) and message data records (0x02: `conn`, `time`
 //! = the recorder's receive time, `secs: u32` then `nsecs: u32`; the data the message, ROS 1
-//! serialised, [`msg`]). `lz4` chunks are LZ4 frames as `roslz4` writes them; `bz2` chunks one
-//! bzip2 stream.
+//! serialised, the `msg` module). `lz4` chunks are LZ4 frames as `roslz4` writes them; `bz2`
+//! chunks one bzip2 stream.
 //!
 //! **Reading.** The index is never needed: the reader walks the records in file order,
 //! decompressing each chunk and decoding its messages as it goes (so a bag whose index is
@@ -210,7 +210,7 @@ struct Walk<'a> {
     conns: BTreeMap<u32, Connection>,
     /// Where the index section starts, if `index_pos` points at one.
     index_at: Option<u64>,
-    /// Top-level records read.
+    /// Records met, the bag header the first.
     records: usize,
     chunks: usize,
     chunk_infos: usize,
@@ -232,7 +232,7 @@ impl<'a> Walk<'a> {
             asm: Assembler::new(path, "bag"),
             conns: BTreeMap::new(),
             index_at: None,
-            records: 0,
+            records: 1,
             chunks: 0,
             chunk_infos: 0,
             message_records: 0,
@@ -310,13 +310,22 @@ impl<'a> Walk<'a> {
             let at = Where { offset, chunk: None };
             match rec.op {
                 Some(Op::Chunk) => self.chunk(rec)?,
-                Some(Op::Connection) => self.add_connection(&rec.fields, &rec.data, &at)?,
+                Some(Op::Connection) => match connection(&rec.fields, &rec.data, self.options) {
+                    Ok((id, c)) => _ = self.conns.entry(id).or_insert(c),
+                    // In the index section: noted (the chunks may describe the connection too).
+                    Err(m) if self.after_chunks(offset) => {
+                        self.asm.note(format!("a connection record of the index at byte {offset} skipped: {m}"));
+                    }
+                    Err(m) => return Err(self.err(at.place(), m)),
+                },
                 Some(Op::MessageData) => self.message_record(&rec.fields, &rec.data, at)?,
-                Some(Op::IndexData) => {
-                    let count =
-                        rec.fields.u32("count").map_err(|m| self.err(at.place(), format!("index data: {m}")))?;
-                    self.index_entries += u64::from(count);
-                }
+                // The index is not needed to read the bag: an unreadable count is only noted.
+                Some(Op::IndexData) => match rec.fields.u32("count") {
+                    Ok(count) => self.index_entries += u64::from(count),
+                    Err(m) => {
+                        self.asm.note(format!("an index data record at byte {offset} has an unreadable count: {m}"))
+                    }
+                },
                 Some(Op::ChunkInfo) => self.chunk_infos += 1,
                 Some(Op::BagHeader) => return Err(self.err(at.place(), "a second bag header record")),
                 None => self.asm.note(format!("a record of unknown op 0x{:02x} at byte {offset} skipped", rec.op_byte)),
@@ -325,12 +334,17 @@ impl<'a> Walk<'a> {
         self.check_end(file.len)
     }
 
+    /// Whether byte `offset` is in the index section, after every chunk: at or past a valid
+    /// `index_pos`, or once the chunks the bag header counts are read.
+    fn after_chunks(&self, offset: u64) -> bool {
+        let in_index = self.index_at.is_some_and(|p| offset >= p);
+        in_index || (self.header.chunk_count > 0 && self.chunks >= self.header.chunk_count as usize)
+    }
+
     /// A record at `offset` that cannot be read: read past with a note if it is in the index
     /// section after every chunk, refused otherwise.
     fn damaged_tail(&mut self, offset: u64, message: String) -> Result<(), ImportError> {
-        let in_index = self.index_at.is_some_and(|p| offset >= p);
-        let all_chunks = self.header.chunk_count > 0 && self.chunks >= self.header.chunk_count as usize;
-        if in_index || all_chunks {
+        if self.after_chunks(offset) {
             self.asm.note(format!(
                 "the index section is cut short or damaged at byte {offset} ({message}); the {} chunks before it were read",
                 self.chunks
