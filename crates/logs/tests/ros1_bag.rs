@@ -341,10 +341,12 @@ fn truncated_bags_are_refused_with_the_file_and_place() {
         // A small bag (three chunks): every cut of the uncompressed one, every third of the others.
         let bag = robot_bag_of(4, c, |w| w);
         let step = if c == Compression::None { 1 } else { 3 };
-        let path = write(&format!("cut-{c:?}"), b"");
+        // One file, cut shorter and shorter in place.
+        let path = write(&format!("cut-{c:?}"), &bag.bytes);
+        let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
         let (mut refused, mut read_ok) = (0, 0);
-        for cut in (0..bag.bytes.len()).step_by(step) {
-            std::fs::write(&path, &bag.bytes[..cut]).unwrap();
+        for cut in (0..bag.bytes.len()).step_by(step).rev() {
+            file.set_len(cut as u64).unwrap();
             match ros1::read(&path, &ImportOptions::default()) {
                 Err(e) => {
                     assert!((cut as u64) < bag.last_chunk_end, "{c:?} cut at {cut}: refused after the last chunk: {e}");
@@ -432,6 +434,20 @@ fn a_message_too_short_is_refused_with_its_place() {
 }
 
 #[test]
+fn an_absurd_string_length_in_a_message_is_refused() {
+    let mut w = BagWriter::new(Compression::Lz4);
+    let scan = w.connection("/scan", "sensor_msgs/LaserScan");
+    let mut s = laser_scan(0, T0, "base_link", (-0.5, 0.5, 0.5), (0.0, 5.0), &[1.0, 2.0, 3.0]);
+    s[12..16].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+    w.write(scan, T0, &s);
+    let bag = w.finish();
+    let path = write("absurd-frame-id", &bag.bytes);
+    let e = ros1::read(&path, &ImportOptions::default()).unwrap_err();
+    let place = format!("message 1 on /scan (chunk 1 at byte {})", bag.chunk_pos[0]);
+    assert_refused(&e, &path, &[&place, "'header.frame_id' needs 4294967280 bytes"]);
+}
+
+#[test]
 fn a_missing_transform_for_a_lidar_frame_is_refused() {
     let mut w = BagWriter::new(Compression::None);
     let scan = w.connection("/scan", "sensor_msgs/LaserScan");
@@ -468,6 +484,16 @@ fn absurd_lengths_and_broken_chunks_are_refused() {
         ),
         ("magic", patched(&bag, 0, b"#ROSBAG V1.2"), vec!["byte 0: '#ROSBAG V1.2': only ROS bag format 2.0".into()]),
         ("not-a-bag", patched(&bag, 0, b"hello"), vec!["byte 0: not a ROS bag".into()]),
+        (
+            "no-chunk-count",
+            patched(&bag, find(&bag.bytes, b"chunk_count="), b"CHUNK_COUNT="),
+            vec!["byte 13 (bag header): bag header: no 'chunk_count' field".into()],
+        ),
+        (
+            "empty",
+            Vec::new(),
+            vec!["byte 0: the '#ROSBAG V2.0' line of 13 bytes runs past the end of the file (0 bytes left)".into()],
+        ),
     ];
     for (name, bytes, want) in cases {
         let path = write(&format!("absurd-{name}"), &bytes);

@@ -210,6 +210,8 @@ struct Walk<'a> {
     conns: BTreeMap<u32, Connection>,
     /// Where the index section starts, if `index_pos` points at one.
     index_at: Option<u64>,
+    /// Whether the walk met a record starting at `index_at` (so it is not inside a chunk).
+    reached_index: bool,
     /// Records met, the bag header the first.
     records: usize,
     chunks: usize,
@@ -232,6 +234,7 @@ impl<'a> Walk<'a> {
             asm: Assembler::new(path, "bag"),
             conns: BTreeMap::new(),
             index_at: None,
+            reached_index: false,
             records: 1,
             chunks: 0,
             chunk_infos: 0,
@@ -303,6 +306,7 @@ impl<'a> Walk<'a> {
         while file.pos < file.len {
             let offset = file.pos;
             self.records += 1;
+            self.reached_index |= self.index_at == Some(offset);
             let rec = match file.next() {
                 Ok(r) => r,
                 Err(m) => return self.damaged_tail(offset, m),
@@ -313,7 +317,7 @@ impl<'a> Walk<'a> {
                 Some(Op::Connection) => match connection(&rec.fields, &rec.data, self.options) {
                     Ok((id, c)) => _ = self.conns.entry(id).or_insert(c),
                     // In the index section: noted (the chunks may describe the connection too).
-                    Err(m) if self.after_chunks(offset) => {
+                    Err(m) if self.after_chunks() => {
                         self.asm.note(format!("a connection record of the index at byte {offset} skipped: {m}"));
                     }
                     Err(m) => return Err(self.err(at.place(), m)),
@@ -334,17 +338,16 @@ impl<'a> Walk<'a> {
         self.check_end(file.len)
     }
 
-    /// Whether byte `offset` is in the index section, after every chunk: at or past a valid
-    /// `index_pos`, or once the chunks the bag header counts are read.
-    fn after_chunks(&self, offset: u64) -> bool {
-        let in_index = self.index_at.is_some_and(|p| offset >= p);
-        in_index || (self.header.chunk_count > 0 && self.chunks >= self.header.chunk_count as usize)
+    /// Whether the walk is in the index section, after every chunk: it met a record at a valid
+    /// `index_pos`, or it has read the chunks the bag header counts.
+    fn after_chunks(&self) -> bool {
+        self.reached_index || (self.header.chunk_count > 0 && self.chunks >= self.header.chunk_count as usize)
     }
 
     /// A record at `offset` that cannot be read: read past with a note if it is in the index
     /// section after every chunk, refused otherwise.
     fn damaged_tail(&mut self, offset: u64, message: String) -> Result<(), ImportError> {
-        if self.after_chunks(offset) {
+        if self.after_chunks() {
             self.asm.note(format!(
                 "the index section is cut short or damaged at byte {offset} ({message}); the {} chunks before it were read",
                 self.chunks
@@ -572,4 +575,37 @@ const BAD_QUATERNION: &str = "the rotation quaternion is zero or not finite";
 fn planar(p: &Placement) -> Result<Pose2, String> {
     let r = Rigid3::from_translation_quaternion(p.position, p.orientation).ok_or(BAD_QUATERNION)?;
     Ok(r.planar().0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn message_kinds_follow_type_and_topic() {
+        let o = ImportOptions { truth_topic: Some("/gt".into()), ..ImportOptions::default() };
+        assert_eq!(kind_of("/front", LASER_SCAN, &o), Kind::Scan);
+        assert_eq!(kind_of("/wheel", ODOMETRY, &o), Kind::Odometry);
+        assert_eq!(kind_of("/gt", ODOMETRY, &o), Kind::Truth(TruthType::Odometry), "the truth topic is not odometry");
+        assert_eq!(kind_of("/gt", POSE_STAMPED, &o), Kind::Truth(TruthType::PoseStamped));
+        assert_eq!(kind_of("/gt", POSE_WITH_COVARIANCE, &o), Kind::Truth(TruthType::PoseWithCovariance));
+        assert_eq!(kind_of("/pose", POSE_STAMPED, &o), Kind::Unused);
+        assert_eq!(kind_of("/tf", "tf2_msgs/TFMessage", &o), Kind::Tf { is_static: false });
+        assert_eq!(kind_of("/tf_static", "tf2_msgs/TFMessage", &o), Kind::Tf { is_static: true });
+        assert_eq!(kind_of("/tf", "tf/tfMessage", &o), Kind::Tf { is_static: false });
+        assert_eq!(kind_of("/robot/tf", "tf2_msgs/TFMessage", &o), Kind::Unused);
+        assert_eq!(kind_of("/camera", "sensor_msgs/Image", &o), Kind::Unused);
+    }
+
+    #[test]
+    fn places_name_the_byte_and_the_chunk() {
+        let at = Where { offset: 4109, chunk: Some((3, 120)) };
+        assert_eq!(at.place(), "byte 4109 (chunk 3, byte 120 of its uncompressed data)");
+        assert_eq!(at.short(), "chunk 3 at byte 4109");
+        assert_eq!(Where { offset: 9, chunk: None }.place(), "byte 9");
+        let p = Placement { position: [1.0, 2.0, 3.0], orientation: [0.0, 0.0, 0.0, 2.0] };
+        assert_eq!(planar(&p).unwrap(), Pose2::new(1.0, 2.0, 0.0), "the quaternion is normalised");
+        let zero = Placement { orientation: [0.0; 4], ..p };
+        assert_eq!(planar(&zero).unwrap_err(), BAD_QUATERNION);
+    }
 }
