@@ -30,6 +30,7 @@ mod error;
 mod options;
 mod report;
 mod rigid;
+pub mod ros1;
 pub mod ros2;
 
 pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
@@ -159,7 +160,8 @@ pub fn read_log(path: &Path, format: Option<LogFormat>, options: &ImportOptions)
             Ok(Imported { log, report: Some(report), path: file })
         }
         LogFormat::Ros1Bag => {
-            Err(ImportError::unusable(path, format!("the {} reader is not in this build", format.name())))
+            let (log, report) = ros1::read(path, options)?;
+            Ok(Imported { log, report: Some(report), path: path.to_path_buf() })
         }
     }
 }
