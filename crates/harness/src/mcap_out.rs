@@ -2,10 +2,10 @@
 //! estimated poses, the particle cloud, the map being updated and the updater's verdict per
 //! scan, so the run can be watched in Foxglove or replayed with `ros2 bag` (`docs/real-data.md`).
 
+use crate::HarnessError;
 use crate::driver::Control;
 use crate::session::{Session, StepReport};
 use crate::source::{RobotControl, Step};
-use crate::HarnessError;
 use mapkeeper_logs::{McapRunWriter, McapWriteError};
 use std::path::{Path, PathBuf};
 

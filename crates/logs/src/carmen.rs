@@ -268,7 +268,7 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
     let file_max = no_return.unwrap_or_else(|| largest.next_up());
     for l in &p.lasers {
         if !a.has_mount(l.name) {
-            let mount = l.robot.between(&l.pose);
+            let mount = if l.pose == l.robot { Pose2::IDENTITY } else { l.robot.between(&l.pose) };
             a.known_mount(l.name, mount, &format!("{} robot pose⁻¹ ∘ laser pose (first message)", l.name));
             let param = match l.name {
                 "FLASER" => Some(("robot_frontlaser_offset", p.front_offset)),

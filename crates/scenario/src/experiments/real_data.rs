@@ -226,7 +226,8 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
             estimates: Vec::new(),
         };
         for (k, &seed) in params.seeds.iter().enumerate() {
-            let (run, _) = localise_log(source(replay), &map, c.params, None, seed, &mut []).map_err(|e| invalid(&d.name, e))?;
+            let (run, _) =
+                localise_log(source(replay), &map, c.params, None, seed, &mut []).map_err(|e| invalid(&d.name, e))?;
             let (error, series) = error_stats(&run.estimates, &truth);
             if k == 0 {
                 (r.series, r.estimates) = (series, run.estimates);
