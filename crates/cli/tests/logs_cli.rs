@@ -95,6 +95,17 @@ fn the_updater_writes_its_run_as_mcap_with_verdicts_and_maps() {
     let verdicts = import["topics"]["/updater/verdict"]["messages"].as_u64().unwrap();
     assert!(verdicts > 0 && verdicts <= scans, "{verdicts} verdicts for {scans} scans");
     assert!(import["topics"]["/map"]["messages"].as_u64().unwrap() >= 1, "{import}");
+    // `run --log`: the chain localiser and the updater over the recorded drive.
+    let run = dir.join("run");
+    let out = ok(&["run", "--log", s(&sim), "--map", s(&map), "--preset", "mapkeeper", "--out", s(&run)]);
+    assert!(out.contains("processed"), "{out}");
+    let poses = tum(&run.join("poses.tum"));
+    let truth = tum(&sim.join("truth.tum"));
+    assert!(poses.len() > 20, "{} poses", poses.len());
+    let last = poses.last().unwrap();
+    let t = truth.iter().min_by(|a, b| (a.0 - last.0).abs().total_cmp(&(b.0 - last.0).abs())).unwrap();
+    assert!((last.1 - t.1).hypot(last.2 - t.2) < 0.3, "the chain ends at {last:?}, the truth at {t:?}");
+    assert!(run.join("map.yaml").is_file());
 }
 
 const CARMEN: &str = "# message formats defined: PARAM ODOM FLASER\n\

@@ -18,8 +18,13 @@ Output in OUT: map.yaml + map.pgm (the updated map), true.tum, chain.tum, baseli
 run.json (localisation statistics, verdict counts, cells changed, collisions).")]
 pub struct Args {
     /// World file (TOML, docs/world-format.md).
-    #[arg(long, value_name = "FILE")]
-    pub world: PathBuf,
+    #[arg(long, value_name = "FILE", required_unless_present = "log")]
+    pub world: Option<PathBuf>,
+    /// Instead of a world: a recorded log (any format `--log` takes: jsonl, MCAP, ROS 1 bag,
+    /// CARMEN): the chain localiser and the updater run over it on MAP, as `mapkeeper update
+    /// --localise` (output: map.yaml, poses.tum, scans.csv, recovered.tum, recoveries.csv).
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["world", "route", "baseline_map"])]
+    pub log: Option<PathBuf>,
     /// The map to localise on and update (ROS map_server YAML).
     #[arg(long, value_name = "MAP.yaml")]
     pub map: PathBuf,
@@ -56,7 +61,12 @@ pub struct Args {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
-    let world = World::load(&args.world)?;
+    let world_path = match (&args.world, &args.log) {
+        (Some(w), _) => w.clone(),
+        (None, Some(log)) => return run_log(&args, log),
+        (None, None) => anyhow::bail!("--world or --log is required"),
+    };
+    let world = World::load(&world_path)?;
     let map = load_map(&args.map)?;
     let baseline = match &args.baseline_map {
         Some(p) => load_map(p)?,
@@ -90,7 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "preset": args.preset,
         "localiser": params.localiser,
         "filter": params.filter,
-        "world": args.world.display().to_string(),
+        "world": world_path.display().to_string(),
         "map": args.map.display().to_string(),
         "chain": r.chain,
         "baseline": r.baseline,
@@ -120,4 +130,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.display()
     );
     Ok(())
+}
+
+/// `run --log`: the chain on a recorded log, as `update --localise`.
+fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> {
+    let input = super::log_input::LogInput {
+        log: log.to_path_buf(),
+        log_format: None,
+        scan_topics: Vec::new(),
+        odom_topic: None,
+        odom_from_tf: false,
+        base_frame: "base_link".into(),
+        odom_frame: "odom".into(),
+        truth_topic: None,
+        stamp: mapkeeper_logs::StampFrom::Header,
+    };
+    super::update::run(super::update::Args {
+        map: args.map.clone(),
+        input,
+        poses: None,
+        true_poses: false,
+        localise: true,
+        localiser: args.localiser.clone(),
+        localiser_params: None,
+        seed: args.seed,
+        preset: args.preset.clone(),
+        params: args.params.clone(),
+        sync_window_s: 0.05,
+        out: args.out.clone(),
+        mcap: None,
+        force: args.force,
+    })
 }

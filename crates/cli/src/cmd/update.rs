@@ -23,7 +23,9 @@ its latest scan's.\n\n\
 Robot pose per step (the localiser's estimate), linearly interpolated at the scan stamp:\n  \
 --poses FILE.tum   a TUM trajectory (t x y z qx qy qz qw, '#' comments), e.g. from a localiser;\n  \
 --true-poses       the log's truth records;\n  \
-(neither)          the log's odometry, aligned so that the first odometry pose coincides with the \
+--localise         the chain localiser (--localiser) run over the log on the map being updated \
+(from the log's first true pose, else globally), its estimate written to OUT/poses.tum;\n  \
+(none of these)    the log's odometry, aligned so that the first odometry pose coincides with the \
 first true pose if the log has truth records, otherwise with the map frame's origin (0, 0, 0).\n\
 Odometry (for the update gating and pose updating) always comes from the log's odom records; \
 without any, the chosen robot pose stands in for it.\n\n\
@@ -45,8 +47,21 @@ pub struct Args {
     #[arg(long, value_name = "FILE.tum", conflicts_with = "true_poses")]
     pub poses: Option<PathBuf>,
     /// Use the log's true poses as the robot pose estimate.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "localise")]
     pub true_poses: bool,
+    /// Run the chain localiser (--localiser, on the map being updated) over the log and give the
+    /// updater its estimate: the paper's loop on recorded data. Writes OUT/poses.tum.
+    #[arg(long, conflicts_with = "poses")]
+    pub localise: bool,
+    /// With --localise: the localiser preset, mapkeeper or amcl.
+    #[arg(long, value_name = "NAME", default_value = "mapkeeper", requires = "localise")]
+    pub localiser: String,
+    /// With --localise: TOML overriding any FilterParams field of the localiser preset.
+    #[arg(long, value_name = "FILE.toml", requires = "localise")]
+    pub localiser_params: Option<PathBuf>,
+    /// With --localise: the localiser's seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
+    pub seed: u64,
     /// Parameter preset: paper (default), authors, mapkeeper, always-update, no-update, log-odds.
     #[arg(long, value_name = "NAME", default_value = "paper")]
     pub preset: String,
@@ -104,6 +119,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             PoseInput::Track(track)
         }
         (None, true) => PoseInput::LoggedTruth,
+        (None, false) if args.localise => {
+            let preset = mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
+            let params =
+                load_params(preset, args.localiser_params.as_deref(), mapkeeper_localiser::FilterParams::validate)?;
+            PoseInput::Localise { params, seed: args.seed, init: None }
+        }
         (None, false) => PoseInput::AlignedOdometry,
     };
     let dir = super::output_dir(&args.out, args.force)?;
@@ -115,6 +136,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     dir.write("scans.csv", r.steps_csv.as_bytes())?;
     write_tum(&dir.file("recovered.tum")?, &r.recovered_poses)?;
     dir.write("recoveries.csv", r.recoveries_csv.as_bytes())?;
+    if args.localise {
+        write_tum(&dir.file("poses.tum")?, &r.poses)?;
+    }
     let out = dir.finish()?;
     let s = r.stats;
     println!(

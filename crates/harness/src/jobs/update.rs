@@ -8,6 +8,7 @@ use crate::replay::LogSource;
 use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
+use mapkeeper_localiser::{FilterParams, Localiser};
 use mapkeeper_sensor::StampedPose;
 use mapkeeper_updater::{MapUpdater, PoseRecovery, RecoveryFailure, StepOutcome, UpdaterParams, UpdaterStats};
 use std::fmt::Write as _;
@@ -22,6 +23,16 @@ pub enum PoseInput {
     /// The log's odometry, aligned so that its first pose coincides with the first true pose
     /// if the log has truth records, otherwise with the map frame's origin.
     AlignedOdometry,
+    /// The chain localiser on the updater's map, run over the log (the paper's loop on recorded
+    /// data): from `init`, else the log's truth at the first scan, else globally.
+    Localise {
+        /// Its parameters.
+        params: FilterParams,
+        /// Its seed.
+        seed: u64,
+        /// Its initial pose (with the parameters' initial covariance).
+        init: Option<Pose2>,
+    },
 }
 
 /// What the updater did over the log.
@@ -37,6 +48,8 @@ pub struct UpdateRun {
     pub recovered_poses: Vec<StampedPose>,
     /// One row per attempt of pose updating: [`RECOVERIES_CSV_HEADER`].
     pub recoveries_csv: String,
+    /// The pose the updater was given at each step that had one.
+    pub poses: Vec<StampedPose>,
 }
 
 /// The columns of `recoveries.csv`: one row per step on which pose updating ran; `result` is
@@ -67,6 +80,7 @@ struct Rows {
     csv: String,
     recovered: Vec<StampedPose>,
     recoveries: String,
+    poses: Vec<StampedPose>,
 }
 
 impl Rows {
@@ -85,6 +99,9 @@ impl Rows {
 
 impl Observer for Rows {
     fn on_step(&mut self, _step: &Step, report: &StepReport) {
+        if let Some(pose) = report.pose_in_map {
+            self.poses.push(StampedPose { stamp_ns: report.stamp_ns, pose });
+        }
         let Some(r) = &report.updater else { return };
         let outcome = match r.outcome {
             StepOutcome::Processed => "processed",
@@ -131,6 +148,7 @@ fn pose_track(source: &LogSource, poses: PoseInput) -> Result<Vec<StampedPose>, 
             Err(HarnessError::Invalid(format!("{name}: --true-poses given but the log has no truth records")))
         }
         PoseInput::LoggedTruth => Ok(source.truth().to_vec()),
+        PoseInput::Localise { .. } => Err(HarnessError::Invalid("the localiser is not a pose track".into())),
         PoseInput::AlignedOdometry => {
             let Some(first) = source.odometry().first() else {
                 return Err(HarnessError::Invalid(format!(
@@ -161,13 +179,24 @@ pub fn update_log(
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scan records", source.name())));
     }
-    let track = pose_track(&source, poses)?;
+    let pose_source = match poses {
+        PoseInput::Localise { params: filter_params, seed, init } => {
+            let mut filter = Localiser::new(&map, filter_params, seed)?;
+            let first_truth = source.first_stamp_ns().and_then(|t| mapkeeper_sensor::interpolate(source.truth(), t));
+            if let Some(p) = init.or(first_truth) {
+                filter.init_pose(p, filter_params.initial_covariance())?;
+            }
+            PoseSource::Localiser(Box::new(filter))
+        }
+        other => PoseSource::Track(pose_track(&source, other)?),
+    };
     let updater = MapUpdater::new(map, params)?;
-    let mut session = Session::new(PoseSource::Track(track), Some(updater), None, clock);
+    let mut session = Session::new(pose_source, Some(updater), None, clock);
     let mut rows = Rows {
         csv: "time_s,outcome,verdict,n,n_invalid,n_dc,cells_changed,recovery,microseconds\n".into(),
         recovered: Vec::new(),
         recoveries: RECOVERIES_CSV_HEADER.into(),
+        poses: Vec::new(),
     };
     crate::run(&mut source, &mut session, controls, &mut [&mut rows])?;
     let out = session.finish()?;
@@ -178,5 +207,6 @@ pub fn update_log(
         steps_csv: rows.csv,
         recovered_poses: rows.recovered,
         recoveries_csv: rows.recoveries,
+        poses: rows.poses,
     })
 }
