@@ -60,10 +60,8 @@ impl McapRecorder {
             let cov = report.localiser.as_ref().map(|l| l.estimate.covariance);
             w.estimate(t, pose, cov, step.frame.odometry)?;
         }
-        if report.localiser.is_some() {
-            if let Some(p) = session.particles() {
-                w.particles(t, p)?;
-            }
+        if let (Some(_), Some(p)) = (&report.localiser, session.particles()) {
+            w.particles(t, p)?;
         }
         if let Some(u) = &report.updater {
             if let Some(v) = u.verdict {
@@ -72,12 +70,10 @@ impl McapRecorder {
             self.map_dirty |= !u.changed_cells.is_empty();
         }
         let due = self.last_map_ns.is_none_or(|last| t >= last + MAP_PERIOD_NS);
-        if self.map_dirty && due {
-            if let Some(map) = session.map() {
-                w.map(t, map)?;
-                self.last_map_ns = Some(t);
-                self.map_dirty = false;
-            }
+        if let (true, Some(map)) = (self.map_dirty && due, session.map()) {
+            w.map(t, map)?;
+            self.last_map_ns = Some(t);
+            self.map_dirty = false;
         }
         Ok(())
     }
@@ -90,10 +86,8 @@ impl McapRecorder {
             return Err(err(e));
         }
         let Some(mut w) = self.writer.take() else { return Ok(self.path) };
-        if self.map_dirty {
-            if let Some(map) = final_map {
-                w.map(self.last_stamp_ns, map).map_err(err)?;
-            }
+        if let (true, Some(map)) = (self.map_dirty, final_map) {
+            w.map(self.last_stamp_ns, map).map_err(err)?;
         }
         w.finish().map_err(err)
     }

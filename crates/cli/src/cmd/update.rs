@@ -123,7 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let preset = mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
             let params =
                 load_params(preset, args.localiser_params.as_deref(), mapkeeper_localiser::FilterParams::validate)?;
-            PoseInput::Localise { params, seed: args.seed, init: None }
+            PoseInput::Localise { params: Box::new(params), seed: args.seed, init: None }
         }
         (None, false) => PoseInput::AlignedOdometry,
     };

@@ -27,7 +27,7 @@ pub enum PoseInput {
     /// data): from `init`, else the log's truth at the first scan, else globally.
     Localise {
         /// Its parameters.
-        params: FilterParams,
+        params: Box<FilterParams>,
         /// Its seed.
         seed: u64,
         /// Its initial pose (with the parameters' initial covariance).
@@ -181,6 +181,7 @@ pub fn update_log(
     }
     let pose_source = match poses {
         PoseInput::Localise { params: filter_params, seed, init } => {
+            let filter_params = *filter_params;
             let mut filter = Localiser::new(&map, filter_params, seed)?;
             let first_truth = source.first_stamp_ns().and_then(|t| mapkeeper_sensor::interpolate(source.truth(), t));
             if let Some(p) = init.or(first_truth) {

@@ -185,6 +185,11 @@ reference increments differ by more than ",
             g.longest_run_start_s
         );
     }
+    updater_table(&mut s, results);
+    s
+}
+
+fn updater_table(s: &mut String, results: &[DatasetResult]) {
     s.push_str("\nThe updater over each log on the log's own map (changes are transient: people, doors, or poses that \
 disagree with the map):\n\n| log | preset | poses | processed | Update | Suspend | Lost | cells → occupied | cells → free | other |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
     for d in results {
@@ -205,5 +210,4 @@ disagree with the map):\n\n| log | preset | poses | processed | Update | Suspend
             );
         }
     }
-    s
 }
