@@ -207,6 +207,8 @@ const FLAGS: &[Flag] = &[
     other("update", "--localiser-params", Path),
     ok("update", "--seed", Count, SEED_OK, SEED_WHY),
     other("run", "--log", Path),
+    other("generate", "--logs", Name),
+    num("generate", "--jobs", Count),
     other("update", "--poses", Path),
     other("update", "--preset", Name),
     other("update", "--params", Path),

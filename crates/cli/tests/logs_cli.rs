@@ -149,6 +149,30 @@ fn convert_and_log_read_carmen_and_refuse_bad_files_with_their_place() {
 }
 
 #[test]
+fn generate_writes_a_drive_log_of_each_world_the_same_for_any_thread_count() {
+    let dir = scratch("logs", "generate");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let out = ok(&["generate", "--worlds", "3", "--seed", "9", "--logs", "mcap", "--jobs", "1", "--out", s(&a)]);
+    assert!(out.contains("mcap drive log of each"), "{out}");
+    ok(&["generate", "--worlds", "3", "--seed", "9", "--logs", "mcap", "--jobs", "2", "--out", s(&b)]);
+    let index: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("logs/logs.json")).unwrap()).unwrap();
+    let logs = index["logs"].as_array().unwrap();
+    assert_eq!(logs.len(), 3);
+    for l in logs {
+        let f = l["file"].as_str().unwrap();
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs with --jobs");
+        assert!(l["route_done"].as_bool().unwrap(), "{l}");
+    }
+    assert!(!a.join("logs/W_001.jsonl").exists(), "the intermediate JSON Lines log is removed");
+    // Each log replays: W_002 converted back has the scans the index counts.
+    let conv = dir.join("conv");
+    let o = ok(&["convert", "--log", s(&a.join("logs/W_002.mcap")), "--truth-topic", "/truth", "--out", s(&conv)]);
+    assert!(o.contains(&format!("({} scans", logs[1]["scans"])), "{o}");
+    let e = err(&["generate", "--worlds", "2", "--logs", "bag", "--out", s(&dir.join("x"))]);
+    assert!(e.contains("--logs") && e.contains("jsonl"), "{e}");
+}
+
+#[test]
 fn real_data_runs_on_a_bag_with_a_truth_topic() {
     let dir = scratch("logs", "real-data");
     let sim = dir.join("sim");

@@ -2,8 +2,10 @@
 //! manifest) that another project's tests can consume without this code.
 
 use anyhow::Context;
+use mapkeeper_scenario::recording::{DriveSpec, record_drive};
 use mapkeeper_scenario::results::report::write_scenario_set;
 use mapkeeper_scenario::{GeneratorParams, generate_worlds};
+use mapkeeper_sensor::SensorLog;
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;
 
@@ -13,7 +15,7 @@ use std::path::PathBuf;
 seeded edits to movable items (add, remove, move, rotate), never near the route.\n\n\
 Output in OUT: manifest.json (seed, worlds, tool version, files, edits), route.toml, \
 worlds/W_001.toml …, ground_truth/G_001.yaml + .pgm … (ROS map_server, 0.05 m). \
-The same seed gives byte-identical files. The folder is written atomically.")]
+The same seed gives byte-identical files. The folder is written atomically.\n\nWith --logs jsonl|mcap, also one simulated drive of the route in each world as a sensor log: logs/W_001.jsonl (docs/sensor-log.md) or logs/W_001.mcap (a ROS 2 bag: scans, odometry, /tf, /tf_static, /truth; docs/real-data.md), each world's drive seeded from --seed and the world's number, and logs/logs.json (per world: file, seed, scans, distance, duration, whether the route was done, collisions), so a team's CI can replay the scenario set through its own stack.")]
 pub struct Args {
     /// Number of worlds, 1 to 10000 (each is a world file and a ground-truth map on disk).
     #[arg(long, value_name = "N", default_value_t = 100, value_parser = super::count_in(1, super::MAX_WORLDS), allow_hyphen_values = true)]
@@ -31,6 +33,13 @@ pub struct Args {
     /// quantisation and gives ~13 M cells per map; 10 m leaves a handful of cells).
     #[arg(long, value_name = "METRES", default_value_t = 0.05, value_parser = super::resolution, allow_hyphen_values = true)]
     pub resolution: f64,
+    /// Also write one simulated drive of each world as a sensor log: jsonl or mcap.
+    #[arg(long, value_name = "FORMAT", value_parser = ["jsonl", "mcap"])]
+    pub logs: Option<String>,
+    /// With --logs: worker threads, 1 to 1024 (default: all cores; the logs are the same for any
+    /// count).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
+    pub jobs: Option<usize>,
 }
 
 /// Runs the subcommand.
@@ -41,15 +50,79 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let chain = generate_worlds(&w1, &route, args.worlds, args.seed, &GeneratorParams::default())?;
     let dir = super::output_dir(&args.out, args.force)?;
     let manifest = write_scenario_set(&dir, &chain, &route, args.seed, &geometry)?;
+    if let Some(format) = &args.logs {
+        write_logs(&dir, &chain.worlds, &route, args.seed, format, args.jobs)?;
+    }
     let out = dir.finish()?;
     let edits: usize = chain.edits.iter().map(Vec::len).sum();
     println!(
-        "wrote {} worlds ({} edits, {} movable items in W_{}) to {}",
+        "wrote {} worlds ({} edits, {} movable items in W_{}){} to {}",
         manifest.worlds,
         edits,
         chain.worlds.last().map_or(0, |w| w.movable.len()),
         manifest.worlds,
+        args.logs.as_ref().map_or_else(String::new, |f| format!(" and a {f} drive log of each")),
         out.display()
     );
+    Ok(())
+}
+
+/// One simulated drive of `route` in each world, written as `logs/W_<k>.<format>`, and
+/// `logs/logs.json`; the worlds are driven in parallel, each from its own seed.
+fn write_logs(
+    dir: &mapkeeper_grid::StagedDir,
+    worlds: &[World],
+    route: &Route,
+    seed: u64,
+    format: &str,
+    jobs: Option<usize>,
+) -> anyhow::Result<()> {
+    use rayon::prelude::*;
+    let params = mapkeeper_sim::SimParams::default();
+    let pool = super::thread_pool(jobs)?;
+    let bar = super::progress_bar(worlds.len() as u64, "drives");
+    let rows: Vec<serde_json::Value> = pool.install(|| {
+        worlds
+            .par_iter()
+            .enumerate()
+            .map(|(i, world)| -> anyhow::Result<serde_json::Value> {
+                let name = format!("W_{:03}", i + 1);
+                let drive_seed = mapkeeper_sim::seeds::stream_seed(seed, &format!("drive/{name}"));
+                let spec = DriveSpec {
+                    world,
+                    route: Some(route),
+                    params: &params,
+                    seed: drive_seed,
+                    seconds: 900.0,
+                    stop_at_route_end: true,
+                    tool: "mapkeeper generate --logs",
+                };
+                let jsonl = dir.file(&format!("logs/{name}.jsonl"))?;
+                let d = record_drive(&spec, &jsonl, &|_| {})?;
+                let file = if format == "mcap" {
+                    let mcap = dir.file(&format!("logs/{name}.mcap"))?;
+                    mapkeeper_logs::write_log_mcap(&SensorLog::read(&jsonl)?, &mcap)?;
+                    std::fs::remove_file(&jsonl).with_context(|| format!("{}", jsonl.display()))?;
+                    format!("logs/{name}.mcap")
+                } else {
+                    format!("logs/{name}.jsonl")
+                };
+                bar.inc(1);
+                Ok(serde_json::json!({
+                    "world": name,
+                    "file": file,
+                    "seed": drive_seed,
+                    "scans": d.scans,
+                    "distance_m": d.distance_m,
+                    "simulated_s": d.simulated_s,
+                    "route_done": d.route_done,
+                    "collisions": d.collisions.iter().filter(|c| c.started).count(),
+                }))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()
+    })?;
+    bar.finish_and_clear();
+    let index = serde_json::json!({ "format": format, "seed": seed, "logs": rows });
+    dir.write("logs/logs.json", format!("{}\n", serde_json::to_string_pretty(&index)?).as_bytes())?;
     Ok(())
 }
