@@ -208,6 +208,7 @@ const FLAGS: &[Flag] = &[
     ok("update", "--seed", Count, SEED_OK, SEED_WHY),
     other("run", "--log", Path),
     other("generate", "--logs", Name),
+    num("validate", "--mcap-worlds", Count),
     num("generate", "--jobs", Count),
     other("update", "--poses", Path),
     other("update", "--preset", Name),

@@ -173,6 +173,37 @@ fn generate_writes_a_drive_log_of_each_world_the_same_for_any_thread_count() {
 }
 
 #[test]
+fn validate_writes_chosen_worlds_as_mcap_without_changing_the_run() {
+    let dir = scratch("logs", "validate-mcap");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let common =
+        ["validate", "--preset", "mapkeeper", "--worlds", "3", "--seeds", "1", "--route-length", "8", "--no-timing"];
+    let mut with = common.to_vec();
+    with.extend(["--mcap-worlds", "3", "--out", s(&a)]);
+    ok(&with);
+    let mut without = common.to_vec();
+    without.extend(["--out", s(&b)]);
+    ok(&without);
+    let bag = a.join("mcap/mapkeeper-s11-W003.mcap");
+    assert!(bag.is_file(), "{} missing", bag.display());
+    assert!(!a.join("mcap/mapkeeper-s11-W002.mcap").exists());
+    let mut sa: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
+    let sb: serde_json::Value = serde_json::from_slice(&std::fs::read(b.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(sa["params"]["mcap_worlds"], serde_json::json!([3]));
+    sa["params"].as_object_mut().unwrap().remove("mcap_worlds");
+    assert_eq!(sa, sb, "recording a world must not change the run");
+    let conv = dir.join("conv");
+    let out = ok(&["convert", "--log", s(&bag), "--out", s(&conv)]);
+    assert!(out.contains("/lidar_0/scan"), "{out}");
+    let import: serde_json::Value = serde_json::from_slice(&std::fs::read(conv.join("import.json")).unwrap()).unwrap();
+    for topic in ["/estimate", "/particlecloud", "/updater/verdict", "/map", "/truth"] {
+        assert!(import["topics"][topic]["messages"].as_u64().unwrap() > 0, "{topic}: {import}");
+    }
+    let e = err(&["validate", "--preset", "paper", "--worlds", "3", "--mcap-worlds", "4", "--out", s(&dir.join("x"))]);
+    assert!(e.contains("--mcap-worlds") && e.contains("beyond --worlds 3"), "{e}");
+}
+
+#[test]
 fn real_data_runs_on_a_bag_with_a_truth_topic() {
     let dir = scratch("logs", "real-data");
     let sim = dir.join("sim");

@@ -32,6 +32,7 @@ pub use experiments::run_events::{
 };
 pub use experiments::runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
+    run_world_with,
 };
 pub use experiments::sweep::{SweepPlan, SweepSpec};
 pub use experiments::validation::{

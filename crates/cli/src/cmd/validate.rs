@@ -89,6 +89,11 @@ pub struct Args {
     /// edits near the route.
     #[arg(long, value_name = "METRES", value_parser = super::real_in(0.0, 100.0, "m"), allow_hyphen_values = true)]
     pub route_clearance: Option<f64>,
+    /// Worlds whose drive is also written as a ROS 2 MCAP bag (scans, odometry, /tf, truth,
+    /// estimate, particles, verdicts, the map as it changes; docs/real-data.md), comma-separated
+    /// world numbers from 2 to --worlds: OUT[/<preset>]/mcap/<preset>-s<seed>-W<i>.mcap.
+    #[arg(long, value_name = "I,J", value_delimiter = ',', value_parser = super::count_in(2, super::MAX_WORLDS), allow_hyphen_values = true)]
+    pub mcap_worlds: Vec<usize>,
     /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
     #[arg(long)]
     pub no_timing: bool,
@@ -167,7 +172,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         p.validate().context("--update-every / --route-clearance")?;
     }
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
+    if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {
+        anyhow::bail!("--mcap-worlds: world {w} is beyond --worlds {}", args.worlds);
+    }
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
+    if !args.mcap_worlds.is_empty() {
+        for (p, dir) in plan.groups().into_iter().zip(&dirs) {
+            let mcap_dir = dir.path().join("mcap");
+            std::fs::create_dir_all(&mcap_dir).with_context(|| format!("{}", mcap_dir.display()))?;
+            plan.params[p].mcap_worlds.clone_from(&args.mcap_worlds);
+            plan.params[p].mcap_dir = Some(mcap_dir);
+        }
+    }
     let bar = super::progress_bar(plan.total_worlds(), "worlds");
     let start = Instant::now();
     let wall = super::Wall::start();

@@ -312,6 +312,19 @@ pub fn run_world(
     label: &str,
     clock: &dyn Clock,
 ) -> Result<WorldRun, ExperimentError> {
+    run_world_with(inputs, params, seed, label, clock, &mut [])
+}
+
+/// [`run_world`] with `extra` controls seeing every step after the run's own (an MCAP
+/// recorder, say); they must not change the run.
+pub fn run_world_with(
+    inputs: &RunInputs<'_>,
+    params: &RunnerParams,
+    seed: u64,
+    label: &str,
+    clock: &dyn Clock,
+    extra: &mut [&mut dyn Control],
+) -> Result<WorldRun, ExperimentError> {
     params.validate()?;
     let RunInputs { world, route, prev_map, baseline_map } = *inputs;
     let mut sim = Simulator::new(world, params.sim.clone(), stream_seed(seed, &format!("sim/{label}")))?;
@@ -360,6 +373,9 @@ pub fn run_world(
             controls.push(h);
         }
         controls.push(&mut lost);
+        for c in extra.iter_mut() {
+            controls.push(&mut **c);
+        }
         mapkeeper_harness::run(&mut source, &mut session, &mut controls, &mut observers)
     };
     // Join the baseline before reporting any error of the loop.

@@ -9,7 +9,7 @@
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{
-    Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world,
+    Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world, run_world_with,
 };
 pub use crate::stats::histogram_median;
 use crate::stats::{PairedDiff, frac, mean, median, paired_diff};
@@ -101,6 +101,14 @@ pub struct ValidationParams {
     /// change of the experiments issue). Default 1 (every world; not written when 1).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub update_every: usize,
+    /// Worlds whose drive is also written as a ROS 2 MCAP bag into [`Self::mcap_dir`]
+    /// (`validate --mcap-worlds`; `docs/real-data.md`). Default none (not written when empty).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub mcap_worlds: Vec<usize>,
+    /// Where those bags go, `<preset>-s<seed>-W<i>.mcap` (set by the caller, never read from or
+    /// written to a file).
+    #[serde(skip)]
+    pub mcap_dir: Option<std::path::PathBuf>,
 }
 
 fn one() -> usize {
@@ -132,6 +140,8 @@ impl Default for ValidationParams {
             ground_truth: GroundTruth::Exact,
             saved_worlds: vec![2, 50, 100],
             update_every: 1,
+            mcap_worlds: Vec::new(),
+            mcap_dir: None,
         }
     }
 }
@@ -599,7 +609,21 @@ pub fn run_seed_in(
         rp.record_trajectories = keep;
         rp.run_updater = rp.run_updater && (i - 2).is_multiple_of(params.update_every);
         let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
-        let run = run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?;
+        let mcap = match &params.mcap_dir {
+            Some(dir) if params.mcap_worlds.contains(&i) => {
+                let path = dir.join(format!("{}-s{seed}-W{i:03}.mcap", params.preset));
+                Some(mapkeeper_harness::mcap_out::McapRecorder::create(&path)?)
+            }
+            _ => None,
+        };
+        let run = match mcap {
+            Some(mut rec) => {
+                let run = run_world_with(&inputs, &rp, seed, &format!("W{i:03}"), clock, &mut [&mut rec])?;
+                rec.finish(Some(&run.map))?;
+                run
+            }
+            None => run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?,
+        };
         // Validated: runner.fresh_map is set, so every run returns its fresh map.
         let fresh = run.fresh_map.as_ref().unwrap_or(&run.map);
         let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map, fresh)?;
