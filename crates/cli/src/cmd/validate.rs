@@ -137,6 +137,20 @@ fn output_dirs(
     Ok((Some(top), subs))
 }
 
+/// With `--mcap-worlds`: each preset's bags go to its folder's `mcap/`.
+fn plan_mcap(plan: &mut SweepPlan, dirs: &[StagedDir], worlds: &[usize]) -> anyhow::Result<()> {
+    if worlds.is_empty() {
+        return Ok(());
+    }
+    for (p, dir) in plan.groups().into_iter().zip(dirs) {
+        let mcap_dir = dir.path().join("mcap");
+        std::fs::create_dir_all(&mcap_dir).with_context(|| format!("{}", mcap_dir.display()))?;
+        plan.params[p].mcap_worlds = worlds.to_vec();
+        plan.params[p].mcap_dir = Some(mcap_dir);
+    }
+    Ok(())
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let presets = match (&args.presets, &args.preset) {
@@ -176,14 +190,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("--mcap-worlds: world {w} is beyond --worlds {}", args.worlds);
     }
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
-    if !args.mcap_worlds.is_empty() {
-        for (p, dir) in plan.groups().into_iter().zip(&dirs) {
-            let mcap_dir = dir.path().join("mcap");
-            std::fs::create_dir_all(&mcap_dir).with_context(|| format!("{}", mcap_dir.display()))?;
-            plan.params[p].mcap_worlds.clone_from(&args.mcap_worlds);
-            plan.params[p].mcap_dir = Some(mcap_dir);
-        }
-    }
+    plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
     let bar = super::progress_bar(plan.total_worlds(), "worlds");
     let start = Instant::now();
     let wall = super::Wall::start();

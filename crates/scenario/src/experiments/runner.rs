@@ -315,6 +315,23 @@ pub fn run_world(
     run_world_with(inputs, params, seed, label, clock, &mut [])
 }
 
+/// The baseline localiser on M_1 (if the run has one), started where the chain starts.
+fn baseline(
+    params: &RunnerParams,
+    baseline_map: &OccupancyGrid,
+    seed: u64,
+    label: &str,
+    start_est: Pose2,
+    cov: mapkeeper_localiser::Covariance3,
+) -> Result<Option<Baseline>, ExperimentError> {
+    if !params.run_baseline {
+        return Ok(None);
+    }
+    let mut b = Localiser::new(baseline_map, params.filter, stream_seed(seed, &format!("baseline/{label}")))?;
+    b.init_pose(start_est, cov)?;
+    Ok(Some(if params.parallel_baseline { Baseline::threaded(b) } else { Baseline::inline(b) }))
+}
+
 /// [`run_world`] with `extra` controls seeing every step after the run's own (an MCAP
 /// recorder, say); they must not change the run.
 pub fn run_world_with(
@@ -333,13 +350,7 @@ pub fn run_world_with(
     let cov = init_cov(params);
     let mut chain = Localiser::new(prev_map, params.filter, stream_seed(seed, &format!("chain/{label}")))?;
     chain.init_pose(start_est, cov)?;
-    let baseline = if params.run_baseline {
-        let mut b = Localiser::new(baseline_map, params.filter, stream_seed(seed, &format!("baseline/{label}")))?;
-        b.init_pose(start_est, cov)?;
-        Some(if params.parallel_baseline { Baseline::threaded(b) } else { Baseline::inline(b) })
-    } else {
-        None
-    };
+    let baseline = baseline(params, baseline_map, seed, label, start_est, cov)?;
     let updater =
         if params.run_updater { Some(MapUpdater::new(prev_map.clone(), params.updater.clone())?) } else { None };
     let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
