@@ -1,7 +1,7 @@
 //! ROS 2 bags in MCAP storage: a bare `.mcap` file, or a bag folder (`metadata.yaml` and its
 //! `.mcap` files, read in the order `metadata.yaml` lists them, or by name).
 //!
-//! Messages are CDR ([`cdr`]) and their types are known by their schema's name:
+//! Messages are CDR (`cdr.rs`) and their types are known by their schema's name:
 //!
 //! - `sensor_msgs/msg/LaserScan` on any topic (or only [`ImportOptions::scan_topics`]): the
 //!   lidars. `range_max` is inclusive in ROS, so the scan's exclusive limit is the next float
