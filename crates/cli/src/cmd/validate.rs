@@ -91,7 +91,7 @@ pub struct Args {
     pub route_clearance: Option<f64>,
     /// Worlds whose drive is also written as a ROS 2 MCAP bag (scans, odometry, /tf, truth,
     /// estimate, particles, verdicts, the map as it changes; docs/real-data.md), comma-separated
-    /// world numbers from 2 to --worlds: OUT[/<preset>]/mcap/<preset>-s<seed>-W<i>.mcap.
+    /// world numbers from 2 to --worlds: `OUT[/PRESET]/mcap/PRESET-sSEED-WNNN.mcap`.
     #[arg(long, value_name = "I,J", value_delimiter = ',', value_parser = super::count_in(2, super::MAX_WORLDS), allow_hyphen_values = true)]
     pub mcap_worlds: Vec<usize>,
     /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
