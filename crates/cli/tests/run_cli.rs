@@ -43,4 +43,18 @@ fn run_one_world_end_to_end() {
     let out = mapkeeper(&bad);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/map.yaml"));
+    // --mcap: the same run, also written as a ROS 2 bag that reads back (the run itself unchanged).
+    let (run2, bag) = (dir.join("run2"), dir.join("run.mcap"));
+    let mut with_mcap = args.to_vec();
+    with_mcap[8] = s(&run2);
+    with_mcap.extend(["--mcap", s(&bag)]);
+    let out = mapkeeper(&with_mcap);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read(run_dir.join("map.pgm")).unwrap(), std::fs::read(run2.join("map.pgm")).unwrap());
+    assert_eq!(std::fs::read(run_dir.join("chain.tum")).unwrap(), std::fs::read(run2.join("chain.tum")).unwrap());
+    let conv = dir.join("conv");
+    let out = mapkeeper(&["convert", "--log", s(&bag), "--truth-topic", "/truth", "--out", s(&conv)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let import: serde_json::Value = serde_json::from_slice(&std::fs::read(conv.join("import.json")).unwrap()).unwrap();
+    assert!(import["topics"]["/updater/verdict"]["messages"].as_u64().unwrap() > 50, "{import}");
 }

@@ -82,6 +82,8 @@ pub struct Assembler {
     path: PathBuf,
     format: &'static str,
     scans: BTreeMap<String, Vec<RawScan>>,
+    /// The topic of every scan, in arrival order (to regroup scans by frame).
+    scan_order: Vec<String>,
     odometry: BTreeMap<String, Vec<RawOdometry>>,
     transforms: Vec<RawTransform>,
     truth: Vec<RawPose>,
@@ -98,6 +100,7 @@ impl Assembler {
             path: path.to_path_buf(),
             format,
             scans: BTreeMap::new(),
+            scan_order: Vec::new(),
             odometry: BTreeMap::new(),
             transforms: Vec::new(),
             truth: Vec::new(),
@@ -120,6 +123,7 @@ impl Assembler {
 
     /// Adds a scan.
     pub fn scan(&mut self, scan: RawScan) {
+        self.scan_order.push(scan.topic.clone());
         self.scans.entry(scan.topic.clone()).or_default().push(scan);
     }
 
@@ -225,14 +229,19 @@ impl Assembler {
         &mut self,
         options: &ImportOptions,
     ) -> Result<(Vec<LidarInfo>, Vec<(u32, Pose2, bool, Vec<RawScan>)>, Vec<BackwardSteps>), ImportError> {
-        let scan_topics = self.select_scan_topics(options)?;
+        let scan_topics = if options.scan_frames.is_empty() {
+            self.select_scan_topics(options)?
+        } else {
+            self.regroup_by_frame(&options.scan_frames)?
+        };
         let (mut lidars, mut streams, mut backward) = (Vec::new(), Vec::new(), Vec::new());
-        for (id, topic) in scan_topics.iter().enumerate() {
-            let mut scans = self.scans.remove(topic).unwrap_or_default();
+        for (id, stream) in scan_topics.iter().enumerate() {
+            let mut scans = self.scans.remove(stream).unwrap_or_default();
+            let topic = &scans[0].topic.clone();
             let frame = scans[0].frame_id.clone();
             let (mount, mount_source, mirrored, tilt_deg) = self.mount_of(&frame, options)?;
             let mut stamps: Vec<u64> = scans.iter().map(|s| s.stamp_ns).collect();
-            backward.extend(clamp_backward(topic, &mut stamps));
+            backward.extend(clamp_backward(stream, &mut stamps));
             for (s, t) in scans.iter_mut().zip(stamps) {
                 s.stamp_ns = t;
             }
@@ -250,6 +259,41 @@ impl Assembler {
             streams.push((id as u32, mount, mirrored, scans));
         }
         Ok((lidars, streams, backward))
+    }
+
+    /// Regroups the scans by frame: one stream (`frame <f>`) per frame of `frames`, from any
+    /// topic, in arrival order; returns the stream names in lidar-id order.
+    fn regroup_by_frame(&mut self, frames: &[String]) -> Result<Vec<String>, ImportError> {
+        let mut by_topic: BTreeMap<String, std::vec::IntoIter<RawScan>> =
+            std::mem::take(&mut self.scans).into_iter().map(|(t, v)| (t, v.into_iter())).collect();
+        let mut regrouped: BTreeMap<String, Vec<RawScan>> = BTreeMap::new();
+        let mut seen_frames = BTreeSet::new();
+        for topic in &self.scan_order {
+            let Some(s) = by_topic.get_mut(topic).and_then(Iterator::next) else { continue };
+            seen_frames.insert(s.frame_id.clone());
+            if frames.contains(&s.frame_id) {
+                regrouped.entry(format!("frame {}", s.frame_id)).or_default().push(s);
+            }
+        }
+        let mut names = Vec::new();
+        for f in frames {
+            let name = format!("frame {f}");
+            if !regrouped.contains_key(&name) {
+                return Err(ImportError::unusable(
+                    &self.path,
+                    format!(
+                        "scan frame '{f}' has no laser scans; the log's scan frames: [{}]",
+                        seen_frames.iter().cloned().collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+            if names.contains(&name) {
+                return Err(ImportError::unusable(&self.path, format!("scan frame '{f}' is named twice")));
+            }
+            names.push(name);
+        }
+        self.scans = regrouped;
+        Ok(names)
     }
 
     fn select_scan_topics(&self, options: &ImportOptions) -> Result<Vec<String>, ImportError> {
@@ -523,6 +567,34 @@ mod tests {
         let opts = ImportOptions { scan_topics: vec!["/front".into()], ..ImportOptions::default() };
         let e = a.finish(&opts).unwrap_err().to_string();
         assert!(e.contains("'/front'") && e.contains("/scan"), "{e}");
+    }
+
+    #[test]
+    fn lidars_can_be_chosen_by_frame_from_one_topic() {
+        let mut a = Assembler::new(Path::new("x.bag"), "test");
+        for (k, frame) in ["front", "rear", "front", "rear"].into_iter().enumerate() {
+            a.scan(scan("/scan", frame, k as u64 * 1_000));
+        }
+        a.known_mount("front", Pose2::new(0.3, 0.0, 0.0), "test");
+        a.known_mount("rear", Pose2::new(-0.3, 0.0, std::f64::consts::PI), "test");
+        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY });
+        let opts = ImportOptions { scan_frames: vec!["rear".into(), "front".into()], ..ImportOptions::default() };
+        let (log, report) = a.finish(&opts).unwrap();
+        assert_eq!(report.lidars.len(), 2);
+        assert_eq!((report.lidars[0].frame_id.as_str(), report.lidars[0].topic.as_str()), ("rear", "/scan"));
+        let ids: Vec<(u32, u64)> = log.scans().map(|s| (s.lidar_id, s.stamp_ns)).collect();
+        assert_eq!(ids, vec![(1, 0), (0, 1_000), (1, 2_000), (0, 3_000)]);
+        let e = a_err(&["left"]);
+        assert!(e.contains("scan frame 'left'") && e.contains("front, rear"), "{e}");
+    }
+
+    fn a_err(frames: &[&str]) -> String {
+        let mut a = Assembler::new(Path::new("x.bag"), "test");
+        a.scan(scan("/scan", "front", 0));
+        a.scan(scan("/scan", "rear", 0));
+        let opts =
+            ImportOptions { scan_frames: frames.iter().map(|f| f.to_string()).collect(), ..ImportOptions::default() };
+        a.finish(&opts).unwrap_err().to_string()
     }
 
     #[test]

@@ -32,6 +32,9 @@ pub struct ImportOptions {
     /// The lidars' scan topics, in lidar-id order; empty: every topic with laser scans, sorted by
     /// name.
     pub scan_topics: Vec<String>,
+    /// The lidars by their scans' `frame_id` instead, in lidar-id order (for a driver that puts
+    /// several lidars on one topic); when given, [`Self::scan_topics`] is not used.
+    pub scan_frames: Vec<String>,
     /// The odometry.
     pub odometry: OdometryFrom,
     /// The robot's base frame (lidar mounts are found from it; `base_link`).
@@ -50,6 +53,7 @@ impl Default for ImportOptions {
     fn default() -> Self {
         Self {
             scan_topics: Vec::new(),
+            scan_frames: Vec::new(),
             odometry: OdometryFrom::Auto,
             base_frame: "base_link".into(),
             odom_frame: "odom".into(),

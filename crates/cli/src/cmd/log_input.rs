@@ -21,6 +21,10 @@ pub struct LogInput {
     /// with sensor_msgs/LaserScan messages, sorted by name; CARMEN: FLASER, RLASER, ROBOTLASER1).
     #[arg(long = "scan-topic", value_name = "TOPIC")]
     pub scan_topics: Vec<String>,
+    /// A lidar by its scans' frame_id instead of its topic (repeat for several, in lidar-id
+    /// order): for drivers that put several lidars on one topic.
+    #[arg(long = "scan-frame", value_name = "FRAME", conflicts_with = "scan_topics")]
+    pub scan_frames: Vec<String>,
     /// The odometry topic (nav_msgs/Odometry; default: /odom if present, else the only odometry
     /// topic, else the odom → base transform of /tf).
     #[arg(long, value_name = "TOPIC", conflicts_with = "odom_from_tf")]
@@ -61,6 +65,22 @@ fn stamp_from(s: &str) -> Result<StampFrom, String> {
 }
 
 impl LogInput {
+    /// `--log path` with every other reading flag at its default.
+    pub fn path(path: &std::path::Path) -> Self {
+        Self {
+            log: path.to_path_buf(),
+            log_format: None,
+            scan_topics: Vec::new(),
+            scan_frames: Vec::new(),
+            odom_topic: None,
+            odom_from_tf: false,
+            base_frame: "base_link".into(),
+            odom_frame: "odom".into(),
+            truth_topic: None,
+            stamp: StampFrom::Header,
+        }
+    }
+
     /// The import options these flags give.
     pub fn options(&self) -> ImportOptions {
         let odometry = match (&self.odom_topic, self.odom_from_tf) {
@@ -70,6 +90,7 @@ impl LogInput {
         };
         ImportOptions {
             scan_topics: self.scan_topics.clone(),
+            scan_frames: self.scan_frames.clone(),
             odometry,
             base_frame: self.base_frame.clone(),
             odom_frame: self.odom_frame.clone(),

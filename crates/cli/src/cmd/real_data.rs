@@ -78,15 +78,10 @@ pub struct ReadingFlags {
 
 fn read(path: &Path, flags: &ReadingFlags) -> anyhow::Result<Dataset> {
     let input = LogInput {
-        log: path.to_path_buf(),
-        log_format: None,
         scan_topics: flags.scan_topics.clone(),
         odom_topic: flags.odom_topic.clone(),
-        odom_from_tf: false,
-        base_frame: "base_link".into(),
-        odom_frame: "odom".into(),
         truth_topic: flags.truth_topic.clone(),
-        stamp: mapkeeper_logs::StampFrom::Header,
+        ..LogInput::path(path)
     };
     let (log, read_path) = input.read()?;
     let stem = path.file_name().map_or_else(|| "log".into(), |s| s.to_string_lossy().into_owned());

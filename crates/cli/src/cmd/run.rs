@@ -4,7 +4,7 @@
 use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
 use mapkeeper_scenario::stats::median;
-use mapkeeper_scenario::{RunInputs, RunnerParams, run_world};
+use mapkeeper_scenario::{RunInputs, RunnerParams, run_world, run_world_with};
 use mapkeeper_sensor::tum::format_tum;
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;
@@ -53,6 +53,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, truth, estimate, particle
+    /// cloud, verdicts, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub mcap: Option<PathBuf>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
@@ -86,7 +90,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = super::output_dir(&args.out, args.force)?;
     let start = Instant::now();
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline };
-    let r = run_world(&inputs, &params, args.seed, "run", &super::Wall::start()).context("closed-loop run")?;
+    let r = match args.mcap.as_deref() {
+        Some(path) => {
+            let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(path)?;
+            let r = run_world_with(&inputs, &params, args.seed, "run", &super::Wall::start(), &mut [&mut rec])
+                .context("closed-loop run")?;
+            println!("wrote {}", rec.finish(Some(&r.map))?.display());
+            r
+        }
+        None => run_world(&inputs, &params, args.seed, "run", &super::Wall::start()).context("closed-loop run")?,
+    };
     let wall = start.elapsed().as_secs_f64();
     save_map(&r.map, &dir.file("map.yaml")?)?;
     if let Some(t) = &r.trajectories {
@@ -134,17 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// `run --log`: the chain on a recorded log, as `update --localise`.
 fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> {
-    let input = super::log_input::LogInput {
-        log: log.to_path_buf(),
-        log_format: None,
-        scan_topics: Vec::new(),
-        odom_topic: None,
-        odom_from_tf: false,
-        base_frame: "base_link".into(),
-        odom_frame: "odom".into(),
-        truth_topic: None,
-        stamp: mapkeeper_logs::StampFrom::Header,
-    };
+    let input = super::log_input::LogInput::path(log);
     super::update::run(super::update::Args {
         map: args.map.clone(),
         input,
@@ -158,7 +161,7 @@ fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> {
         params: args.params.clone(),
         sync_window_s: 0.05,
         out: args.out.clone(),
-        mcap: None,
+        mcap: args.mcap.clone(),
         force: args.force,
     })
 }
