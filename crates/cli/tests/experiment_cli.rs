@@ -21,6 +21,7 @@ fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports
     for f in ["summary.json", "trials.csv", "report.md", "detection_by_error.svg", "detection_by_error.png"] {
         assert!(a.join(f).is_file(), "{f} missing");
     }
+    common::assert_claims(&std::fs::read_to_string(a.join("report.md")).unwrap(), 4);
     // Same seed, other thread count: every file identical but the wall time in the summary and report.
     let (fa, fb) = (files(&a), files(&b));
     for (name, bytes) in &fa {
@@ -79,6 +80,7 @@ fn table1_writes_every_cell_of_the_table_and_the_held_error_costs_always_update(
     for f in ["summary.json", "runs.csv", "report.md", "cc_by_hold.svg", "cc_by_hold.png"] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
+    common::assert_claims(&std::fs::read_to_string(out.join("report.md")).unwrap(), 2);
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let t = &v["table1"]["paper"];
     for cond in ["hold_0s", "hold_2s", "amcl_start"] {
@@ -117,6 +119,7 @@ fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
     for f in ["summary.json", "trials.csv", "report.md"] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
+    common::assert_claims(&std::fs::read_to_string(out.join("report.md")).unwrap(), 2);
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let k = &v["kidnap_robot"];
     assert_eq!(k["trials"], 3);

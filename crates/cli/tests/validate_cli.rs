@@ -116,6 +116,7 @@ fn png_size(bytes: &[u8]) -> (u32, u32) {
 fn validate_writes_every_figure_as_svg_and_png_and_the_report_shows_them() {
     let dir = whole();
     let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    common::assert_claims(&report, 5);
     for stem in FIGURES {
         let svg = std::fs::read_to_string(dir.join(format!("plots/{stem}.svg"))).unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"), "{stem}.svg is not an SVG document");

@@ -5,6 +5,21 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// Asserts that a report ends with the paper's claims, each with a computed verdict, and that
+/// at least `n` claims are there.
+pub fn assert_claims(report: &str, n: usize) {
+    let section = report
+        .split("## The paper's claims beside this run")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no claims section in {report}"));
+    let verdicts = ["**reproduced**", "**not reproduced**", "**differs**", "**inconclusive**"];
+    let rows = section.lines().filter(|l| l.starts_with("| §") || l.starts_with("| Table")).collect::<Vec<_>>();
+    assert!(rows.len() >= n, "{} claims, expected at least {n}: {section}", rows.len());
+    for r in rows {
+        assert!(verdicts.iter().any(|v| r.contains(v)), "a claim without a verdict: {r}");
+    }
+}
+
 /// A fresh folder `mapkeeper-<group>-<name>-<pid>` in the temporary folder.
 pub fn scratch(group: &str, name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("mapkeeper-{group}-{name}-{}", std::process::id()));

@@ -106,7 +106,7 @@ impl Table1HoldParams {
 
     /// The row labels: `hold_<T>s` per hold, then `amcl_start` if on.
     pub fn conditions(&self) -> Vec<String> {
-        let mut v: Vec<String> = self.holds_s.iter().map(|t| format!("hold_{t}s")).collect();
+        let mut v: Vec<String> = self.holds_s.iter().map(|&t| hold_name(t)).collect();
         if self.amcl_start_error_m > 0.0 {
             v.push("amcl_start".into());
         }
@@ -189,6 +189,11 @@ pub struct MeanCi {
 fn mean_ci(v: &[f64]) -> MeanCi {
     let d = paired_diff(v);
     MeanCi { mean: d.mean, ci95: d.ci95 }
+}
+
+/// The condition name of a hold of `t` seconds (`hold_30s`).
+pub fn hold_name(t: f64) -> String {
+    format!("hold_{t}s")
 }
 
 /// One cell of the table: `table1.<preset>.<condition>.<variant>`.

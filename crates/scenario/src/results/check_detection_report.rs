@@ -148,6 +148,7 @@ pub fn report_md(r: &CheckDetectionResults) -> String {
         o,
         "\nFigure: `detection_by_error.png` (share of trials with an alarm within the window, by injected error)."
     );
+    o.push_str(&crate::results::claims::claims_md(&crate::results::claims::check_detection_claims(s)));
     o
 }
 

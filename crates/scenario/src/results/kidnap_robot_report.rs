@@ -123,6 +123,7 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         k.map_damage.cc, k.map_damage.ms, k.map_damage.opdf, k.map_damage_opdf_max
     );
     let _ = writeln!(o, "| poses from pose updating / wrong | {} / {} |", k.pose_recoveries, k.wrong_pose_recoveries);
+    o.push_str(&crate::results::claims::claims_md(&crate::results::claims::kidnap_claims(k)));
     o
 }
 

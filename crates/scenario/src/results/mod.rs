@@ -3,6 +3,7 @@
 //! ([`merge`]). Every folder is written through [`mapkeeper_grid::StagedDir`].
 
 pub mod check_detection_report;
+pub mod claims;
 pub mod comparison;
 pub mod figures;
 pub mod kidnap_robot_report;

@@ -272,6 +272,7 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     ground_truth_section(&mut s, summary);
     localisation_section(&mut s, summary, figures);
     updater_section(&mut s, summary, figures);
+    s.push_str(&crate::results::claims::claims_md(&crate::results::claims::validation_claims(summary)));
     s
 }
 

@@ -130,6 +130,7 @@ pub fn report_md(r: &Table1HoldResults) -> String {
         let _ = writeln!(o);
     }
     let _ = writeln!(o, "Figure: `cc_by_hold.png` (CC of M_2/G_2 per condition and variant, first preset).");
+    o.push_str(&crate::results::claims::claims_md(&crate::results::claims::table1_claims(s)));
     o
 }
 
