@@ -646,3 +646,48 @@ fn update_every_k_updates_only_every_kth_world_and_reports_the_check_under_heavy
     assert!(String::from_utf8_lossy(&o.stderr).contains("--update-every"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn harder_worlds_vary_route_and_start_per_world_and_people_stop() {
+    let dir = common::scratch("validate", "harder");
+    let out = dir.join("v");
+    let args = common::validate_args(&[
+        "validate",
+        "--worlds",
+        "4",
+        "--route-variants",
+        "--people-pause-s",
+        "10",
+        "--no-timing",
+        "--out",
+        common::s(&out),
+    ]);
+    let o = common::mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(v["params"]["generator"]["route_variants"], true);
+    assert_eq!(v["params"]["generator"]["people_pause_s"], 10.0);
+    assert_eq!(v["routes_completed"].as_u64(), v["rows"].as_u64(), "every variant is driven to its end: {v}");
+    // The same worlds written by `generate`: each varied world's route is its own file.
+    let set = dir.join("set");
+    let o = common::mapkeeper(&[
+        "generate",
+        "--worlds",
+        "6",
+        "--seed",
+        "3",
+        "--route-variants",
+        "--people-pause-s",
+        "10",
+        "--out",
+        common::s(&set),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(set.join("manifest.json")).unwrap()).unwrap();
+    let routes: Vec<&str> = m["files"].as_array().unwrap().iter().filter_map(|f| f["route"].as_str()).collect();
+    assert!(!routes.is_empty() && routes.iter().all(|r| set.join(r).is_file()), "{m}");
+    let w = std::fs::read_to_string(set.join("worlds/W_002.toml")).unwrap();
+    assert!(w.contains("max_pause_s = 10.0"), "people stop in W_2");
+    let w1 = std::fs::read_to_string(set.join("worlds/W_001.toml")).unwrap();
+    assert!(!w1.contains("max_pause_s = 10.0"), "W_1 keeps the paper's setting");
+}

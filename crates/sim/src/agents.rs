@@ -68,7 +68,7 @@ impl AgentState {
     pub(crate) fn new(agent: &Agent, run_seed: u64) -> Self {
         let waypoints = agent.motion.waypoints();
         let (random_walk, max_pause_s) = match agent.motion {
-            Motion::Loop { .. } => (false, 0.0),
+            Motion::Loop { max_pause_s, .. } => (false, max_pause_s),
             Motion::RandomWalk { max_pause_s, .. } => (true, max_pause_s),
         };
         let (a, b) = (waypoints[0], waypoints[1]);
@@ -172,7 +172,7 @@ impl AgentState {
             self.pose = Pose2::new(target.x, target.y, self.pose.yaw);
             self.from = self.target;
             self.target = self.next_target();
-            if self.random_walk && self.max_pause_s > 0.0 {
+            if self.max_pause_s > 0.0 {
                 self.pause_s = self.rng.random::<f64>() * self.max_pause_s;
             }
             let next = self.waypoints[self.target];
@@ -249,7 +249,7 @@ mod tests {
 
     #[test]
     fn loop_walks_at_speed_and_wraps() {
-        let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]] });
+        let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], max_pause_s: 0.0 });
         let mut s = AgentState::new(&a, 1);
         let far = Point2::new(100.0, 100.0);
         let p = AgentParams::default();
@@ -266,7 +266,7 @@ mod tests {
 
     #[test]
     fn waits_for_the_robot_then_turns_back() {
-        let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [5.0, 0.0]] });
+        let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [5.0, 0.0]], max_pause_s: 0.0 });
         let mut s = AgentState::new(&a, 1);
         let p = AgentParams::default();
         let robot = Point2::new(1.0, 0.0);
@@ -299,7 +299,7 @@ mod tests {
         // Beyond the corridor's end: fine.
         assert!(!c.blocks(Point2::new(2.5, 0.5), Point2::new(2.5, 0.0), 0.2));
         // An agent in a robot's corridor is kept from walking, then turns back.
-        let a = person(Motion::Loop { waypoints: vec![[1.0, 1.0], [1.0, -1.0]] });
+        let a = person(Motion::Loop { waypoints: vec![[1.0, 1.0], [1.0, -1.0]], max_pause_s: 0.0 });
         let mut s = AgentState::new(&a, 1);
         let view = RobotView {
             position: Point2::new(0.0, 0.0),

@@ -201,6 +201,10 @@ pub enum Motion {
     Loop {
         /// Waypoints `[[x, y], ...]`, metres; at least two. The agent starts at the first.
         waypoints: Vec<[f64; 2]>,
+        /// Longest stand at a waypoint, seconds (default 0: never stops; a person who stops and
+        /// stands for a seeded random time up to this at each waypoint).
+        #[serde(default, skip_serializing_if = "is_zero")]
+        max_pause_s: f64,
     },
     /// Wander along the polyline: at each waypoint, go on to a random neighbour (the previous or
     /// the next waypoint), after a random pause of up to `max_pause_s`.
@@ -213,11 +217,17 @@ pub enum Motion {
     },
 }
 
+// serde's skip_serializing_if passes a reference.
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
 impl Motion {
     /// The waypoints, as points.
     pub fn waypoints(&self) -> Vec<Point2> {
         let w = match self {
-            Motion::Loop { waypoints } | Motion::RandomWalk { waypoints, .. } => waypoints,
+            Motion::Loop { waypoints, .. } | Motion::RandomWalk { waypoints, .. } => waypoints,
         };
         w.iter().map(|p| Point2::new(p[0], p[1])).collect()
     }
@@ -405,7 +415,7 @@ impl World {
             if w.windows(2).any(|s| s[0].distance(s[1]) < 1e-6) {
                 return Err("two consecutive waypoints coincide".into());
             }
-            if let Motion::RandomWalk { max_pause_s, .. } = a.motion
+            if let Motion::RandomWalk { max_pause_s, .. } | Motion::Loop { max_pause_s, .. } = a.motion
                 && !(max_pause_s.is_finite() && max_pause_s >= 0.0)
             {
                 return Err(format!("max_pause_s must be finite and ≥ 0, got {max_pause_s}"));

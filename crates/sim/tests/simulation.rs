@@ -96,7 +96,7 @@ fn person(id: &str, a: [f64; 2], b: [f64; 2], speed: f64) -> Agent {
         kind: AgentKind::Person,
         footprint: Shape::circle(Point2::new(0.0, 0.0), 0.25),
         speed_mps: speed,
-        motion: Motion::Loop { waypoints: vec![a, b] },
+        motion: Motion::Loop { waypoints: vec![a, b], max_pause_s: 0.0 },
     }
 }
 

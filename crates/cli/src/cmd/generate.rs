@@ -33,6 +33,15 @@ pub struct Args {
     /// quantisation and gives ~13 M cells per map; 10 m leaves a handful of cells).
     #[arg(long, value_name = "METRES", default_value_t = 0.05, value_parser = super::resolution, allow_hyphen_values = true)]
     pub resolution: f64,
+    /// Harder worlds: from W_2 on, each world's tour starts at a seeded waypoint and is driven
+    /// either way, the robot starting there; each world's route is written as routes/R_<i>.toml
+    /// (listed in manifest.json).
+    #[arg(long)]
+    pub route_variants: bool,
+    /// Harder worlds: from W_2 on, people stop and stand at each waypoint for a seeded time up to
+    /// this many seconds, 0 to 600.
+    #[arg(long, value_name = "SECONDS", value_parser = super::real_in(0.0, 600.0, "s"), allow_hyphen_values = true)]
+    pub people_pause_s: Option<f64>,
     /// Also write one simulated drive of each world as a sensor log: jsonl or mcap.
     #[arg(long, value_name = "FORMAT", value_parser = ["jsonl", "mcap"])]
     pub logs: Option<String>,
@@ -47,11 +56,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let w1 = World::default_warehouse();
     let route = Route::default_warehouse();
     let geometry = w1.default_map_geometry(args.resolution).context("map geometry")?;
-    let chain = generate_worlds(&w1, &route, args.worlds, args.seed, &GeneratorParams::default())?;
+    let params = GeneratorParams {
+        route_variants: args.route_variants,
+        people_pause_s: args.people_pause_s.unwrap_or(0.0),
+        ..GeneratorParams::default()
+    };
+    let chain = generate_worlds(&w1, &route, args.worlds, args.seed, &params)?;
     let dir = super::output_dir(&args.out, args.force)?;
     let manifest = write_scenario_set(&dir, &chain, &route, args.seed, &geometry)?;
     if let Some(format) = &args.logs {
-        write_logs(&dir, &chain.worlds, &route, args.seed, format, args.jobs)?;
+        write_logs(&dir, &chain.worlds, &chain.routes, args.seed, format, args.jobs)?;
     }
     let out = dir.finish()?;
     let edits: usize = chain.edits.iter().map(Vec::len).sum();
@@ -72,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn write_logs(
     dir: &mapkeeper_grid::StagedDir,
     worlds: &[World],
-    route: &Route,
+    routes: &[Route],
     seed: u64,
     format: &str,
     jobs: Option<usize>,
@@ -90,7 +104,7 @@ fn write_logs(
                 let drive_seed = mapkeeper_sim::seeds::stream_seed(seed, &format!("drive/{name}"));
                 let spec = DriveSpec {
                     world,
-                    route: Some(route),
+                    route: Some(&routes[i]),
                     params: &params,
                     seed: drive_seed,
                     seconds: 900.0,

@@ -89,6 +89,14 @@ pub struct Args {
     /// edits near the route.
     #[arg(long, value_name = "METRES", value_parser = super::real_in(0.0, 100.0, "m"), allow_hyphen_values = true)]
     pub route_clearance: Option<f64>,
+    /// Harder worlds: from W_2 on, each world's tour starts at a seeded waypoint and is driven
+    /// either way, the robot starting there (the paper: one route, one start).
+    #[arg(long)]
+    pub route_variants: bool,
+    /// Harder worlds: from W_2 on, people stop and stand at each waypoint for a seeded time up to
+    /// this many seconds, 0 to 600 (the paper: people keep walking).
+    #[arg(long, value_name = "SECONDS", value_parser = super::real_in(0.0, 600.0, "s"), allow_hyphen_values = true)]
+    pub people_pause_s: Option<f64>,
     /// Worlds whose drive is also written as a ROS 2 MCAP bag (scans, odometry, /tf, truth,
     /// estimate, particles, verdicts, the map as it changes; docs/real-data.md), comma-separated
     /// world numbers from 2 to --worlds: `OUT[/PRESET]/mcap/PRESET-sSEED-WNNN.mcap`.
@@ -183,7 +191,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if let Some(c) = args.route_clearance {
             p.generator.route_clearance_m = c;
         }
-        p.validate().context("--update-every / --route-clearance")?;
+        p.generator.route_variants |= args.route_variants;
+        if let Some(s) = args.people_pause_s {
+            p.generator.people_pause_s = s;
+        }
+        p.validate().context("--update-every / --route-clearance / --people-pause-s")?;
     }
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {

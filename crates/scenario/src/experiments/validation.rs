@@ -608,7 +608,7 @@ pub fn run_seed_in(
         let mut rp = params.runner.clone();
         rp.record_trajectories = keep;
         rp.run_updater = rp.run_updater && (i - 2).is_multiple_of(params.update_every);
-        let inputs = RunInputs { world, route: &params.route, prev_map: &prev, baseline_map: &m1.map };
+        let inputs = RunInputs { world, route: &chain.routes[k], prev_map: &prev, baseline_map: &m1.map };
         let mcap = match &params.mcap_dir {
             Some(dir) if params.mcap_worlds.contains(&i) => {
                 let path = dir.join(format!("{}-s{seed}-W{i:03}.mcap", params.preset));

@@ -494,6 +494,9 @@ pub struct ManifestWorld {
     pub ground_truth: String,
     /// The edits that made it from the previous world.
     pub edits: Vec<crate::worlds::generator::Edit>,
+    /// The route driven in it, when it is not `route.toml` (route variants).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub route: Option<String>,
 }
 
 /// Writes a scenario set into `dir`.
@@ -512,7 +515,22 @@ pub fn write_scenario_set(
         let gf = format!("ground_truth/G_{i:03}.yaml");
         dir.write(&wf, w.to_toml_string()?.as_bytes())?;
         save_map(&ground_truth_map(w, geometry), &dir.file(&gf)?)?;
-        files.push(ManifestWorld { index: i, world: wf, ground_truth: gf, edits: chain.edits[k].clone() });
+        let own_route = chain.routes.get(k).filter(|r| *r != route);
+        let route_file = match own_route {
+            Some(r) => {
+                let rf = format!("routes/R_{i:03}.toml");
+                dir.write(&rf, r.to_toml_string()?.as_bytes())?;
+                Some(rf)
+            }
+            None => None,
+        };
+        files.push(ManifestWorld {
+            index: i,
+            world: wf,
+            ground_truth: gf,
+            edits: chain.edits[k].clone(),
+            route: route_file,
+        });
     }
     let manifest = Manifest {
         format: "mapkeeper-scenario-set".into(),

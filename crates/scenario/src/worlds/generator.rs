@@ -88,6 +88,22 @@ pub struct GeneratorParams {
     pub op_weights: [f64; 4],
     /// Where goods may be put down. Default: [`default_storage_areas`].
     pub storage_areas: Vec<StorageArea>,
+    /// Harder worlds: from W_2 on, each world's route is the tour started at a seeded waypoint
+    /// (a closed tour) and driven either way, and the robot starts at its first waypoint facing
+    /// the second. Default false (the paper's setting: one route, one start; not written when
+    /// false).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub route_variants: bool,
+    /// Harder worlds: from W_2 on, every person stops and stands at each waypoint of its path for
+    /// a seeded random time up to this many seconds (0 to 600). Default 0 (not written when 0).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub people_pause_s: f64,
+}
+
+// serde's skip_serializing_if passes a reference.
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for GeneratorParams {
@@ -103,6 +119,8 @@ impl Default for GeneratorParams {
             attempts_per_edit: 60,
             op_weights: [0.25, 0.2, 0.35, 0.2],
             storage_areas: default_storage_areas(),
+            route_variants: false,
+            people_pause_s: 0.0,
         }
     }
 }
@@ -125,6 +143,9 @@ impl GeneratorParams {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, format!("must be a finite length ≥ 0 m, got {v}"));
             }
+        }
+        if !(self.people_pause_s.is_finite() && (0.0..=600.0).contains(&self.people_pause_s)) {
+            return bad("people_pause_s", format!("must lie in 0..=600 s, got {}", self.people_pause_s));
         }
         if self.min_items > self.max_items {
             return bad("min_items", format!("{} exceeds max_items {}", self.min_items, self.max_items));
@@ -183,6 +204,9 @@ pub struct WorldChain {
     pub worlds: Vec<World>,
     /// `edits[i]`: the edits that turned `worlds[i-1]` into `worlds[i]`.
     pub edits: Vec<Vec<Edit>>,
+    /// `routes[i]`: the route driven in `worlds[i]` (all the given route unless
+    /// [`GeneratorParams::route_variants`]).
+    pub routes: Vec<Route>,
 }
 
 /// Fixed obstacles a placement must keep clear of, precomputed once.
@@ -459,7 +483,61 @@ pub fn generate_worlds(
         worlds.push(world);
         edits.push(made);
     }
-    Ok(WorldChain { worlds, edits })
+    let routes = harden(&mut worlds, route, seed, params)?;
+    Ok(WorldChain { worlds, edits, routes })
+}
+
+/// The route of `route` started at waypoint `k` of its cycle (a closed tour: first = last),
+/// reversed if asked; an open route can only be reversed.
+pub fn route_variant(route: &Route, k: usize, reverse: bool) -> Route {
+    let p = route.points();
+    let closed = p.len() >= 3 && p[0].distance(p[p.len() - 1]) < 1e-9;
+    let mut q: Vec<Point2> = if closed {
+        let cycle = &p[..p.len() - 1];
+        let k = k % cycle.len();
+        let mut v: Vec<Point2> = cycle[k..].iter().chain(&cycle[..k]).copied().collect();
+        v.push(v[0]);
+        v
+    } else {
+        p
+    };
+    if reverse {
+        q.reverse();
+    }
+    Route::new(&q)
+}
+
+/// The harder-world knobs on W_2..W_N: route variants with their start poses, people who stop
+/// and stand. Returns each world's route. Its random stream is its own, so the edits (and the
+/// default worlds) do not change with the knobs.
+fn harden(worlds: &mut [World], route: &Route, seed: u64, params: &GeneratorParams) -> Result<Vec<Route>, WorldsError> {
+    let mut rng = stream_rng(seed, "generator/harder");
+    let mut routes = vec![route.clone()];
+    for w in worlds.iter_mut().skip(1) {
+        if params.people_pause_s > 0.0 {
+            for a in w.agents.iter_mut().filter(|a| a.kind == mapkeeper_sim::AgentKind::Person) {
+                match &mut a.motion {
+                    mapkeeper_sim::Motion::Loop { max_pause_s, .. }
+                    | mapkeeper_sim::Motion::RandomWalk { max_pause_s, .. } => *max_pause_s = params.people_pause_s,
+                }
+            }
+        }
+        if !params.route_variants {
+            routes.push(route.clone());
+            continue;
+        }
+        // The waypoints of the cycle (a closed tour repeats its first at the end).
+        let n = route.waypoints.len().saturating_sub(1).max(1);
+        let r = route_variant(route, rng.random_range(0..n), rng.random::<bool>());
+        let p = r.points();
+        if p.len() >= 2 {
+            let yaw = (p[1].y - p[0].y).atan2(p[1].x - p[0].x);
+            w.robot_start = mapkeeper_sim::StartPose { x: p[0].x, y: p[0].y, yaw_deg: yaw.to_degrees() };
+        }
+        w.validate(&w.name.clone())?;
+        routes.push(r);
+    }
+    Ok(routes)
 }
 
 #[cfg(test)]
@@ -469,6 +547,38 @@ mod tests {
     fn chain(n: usize, seed: u64) -> WorldChain {
         generate_worlds(&World::default_warehouse(), &Route::default_warehouse(), n, seed, &GeneratorParams::default())
             .unwrap()
+    }
+
+    #[test]
+    fn harder_worlds_vary_the_route_and_start_and_keep_the_edits() {
+        let (w1, route) = (World::default_warehouse(), Route::default_warehouse());
+        let plain = chain(12, 5);
+        assert!(plain.routes.iter().all(|r| *r == route), "the default keeps the paper's one route");
+        let params = GeneratorParams { route_variants: true, people_pause_s: 15.0, ..GeneratorParams::default() };
+        let hard = generate_worlds(&w1, &route, 12, 5, &params).unwrap();
+        assert_eq!(hard.edits, plain.edits, "the knobs draw from their own stream: the same edits");
+        assert_eq!(hard.routes[0], route);
+        let distinct: std::collections::BTreeSet<String> =
+            hard.routes.iter().map(|r| format!("{:?}", r.waypoints)).collect();
+        assert!(distinct.len() >= 6, "{} distinct routes in 12 worlds", distinct.len());
+        for (w, r) in hard.worlds.iter().zip(&hard.routes).skip(1) {
+            let p = r.points();
+            assert!((r.length_m() - route.length_m()).abs() < 1e-9, "a variant drives the same tour");
+            assert!((w.robot_start.x - p[0].x).abs() < 1e-12 && (w.robot_start.y - p[0].y).abs() < 1e-12);
+            for a in w.agents.iter().filter(|a| a.kind == mapkeeper_sim::AgentKind::Person) {
+                let pause = match a.motion {
+                    mapkeeper_sim::Motion::Loop { max_pause_s, .. }
+                    | mapkeeper_sim::Motion::RandomWalk { max_pause_s, .. } => max_pause_s,
+                };
+                assert_eq!(pause, 15.0);
+            }
+        }
+        // An open route can only be reversed.
+        let open = Route::new(&[Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(1.0, 1.0)]);
+        assert_eq!(route_variant(&open, 1, false), open);
+        assert_eq!(route_variant(&open, 1, true).points()[0], Point2::new(1.0, 1.0));
+        let bad = GeneratorParams { people_pause_s: -1.0, ..GeneratorParams::default() };
+        assert!(bad.validate().unwrap_err().to_string().contains("people_pause_s"));
     }
 
     #[test]
