@@ -38,8 +38,8 @@ fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports
     // The headline rates are the counts of trials.csv.
     let csv = String::from_utf8_lossy(&fa["trials.csv"]).into_owned();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 16);
-    for preset in ["paper", "mapkeeper"] {
+    assert_eq!(rows.len(), 24);
+    for preset in ["paper", "mapkeeper", "mapkeeper-shift"] {
         let d = &v["check_detection"][preset];
         let bad: Vec<&Vec<&str>> =
             rows.iter().filter(|r| r[0] == preset && r[4].parse::<f64>().unwrap() >= 0.3).collect();

@@ -24,6 +24,7 @@
 //! | `additions/grazing.rs` | project addition: the incidence test of the removal gates (a robot driving along a wall erodes it) |
 //! | `additions/hit_index.rs` | project addition: the hit clearance of the removal gates (edge cells of a wall hit by the same step voted "removed") |
 //! | `additions/free_pass.rs` | project addition: cells free in `M_{i-1}` got only "changed" votes, so new obstacles came out 2-4 cells thick |
+//! | `additions/shift_check.rs` | project addition (`mapkeeper-shift`): the change count cannot tell a wrong pose from a stale map; a nearby pose that fits better can |
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
 //! | `support/votes.rs` | support: vote packing, radix sort and merge shared by the evaluators and the cells update |
@@ -87,6 +88,7 @@ pub mod additions {
     pub mod hit_index;
     pub mod log_odds_baseline;
     pub mod removal_gates;
+    pub mod shift_check;
 }
 
 /// Support code shared by the modules of both: the per-beam value type and the walk along a

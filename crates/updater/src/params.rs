@@ -5,6 +5,7 @@
 //! `docs/paper-vs-implementation.md` has one row per rule and one column per preset).
 
 use crate::UpdaterError;
+use crate::additions::shift_check::ShiftCheckParams;
 use mapkeeper_grid::mapper::MapperParams;
 use serde::{Deserialize, Serialize};
 
@@ -300,6 +301,10 @@ pub struct UpdaterParams {
     // --- Pose updating (§4.6) ---
     /// Pose updating (ICP) parameters.
     pub pose_updating: PoseUpdatingParams,
+    /// The shift check (a `mapkeeper-shift` addition to the localisation check; see the
+    /// `shift_check` module). Default off (not written when off with its defaults).
+    #[serde(skip_serializing_if = "ShiftCheckParams::is_default_off")]
+    pub shift_check: ShiftCheckParams,
     /// Log-odds baseline parameters (the grid crate's mapper; only with `method = "log-odds"`).
     pub log_odds: MapperParams,
 }
@@ -311,7 +316,8 @@ impl Default for UpdaterParams {
 }
 
 /// The names accepted by [`UpdaterParams::preset`].
-pub const PRESET_NAMES: [&str; 6] = ["paper", "authors", "mapkeeper", "always-update", "no-update", "log-odds"];
+pub const PRESET_NAMES: [&str; 7] =
+    ["paper", "authors", "mapkeeper", "mapkeeper-shift", "always-update", "no-update", "log-odds"];
 
 impl UpdaterParams {
     /// §4 as written, nothing added: eq. 2-9 with n_e = 1, v = Δθ/2, D_th(z) of A.1, tol(z),
@@ -364,6 +370,7 @@ impl UpdaterParams {
             border_reconstruction: true,
             border_interior_only: false,
             pose_updating: PoseUpdatingParams::default(),
+            shift_check: ShiftCheckParams::default(),
             log_odds: MapperParams::default(),
         }
     }
@@ -384,6 +391,12 @@ impl UpdaterParams {
             border_interior_only: true,
             ..Self::paper()
         }
+    }
+
+    /// `mapkeeper` with the shift check on (issue 12 item 5: a check that sees what the change
+    /// count cannot; measured by `mapkeeper experiment check-detection`, `docs/recovery.md`).
+    pub fn mapkeeper_shift() -> Self {
+        Self { shift_check: ShiftCheckParams { enabled: true, ..ShiftCheckParams::default() }, ..Self::mapkeeper() }
     }
 
     /// The behaviour of the authors' published code, as `spec/10-updater.md` lists it (the
@@ -436,6 +449,7 @@ impl UpdaterParams {
             "paper" => Ok(Self::paper()),
             "authors" => Ok(Self::authors()),
             "mapkeeper" => Ok(Self::mapkeeper()),
+            "mapkeeper-shift" => Ok(Self::mapkeeper_shift()),
             "always-update" => Ok(Self::always_update()),
             "no-update" => Ok(Self::no_update()),
             "log-odds" => Ok(Self::log_odds()),
@@ -473,6 +487,7 @@ impl UpdaterParams {
         self.validate_classifier_and_check()?;
         self.validate_evaluators_and_cells()?;
         self.pose_updating.validate()?;
+        self.shift_check.validate().map_err(|e| bad("shift_check", e))?;
         self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
         Ok(())
     }

@@ -129,6 +129,8 @@ pub struct MapUpdater {
     /// The step's measured hit points (hit clearance of the removal vote).
     hits: HitIndex,
     pose_updater: PoseUpdater,
+    /// `M_{i-1}`'s distance field, for the shift check (when on).
+    shift_field: Option<mapkeeper_grid::DistanceField>,
     log_odds: Option<LogOddsBaseline>,
     /// (robot_in_map, robot_in_odom) at the last step that passed the localisation check.
     last_good: Option<(Pose2, Pose2)>,
@@ -152,7 +154,12 @@ impl MapUpdater {
         } else {
             None
         };
+        let shift_field = params
+            .shift_check
+            .enabled
+            .then(|| mapkeeper_grid::DistanceField::to_occupied(&initial_map, params.shift_check.truncate_m + 0.05));
         Ok(Self {
+            shift_field,
             current: initial_map.clone(),
             base: RayCaster::new(&initial_map, true),
             params,
@@ -281,11 +288,17 @@ impl MapUpdater {
             return report;
         }
         self.stats.processed += 1;
-        let verdict = if self.params.localisation_check {
+        let mut verdict = if self.params.localisation_check {
             localisation_check(counts.n_valid, counts.n_dc, self.params.d_eps_min, self.params.d_eps_max)
         } else {
             Verdict::Update
         };
+        if let Some(field) = &self.shift_field {
+            let p = &self.params.shift_check;
+            if let Some(r) = crate::additions::shift_check::search(field, robot_in_map, scans, p) {
+                verdict = crate::additions::shift_check::combine(verdict, &r, p);
+            }
+        }
         report.verdict = Some(verdict);
         if verdict != Verdict::Lost {
             self.last_attempt_ns = None;

@@ -273,7 +273,7 @@ pub struct CheckDetectionArgs {
     /// Run seed (any whole number from 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 21, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Updater presets compared, comma-separated (default paper,mapkeeper).
+    /// Updater presets compared, comma-separated (default paper,mapkeeper,mapkeeper-shift).
     #[arg(long, value_name = "A,B", value_delimiter = ',')]
     pub presets: Option<Vec<String>>,
     /// Worlds are drawn from W_2 … W_N, 2 to 1000 (default 100).

@@ -62,7 +62,7 @@ pub struct Args {
     /// With --localise: the localiser's seed (any whole number from 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Parameter preset: paper (default), authors, mapkeeper, always-update, no-update, log-odds.
+    /// Parameter preset: paper (default), authors, mapkeeper, mapkeeper-shift, always-update, no-update, log-odds.
     #[arg(long, value_name = "NAME", default_value = "paper")]
     pub preset: String,
     /// TOML file overriding any field of the preset (same names as UpdaterParams; tables for

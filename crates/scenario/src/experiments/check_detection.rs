@@ -36,7 +36,7 @@ use std::f64::consts::PI;
 pub struct CheckDetectionParams {
     /// Trials (each preset runs all of them). Default 200.
     pub trials: usize,
-    /// Updater presets compared. Default `paper`, `mapkeeper`.
+    /// Updater presets compared. Default `paper`, `mapkeeper`, `mapkeeper-shift`.
     pub presets: Vec<String>,
     /// Worlds are drawn from W_2 … W_`max_world`. Default 100.
     pub max_world: usize,
@@ -67,7 +67,7 @@ impl Default for CheckDetectionParams {
     fn default() -> Self {
         Self {
             trials: 200,
-            presets: vec!["paper".into(), "mapkeeper".into()],
+            presets: vec!["paper".into(), "mapkeeper".into(), "mapkeeper-shift".into()],
             max_world: 100,
             zero_error_share: 0.2,
             max_error_m: 1.5,
