@@ -133,33 +133,37 @@ pub fn search(
         return None;
     }
     let stride = beams.len().div_ceil(p.max_beams).max(1);
-    let beams: Vec<(Pose2, f64, f64)> = beams.into_iter().step_by(stride).collect();
-    let score = |robot: Pose2| -> f64 {
-        let sum: f64 = beams
-            .iter()
-            .map(|(mount, a, r)| {
-                let lidar = robot.compose(mount);
-                let t = lidar.yaw + a;
-                let end = Point2::new(lidar.x + r * t.cos(), lidar.y + r * t.sin());
-                f64::from(field.at_world(end)).min(p.truncate_m)
-            })
-            .sum();
-        sum / beams.len() as f64
-    };
-    let given_m = score(robot_in_map);
+    // Each beam's end point in the robot frame, once: a candidate heading then only rotates
+    // them, and a candidate position only shifts them.
+    let ends: Vec<Point2> = beams
+        .into_iter()
+        .step_by(stride)
+        .map(|(mount, a, r)| mount.transform_point(Point2::new(r * a.cos(), r * a.sin())))
+        .collect();
+    let n = ends.len() as f64;
     let (nx, ny) = ((p.search_xy_m / p.step_xy_m).round() as i64, (p.search_yaw_rad / p.step_yaw_rad).round() as i64);
-    let mut best = (given_m, robot_in_map);
-    for ix in -nx..=nx {
-        for iy in -nx..=nx {
-            for ia in -ny..=ny {
-                let cand = Pose2::new(
-                    robot_in_map.x + ix as f64 * p.step_xy_m,
-                    robot_in_map.y + iy as f64 * p.step_xy_m,
-                    robot_in_map.yaw + ia as f64 * p.step_yaw_rad,
-                );
-                let s = score(cand);
-                if s < best.0 {
-                    best = (s, cand);
+    let mut offsets = vec![Point2::new(0.0, 0.0); ends.len()];
+    let mut given_m = f64::INFINITY;
+    let mut best = (f64::INFINITY, robot_in_map);
+    for ia in -ny..=ny {
+        let yaw = robot_in_map.yaw + ia as f64 * p.step_yaw_rad;
+        let (sin, cos) = yaw.sin_cos();
+        for (o, e) in offsets.iter_mut().zip(&ends) {
+            *o = Point2::new(cos * e.x - sin * e.y, sin * e.x + cos * e.y);
+        }
+        for ix in -nx..=nx {
+            for iy in -nx..=nx {
+                let (x, y) = (robot_in_map.x + ix as f64 * p.step_xy_m, robot_in_map.y + iy as f64 * p.step_xy_m);
+                let sum: f64 = offsets
+                    .iter()
+                    .map(|o| f64::from(field.at_world(Point2::new(x + o.x, y + o.y))).min(p.truncate_m))
+                    .sum();
+                let score = sum / n;
+                if (ia, ix, iy) == (0, 0, 0) {
+                    given_m = score;
+                }
+                if score < best.0 || (score == best.0 && (ia, ix, iy) == (0, 0, 0)) {
+                    best = (score, Pose2::new(x, y, yaw));
                 }
             }
         }
