@@ -34,7 +34,7 @@ pub struct Args {
     #[arg(long, value_name = "METRES", default_value_t = 0.05, value_parser = super::resolution, allow_hyphen_values = true)]
     pub resolution: f64,
     /// Harder worlds: from W_2 on, each world's tour starts at a seeded waypoint and is driven
-    /// either way, the robot starting there; each world's route is written as routes/R_<i>.toml
+    /// either way, the robot starting there; each world's route is written as `routes/R_NNN.toml`
     /// (listed in manifest.json).
     #[arg(long)]
     pub route_variants: bool,
