@@ -256,6 +256,17 @@ search_step_m = 0.1
 search_yaw_step_rad = 0.03
 search_candidates = 6
 
+[shift_check]
+enabled = false
+search_xy_m = 1.6
+step_xy_m = 0.2
+search_yaw_rad = 0.3490658503988659
+step_yaw_rad = 0.08726646259971647
+max_beams = 60
+truncate_m = 0.3
+better_margin_m = 0.015
+fit_ok_m = 0.2
+
 [log_odds]
 l_occ = 0.85
 l_free = -0.4
