@@ -199,7 +199,11 @@ fn invalid(name: &str, e: impl std::fmt::Display) -> ExperimentError {
 fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, ExperimentError> {
     let source = |options: ReplayOptions| LogSource::new(d.log.clone(), d.source.clone(), options);
     let replay = ReplayOptions::default();
-    let truth: Vec<StampedPose> = source(replay).truth().to_vec();
+    // The log's time-ordered tracks, read once.
+    let (truth, odometry) = {
+        let probe = source(replay);
+        (probe.truth().to_vec(), probe.odometry().to_vec())
+    };
     if truth.is_empty() {
         return Err(invalid(&d.name, "the log has no reference poses (truth records)"));
     }
@@ -212,7 +216,6 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
         .iter()
         .filter_map(|&t| interpolate(&truth, t).map(|pose| StampedPose { stamp_ns: t, pose }))
         .collect();
-    let odometry: Vec<StampedPose> = source(replay).odometry().to_vec();
     let disagreement = disagreement(&reference, &odometry);
     let mut localisers = Vec::new();
     for c in &params.localisers {

@@ -3,6 +3,7 @@
 //! it (reproduced, not reproduced, differs, or inconclusive) and why. The verdict rules are here,
 //! in one place, and the thresholds the paper does not give are named in the "why".
 
+use crate::results::report::with_ci;
 use std::fmt::Write as _;
 
 /// What a result says of a claim.
@@ -126,14 +127,6 @@ the rule in its last column (`crates/scenario/src/results/claims.rs`).\n\n| clai
     s
 }
 
-/// `mean [lo, hi]` of a paired difference, in points or metres.
-fn diff_text(mean: f64, ci: Option<[f64; 2]>, digits: usize) -> String {
-    match ci {
-        Some([lo, hi]) => format!("{mean:+.digits$} [{lo:+.digits$}, {hi:+.digits$}]"),
-        None => format!("{mean:+.digits$} (no interval)"),
-    }
-}
-
 /// Several verdicts on the parts of one claim (e.g. three metrics) as one: all reproduced →
 /// reproduced; none → the first part's; else differs.
 fn combine(parts: &[Verdict]) -> Verdict {
@@ -156,7 +149,7 @@ pub fn validation_claims(s: &crate::experiments::validation::Summary) -> Vec<Cla
             claim: format!("§5.3.2, Fig. 24: M_i/G_i is above M_1/G_i in every world ({name})"),
             result: format!(
                 "M_i − M_1 {} points over {} seed(s); M_i better in {:.0} % of worlds",
-                diff_text(m.diff_mean, m.diff_ci95, 2),
+                with_ci(m.diff_mean, m.diff_ci95, 2),
                 s.seeds.len(),
                 100.0 * m.updated_better_fraction
             ),
@@ -173,7 +166,7 @@ pub fn validation_claims(s: &crate::experiments::validation::Summary) -> Vec<Cla
         claim: "§5.3.2, Fig. 25: localising on M_{i-1} gives lower position errors than on M_1".into(),
         result: format!(
             "mean error on M_1 − on M_{{i-1}}: {} m; lower on M_{{i-1}} in {:.0} % of worlds",
-            diff_text(gain, ci, 4),
+            with_ci(gain, ci, 4),
             100.0 * l.updated_better_fraction
         ),
         verdict,
@@ -249,7 +242,7 @@ pub fn table1_claims(s: &crate::experiments::table1_hold::Table1HoldSummary) -> 
             for m in ["cc", "ms", "opdf"] {
                 let Some(d) = cell.vs_always_update.get(m) else { continue };
                 parts.push(better_verdict(d.mean, d.ci95, None, false).0);
-                result.push(format!("{} {}", m.to_uppercase(), diff_text(d.mean, d.ci95, 2)));
+                result.push(format!("{} {}", m.to_uppercase(), with_ci(d.mean, d.ci95, 2)));
             }
             let verdict = combine(&parts);
             claims.push(Claim {
