@@ -32,6 +32,8 @@ enum Command {
     Run(cmd::run::Args),
     /// Combine result folders (e.g. shards of a sweep) into one summary.
     Merge(cmd::merge::Args),
+    /// CPU time per scan of the simulator, localisers, updaters, grid traversal and the closed loop.
+    Bench(cmd::bench::Args),
     /// Simulate a world and write a sensor log, the true trajectory and the ground-truth map.
     Simulate(cmd::simulate::Args),
     /// Build an occupancy map from a sensor log at the logged true poses.
@@ -61,6 +63,7 @@ fn main() -> ExitCode {
         Command::Generate(a) => cmd::generate::run(a),
         Command::Run(a) => cmd::run::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Bench(a) => cmd::bench::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Map(a) => cmd::map::run(a),
         Command::Localise(a) => cmd::localise::run(a),

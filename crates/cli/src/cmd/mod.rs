@@ -1,5 +1,6 @@
 //! One module per subcommand: its arguments and the glue that calls the libraries.
 
+pub mod bench;
 pub mod converge;
 pub mod convert;
 pub mod experiment;

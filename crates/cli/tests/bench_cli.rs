@@ -1,0 +1,46 @@
+//! `mapkeeper bench` end to end on a short scene: the table has a row for the simulator, every
+//! localiser preset, every updater preset and grid traversal (and the closed loop unless
+//! `--no-loop`), each with consistent, positive figures. No figure is compared with a time:
+//! speed is measured by the command, never asserted in tests.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{mapkeeper, s, scratch};
+
+fn rows(path: &std::path::Path) -> Vec<serde_json::Value> {
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    v.as_array().unwrap().clone()
+}
+
+#[test]
+fn bench_table_has_every_component_with_consistent_figures() {
+    let dir = scratch("bench-cli", "table");
+    let json = dir.join("bench.json");
+    let out = mapkeeper(&["bench", "--repeats", "2", "--steps", "30", "--no-loop", "--json", s(&json)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let rows = rows(&json);
+    let names: Vec<&str> = rows.iter().map(|r| r["what"].as_str().unwrap()).collect();
+    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 1;
+    assert_eq!(rows.len(), expected, "{names:?}");
+    for preset in mapkeeper_updater::PRESET_NAMES.iter().chain(&mapkeeper_localiser::LOCALISER_PRESETS) {
+        assert!(names.iter().any(|n| n.contains(&format!("`{preset}`"))), "no row for {preset}: {names:?}");
+    }
+    for r in &rows {
+        let f = |k: &str| r[k].as_f64().unwrap();
+        let what = r["what"].as_str().unwrap();
+        assert!(f("min") > 0.0 && f("min") <= f("median") && f("median") <= f("max"), "{what}: {r}");
+        assert!(f("ratio_to_reference") > 0.0 && f("throughput") > 0.0, "{what}: {r}");
+        assert!(stdout.contains(what), "the printed table lacks {what}:\n{stdout}");
+    }
+    assert!(!names.iter().any(|n| n.contains("closed loop")), "--no-loop ran the loop: {names:?}");
+}
+
+#[test]
+fn bench_refuses_a_scene_longer_than_the_route() {
+    let out = mapkeeper(&["bench", "--repeats", "1", "--steps", "100000", "--no-loop"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--steps"), "{err}");
+}
