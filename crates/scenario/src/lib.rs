@@ -41,7 +41,7 @@ pub use experiments::validation::{
 };
 pub use mapkeeper_grid::StagedDir;
 pub use results::ResultsError;
-pub use sim_source::SimSource;
+pub use sim_source::{AheadSource, SimSource, Simulated};
 pub use worlds::WorldsError;
 pub use worlds::generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
 pub use worlds::mapping::{InitialMap, MappingParams, build_initial_map};

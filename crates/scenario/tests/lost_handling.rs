@@ -9,6 +9,11 @@ use mapkeeper_sim::{StartPose, World, ground_truth_map};
 /// A run of 14 s down the west aisle on the world's own map, the estimate kidnapped by
 /// (`dx_m`, `dy_m`) at 3 s; with `refuse`, pose updating's fitness gate accepts no fit.
 fn kidnapped_run(dx_m: f64, dy_m: f64, refuse: bool) -> (WorldRun, RunnerParams) {
+    kidnapped_run_with(dx_m, dy_m, refuse, false)
+}
+
+/// [`kidnapped_run`], the simulator run ahead of the estimators on its own thread if `ahead`.
+fn kidnapped_run_with(dx_m: f64, dy_m: f64, refuse: bool, ahead: bool) -> (WorldRun, RunnerParams) {
     let world = World::default_warehouse();
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05).expect("geometry"));
     let (start, route) = tour_from(&mapkeeper_sim::Route::default_warehouse(), 0.5, 30.0);
@@ -22,6 +27,7 @@ fn kidnapped_run(dx_m: f64, dy_m: f64, refuse: bool) -> (WorldRun, RunnerParams)
         max_sim_time_s: 14.0,
         kidnap: Some(kidnap),
         record_trajectories: true,
+        simulate_ahead: ahead,
         ..RunnerParams::default()
     };
     if refuse {
@@ -88,4 +94,18 @@ fn a_near_kidnap_is_recovered_and_the_robot_resumes() {
     assert!(c.recoveries >= 1, "{c:?} {:?}", run.lost_episodes);
     assert_eq!(run.lost_episodes.iter().find(|e| e.end == LostEnd::Recovered).map(|e| e.stopped), Some(true));
     eprintln!("{c:?}");
+}
+
+/// The simulator run ahead on its own thread gives the same run bit for bit, also when Lost
+/// stops the robot, a give-up or a recovery resumes it (the simulator goes back to its copy
+/// after the step that stopped it): maps, trajectories, episodes, every statistic.
+#[test]
+fn the_simulator_run_ahead_gives_the_same_run_through_stops_and_resumes() {
+    for refuse in [true, false] {
+        let (inline, _) = kidnapped_run_with(0.6, -0.8, refuse, false);
+        let (ahead, p) = kidnapped_run_with(0.6, -0.8, refuse, true);
+        assert!(inline.lost.episodes >= 1, "the run must stop the robot to test the rewinds");
+        check_episodes(&ahead, &p);
+        assert_eq!(inline, ahead, "refuse {refuse}: the run ahead differs");
+    }
 }

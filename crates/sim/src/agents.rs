@@ -2,11 +2,10 @@
 //! while the robot stands in its way and, after waiting `give_way_s`, turns back, so it never
 //! walks through the robot and two blocked parties never wait for each other for ever.
 
-use crate::seeds::stream_rng;
+use crate::seeds::SimRng;
 use crate::world::{Agent, Motion};
 use mapkeeper_grid::{Point2, Pose2};
 use rand::RngExt;
-use rand::rngs::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 /// How agents react to the robot.
@@ -49,6 +48,7 @@ impl AgentParams {
 }
 
 /// One agent's state.
+#[derive(Clone)]
 pub(crate) struct AgentState {
     pub(crate) radius: f64,
     pub(crate) pose: Pose2,
@@ -61,7 +61,7 @@ pub(crate) struct AgentState {
     step_dir: isize,
     pause_s: f64,
     blocked_s: f64,
-    rng: ChaCha8Rng,
+    rng: SimRng,
 }
 
 impl AgentState {
@@ -84,7 +84,7 @@ impl AgentState {
             step_dir: 1,
             pause_s: 0.0,
             blocked_s: 0.0,
-            rng: stream_rng(run_seed, &format!("agent/{}", agent.id)),
+            rng: SimRng::stream(run_seed, &format!("agent/{}", agent.id)),
         }
     }
 

@@ -4,13 +4,12 @@
 
 use crate::error::{SimError, params_err};
 use crate::raycast::{StaticCaster, cast_shape};
-use crate::seeds::stream_rng;
+use crate::seeds::SimRng;
 use crate::shape::Shape;
 use mapkeeper_grid::Point2;
 use mapkeeper_grid::Pose2;
 use mapkeeper_sensor::LaserScan;
 use rand::RngExt;
-use rand::rngs::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 #[cfg(test)]
 use rapier2d::prelude::{QueryPipeline, Ray, Vector};
@@ -222,19 +221,20 @@ impl LidarParams {
 }
 
 /// The random streams of one lidar's noise.
+#[derive(Clone)]
 pub(crate) struct NoiseStreams {
-    gauss: ChaCha8Rng,
-    dropout: ChaCha8Rng,
-    spurious: ChaCha8Rng,
+    gauss: SimRng,
+    dropout: SimRng,
+    spurious: SimRng,
     normal: Option<Normal<f64>>,
 }
 
 impl NoiseStreams {
     pub(crate) fn new(run_seed: u64, lidar_id: usize, noise: &LidarNoise) -> Self {
         Self {
-            gauss: stream_rng(run_seed, &format!("lidar/{lidar_id}/gauss")),
-            dropout: stream_rng(run_seed, &format!("lidar/{lidar_id}/dropout")),
-            spurious: stream_rng(run_seed, &format!("lidar/{lidar_id}/spurious")),
+            gauss: SimRng::stream(run_seed, &format!("lidar/{lidar_id}/gauss")),
+            dropout: SimRng::stream(run_seed, &format!("lidar/{lidar_id}/dropout")),
+            spurious: SimRng::stream(run_seed, &format!("lidar/{lidar_id}/spurious")),
             normal: (noise.sigma_m > 0.0).then(|| Normal::new(0.0, noise.sigma_m).ok()).flatten(),
         }
     }
@@ -264,6 +264,7 @@ impl NoiseStreams {
 }
 
 /// A lidar in a running simulation: its parameters, schedule, beam directions and noise streams.
+#[derive(Clone)]
 pub(crate) struct LidarSim {
     pub(crate) id: u32,
     pub(crate) params: LidarParams,

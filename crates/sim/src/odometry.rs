@@ -1,10 +1,9 @@
 //! Wheel odometry: the true per-step motion, corrupted by AMCL-style noise and a slow bias, and
 //! integrated in the odometry frame (which starts at the identity).
 
-use crate::seeds::stream_rng;
+use crate::seeds::SimRng;
 use mapkeeper_grid::Pose2;
 use rand::RngExt;
-use rand::rngs::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
@@ -91,9 +90,10 @@ impl OdometryParams {
 }
 
 /// Integrates noisy increments.
+#[derive(Clone)]
 pub(crate) struct Odometry {
     params: OdometryParams,
-    rng: ChaCha8Rng,
+    rng: SimRng,
     scale: f64,
     heading_bias: f64,
     pose_in_odom: Pose2,
@@ -101,7 +101,7 @@ pub(crate) struct Odometry {
 
 impl Odometry {
     pub(crate) fn new(params: &OdometryParams, run_seed: u64) -> Self {
-        let mut rng = stream_rng(run_seed, "odometry");
+        let mut rng = SimRng::stream(run_seed, "odometry");
         let sign = |b: bool| if b { 1.0 } else { -1.0 };
         let scale = 1.0 + sign(rng.random::<bool>()) * params.scale_bias_frac;
         let heading_bias = sign(rng.random::<bool>()) * params.heading_bias_rad_per_m;

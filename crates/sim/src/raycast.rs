@@ -45,6 +45,7 @@ fn hit(p: &Prim, ox: f64, oy: f64, dx: f64, dy: f64) -> Option<f64> {
 }
 
 /// Static geometry binned in square cells.
+#[derive(Clone)]
 pub(crate) struct StaticCaster {
     x0: f64,
     y0: f64,

@@ -144,6 +144,56 @@ pub struct Simulator {
     scratch: Vec<Option<f64>>,
 }
 
+/// A copy of a running simulation: the same state, so that stepping the copy gives bit for bit
+/// what stepping the original would (a pipelined run keeps copies to rewind to; test
+/// `a_cloned_simulator_steps_as_the_original`). The physics pipelines are rapier's workspace
+/// buffers only, so the copy gets fresh ones; pending collision events are drained every step,
+/// so it starts with none.
+impl Clone for Simulator {
+    fn clone(&self) -> Self {
+        let p = &self.physics;
+        let physics = PhysicsWorld {
+            gravity: p.gravity,
+            integration_parameters: p.integration_parameters,
+            islands: p.islands.clone(),
+            broad_phase: p.broad_phase.clone(),
+            narrow_phase: p.narrow_phase.clone(),
+            bodies: p.bodies.clone(),
+            colliders: p.colliders.clone(),
+            impulse_joints: p.impulse_joints.clone(),
+            multibody_joints: p.multibody_joints.clone(),
+            soft_bodies: p.soft_bodies.clone(),
+            ccd_solver: p.ccd_solver.clone(),
+            ..PhysicsWorld::default()
+        };
+        let events = Collector(Mutex::new(self.events.0.lock().map(|v| v.clone()).unwrap_or_default()));
+        Self {
+            world: self.world.clone(),
+            params: self.params.clone(),
+            seed: self.seed,
+            tick: self.tick,
+            physics,
+            events,
+            robot_body: self.robot_body,
+            robot_collider: self.robot_collider,
+            robot_radius: self.robot_radius,
+            refs: self.refs.clone(),
+            agents: self.agents.clone(),
+            lidars: self.lidars.clone(),
+            odometry: self.odometry.clone(),
+            follower: self.follower.clone(),
+            cmd_vel: self.cmd_vel,
+            cmd_fwd: self.cmd_fwd,
+            cmd_omega: self.cmd_omega,
+            prev_true: self.prev_true,
+            blocked: self.blocked,
+            statics: self.statics.clone(),
+            agent_shapes: self.agent_shapes.clone(),
+            scratch: self.scratch.clone(),
+        }
+    }
+}
+
 fn rapier_pose(p: &Pose2) -> Pose {
     Pose::new(Vector::new(p.x as f32, p.y as f32), p.yaw as f32)
 }

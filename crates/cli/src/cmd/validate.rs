@@ -159,6 +159,19 @@ fn plan_mcap(plan: &mut SweepPlan, dirs: &[StagedDir], worlds: &[usize]) -> anyh
     Ok(())
 }
 
+/// Fewer runs than threads: a free core runs each run's simulator ahead of its estimators (the
+/// same results bit for bit; docs/benchmarks.md).
+fn simulate_ahead_if_cores_free(
+    plan: &mut mapkeeper_scenario::SweepPlan,
+    pool: rayon::ThreadPool,
+) -> rayon::ThreadPool {
+    let ahead = plan.jobs.len() < pool.current_num_threads();
+    for p in &mut plan.params {
+        p.runner.simulate_ahead = ahead;
+    }
+    pool
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let presets = match (&args.presets, &args.preset) {
@@ -207,7 +220,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let wall = super::Wall::start();
     let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };
-    let runs = super::thread_pool(args.jobs)?.install(|| plan.run(clock, &|_| bar.inc(1)))?;
+    let pool = simulate_ahead_if_cores_free(&mut plan, super::thread_pool(args.jobs)?);
+    let runs = pool.install(|| plan.run(clock, &|_| bar.inc(1)))?;
     bar.finish_and_clear();
     let elapsed_s = start.elapsed().as_secs_f64();
     let wall_time_s = if args.no_timing { 0.0 } else { elapsed_s };
