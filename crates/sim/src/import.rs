@@ -99,7 +99,53 @@ impl World {
             racks: vec![],
             movable: vec![],
             agents: vec![],
+            storage_areas: vec![],
+            route: None,
         }
+    }
+}
+
+/// `grid` with its free space sealed: every unknown cell next to a free cell (8-neighbours),
+/// and every free cell on the grid's border, becomes occupied, so that a world made of it
+/// ([`World::from_occupancy_grid`]) keeps the robot, the planner and the lidars inside what
+/// the map saw. Counts the cells sealed.
+pub fn seal_free_space(grid: &OccupancyGrid) -> (OccupancyGrid, usize) {
+    let g = grid.geometry();
+    let (w, h) = (g.width() as i32, g.height() as i32);
+    let mut out = grid.clone();
+    let mut sealed = 0;
+    for (i, &s) in grid.cells().iter().enumerate() {
+        let c = g.coord(i);
+        let seal = match s {
+            CellState::Unknown => c.neighbours8().iter().any(|&n| grid.get(n) == Some(CellState::Free)),
+            CellState::Free => c.ix == 0 || c.iy == 0 || c.ix == w - 1 || c.iy == h - 1,
+            CellState::Occupied => false,
+        };
+        if seal {
+            out.cells_mut()[i] = CellState::Occupied;
+            sealed += 1;
+        }
+    }
+    (out, sealed)
+}
+
+impl World {
+    /// A world of a real ROS map (`mapkeeper import-map`): its free space sealed
+    /// ([`seal_free_space`]), the occupied cells merged into walls, named `name`.
+    pub fn from_ros_map(grid: &OccupancyGrid, name: &str) -> World {
+        let (sealed, n) = seal_free_space(grid);
+        let mut w = World::from_occupancy_grid(&sealed);
+        w.name = name.to_string();
+        let g = grid.geometry();
+        w.description = format!(
+            "imported from a {} × {} map at {} m: {} occupied cells, {n} cells sealing the free space, as {} walls",
+            g.width(),
+            g.height(),
+            g.resolution_m(),
+            grid.count(CellState::Occupied),
+            w.walls.len()
+        );
+        w
     }
 }
 
@@ -139,5 +185,25 @@ mod tests {
         let gt = ground_truth_map(&w, &g);
         assert_eq!(gt.get(CellCoord::new(5, 4)), Some(CellState::Free));
         assert_ne!(gt.get(CellCoord::new(1, 3)), Some(CellState::Free));
+    }
+
+    #[test]
+    fn sealing_closes_the_free_space() {
+        // A free 3 × 3 block in unknown, in a 7 × 7 grid: its 16 unknown neighbours are sealed.
+        let g = GridGeometry::new(7, 7, 0.5, Pose2::new(0.0, 0.0, 0.0)).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Unknown);
+        for r in 2..5 {
+            for c in 2..5 {
+                m.set(CellCoord::new(c, r), CellState::Free);
+            }
+        }
+        let (s, n) = seal_free_space(&m);
+        assert_eq!(n, 16);
+        assert_eq!(s.count(CellState::Free), 9);
+        assert_eq!(s.get(CellCoord::new(1, 1)), Some(CellState::Occupied));
+        assert_eq!(s.get(CellCoord::new(0, 0)), Some(CellState::Unknown));
+        let w = World::from_ros_map(&m, "block");
+        assert_eq!(w.name, "block");
+        assert!((w.robot_start.x - 1.75).abs() < 1e-9 && (w.robot_start.y - 1.75).abs() < 1e-9);
     }
 }

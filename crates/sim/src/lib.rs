@@ -42,7 +42,7 @@ mod world;
 
 pub use agents::AgentParams;
 pub use error::SimError;
-pub use import::{CellRect, merge_occupied};
+pub use import::{CellRect, merge_occupied, seal_free_space};
 pub use lidar::{LidarNoise, LidarParams};
 pub use odometry::OdometryParams;
 pub use robot::{DriveKind, FollowerParams, RobotParams};
@@ -51,6 +51,6 @@ pub use shape::{Bounds, Shape, point_segment_distance};
 pub use sim::{CollisionEvent, SimParams, Simulator, StepOutput};
 pub use truth::ground_truth_map;
 pub use world::{
-    Agent, AgentKind, FRAME_BAR_M, Motion, MovableItem, MovableKind, ObstacleRef, Rack, StartPose, StaticItem,
-    WORLD_FORMAT, WORLD_VERSION, World,
+    Agent, AgentKind, EMBEDDED_WORLDS, FRAME_BAR_M, Motion, MovableItem, MovableKind, ObstacleRef, Rack, StartPose,
+    StaticItem, StorageRegion, WORLD_FORMAT, WORLD_VERSION, World, WorldRoute,
 };

@@ -111,6 +111,22 @@ impl Route {
     }
 }
 
+impl crate::world::WorldRoute {
+    /// The route driven in every world.
+    pub fn route(&self) -> Route {
+        Route { format: ROUTE_FORMAT.into(), version: 1, waypoints: self.waypoints.clone() }
+    }
+
+    /// The exploration tour: `exploration`, or the route when it is empty.
+    pub fn exploration_route(&self) -> Route {
+        if self.exploration.is_empty() {
+            self.route()
+        } else {
+            Route { format: ROUTE_FORMAT.into(), version: 1, waypoints: self.exploration.clone() }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

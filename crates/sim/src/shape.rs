@@ -240,6 +240,43 @@ impl Shape {
     }
 }
 
+/// Whether the closed segments `a`–`b` and `c`–`d` meet.
+fn segments_meet(a: Point2, b: Point2, c: Point2, d: Point2) -> bool {
+    let cross = |o: Point2, p: Point2, q: Point2| (p.x - o.x) * (q.y - o.y) - (p.y - o.y) * (q.x - o.x);
+    let (d1, d2, d3, d4) = (cross(c, d, a), cross(c, d, b), cross(a, b, c), cross(a, b, d));
+    ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+}
+
+impl Shape {
+    /// Distance from the segment `a`–`b` to the shape (0 when they meet or overlap).
+    pub fn segment_distance(&self, a: Point2, b: Point2) -> f64 {
+        if self.contains(a) || self.contains(b) {
+            return 0.0;
+        }
+        match self {
+            Shape::Circle { center, radius } => {
+                (point_segment_distance(Point2::new(center[0], center[1]), a, b) - radius).max(0.0)
+            }
+            _ => {
+                let v = self.vertices().unwrap_or_default();
+                let n = v.len();
+                let mut best = f64::INFINITY;
+                for i in 0..n {
+                    let (p, q) = (v[i], v[(i + 1) % n]);
+                    if segments_meet(a, b, p, q) {
+                        return 0.0;
+                    }
+                    best = best
+                        .min(point_segment_distance(a, p, q))
+                        .min(point_segment_distance(b, p, q))
+                        .min(point_segment_distance(p, a, b));
+                }
+                best
+            }
+        }
+    }
+}
+
 /// Distance from `p` to the segment `a`–`b`.
 pub fn point_segment_distance(p: Point2, a: Point2, b: Point2) -> f64 {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
@@ -263,6 +300,18 @@ mod tests {
         assert!(r.problem().is_none());
         assert!(Shape::rect(Point2::new(0.0, 0.0), [-1.0, 1.0], 0.0).problem().is_some());
         assert!(Shape::rect(Point2::new(0.0, 0.0), [f64::NAN, 1.0], 0.0).problem().is_some());
+    }
+
+    #[test]
+    fn segment_distances() {
+        let r = Shape::rect(Point2::new(0.0, 0.0), [2.0, 2.0], 0.0);
+        // Crossing the square without an end inside it.
+        assert_eq!(r.segment_distance(Point2::new(-3.0, 0.0), Point2::new(3.0, 0.0)), 0.0);
+        assert!((r.segment_distance(Point2::new(-3.0, 1.5), Point2::new(3.0, 1.5)) - 0.5).abs() < 1e-12);
+        assert!((r.segment_distance(Point2::new(2.0, 3.0), Point2::new(2.0, 5.0)) - 2f64.hypot(1.0)).abs() < 1e-12);
+        let c = Shape::circle(Point2::new(0.0, 0.0), 1.0);
+        assert!((c.segment_distance(Point2::new(-3.0, 2.0), Point2::new(3.0, 2.0)) - 1.0).abs() < 1e-12);
+        assert_eq!(c.segment_distance(Point2::new(-3.0, 0.5), Point2::new(3.0, 0.5)), 0.0);
     }
 
     #[test]

@@ -204,6 +204,8 @@ mod tests {
                 .map(|(i, shape)| MovableItem { id: format!("m{i}"), kind: MovableKind::Box, shape })
                 .collect(),
             agents: vec![],
+            storage_areas: vec![],
+            route: None,
         }
     }
 

@@ -16,6 +16,13 @@ pub const WORLD_VERSION: u32 = 1;
 /// The default warehouse, embedded so that it needs no file.
 const DEFAULT_WAREHOUSE_TOML: &str = include_str!("../../../worlds/warehouse.toml");
 
+/// The paper's lab (§5.5), embedded too.
+const LAB_TOML: &str = include_str!("../../../worlds/lab.toml");
+
+/// The names of the embedded worlds ([`World::embedded`]): the default warehouse and the
+/// paper's lab.
+pub const EMBEDDED_WORLDS: [&str; 2] = ["warehouse", "lab"];
+
 /// A simulated world: plain data, edited by the scenario generator and written back.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -49,6 +56,36 @@ pub struct World {
     /// People and other robots.
     #[serde(default)]
     pub agents: Vec<Agent>,
+    /// Where the scenario generator may put goods down (optional; derived when absent, see
+    /// `docs/world-format.md`). Not written when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub storage_areas: Vec<StorageRegion>,
+    /// The robot's route (optional; planned when absent). Not written when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub route: Option<WorldRoute>,
+}
+
+/// A storage area: floor where goods may be put down (any shape).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StorageRegion {
+    /// Stable identifier, unique in the world.
+    pub id: String,
+    /// Its outline in the map frame.
+    pub shape: Shape,
+}
+
+/// The route a world carries: the tour driven in every world and, optionally, the exploration
+/// tour that builds the initial map M_1.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldRoute {
+    /// Waypoints `[[x, y], ...]`, metres, driven in order from the robot's start (a closed tour
+    /// repeats its first point at the end); at least one.
+    pub waypoints: Vec<[f64; 2]>,
+    /// The exploration tour of W_1 for M_1 (default: `waypoints`). Not written when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exploration: Vec<[f64; 2]>,
 }
 
 /// The robot's start pose.
@@ -275,6 +312,28 @@ impl World {
         }
     }
 
+    /// An embedded world by name ([`EMBEDDED_WORLDS`]): `warehouse` (the default) or `lab`.
+    pub fn embedded(name: &str) -> Option<World> {
+        let (text, origin) = match name {
+            "warehouse" => (DEFAULT_WAREHOUSE_TOML, "worlds/warehouse.toml (embedded)"),
+            "lab" => (LAB_TOML, "worlds/lab.toml (embedded)"),
+            _ => return None,
+        };
+        match World::from_toml_str(text, origin) {
+            Ok(w) => Some(w),
+            // The embedded files are checked by the crate's tests; this cannot happen in a release.
+            Err(e) => panic!("an embedded world is invalid: {e}"),
+        }
+    }
+
+    /// A world named on the command line: an embedded world's name, else a world file.
+    pub fn named_or_load(arg: &Path) -> Result<World, SimError> {
+        match arg.to_str().and_then(World::embedded) {
+            Some(w) => Ok(w),
+            None => World::load(arg),
+        }
+    }
+
     /// The text of the embedded default warehouse.
     pub fn default_warehouse_toml() -> &'static str {
         DEFAULT_WAREHOUSE_TOML
@@ -323,7 +382,79 @@ impl World {
                 return Err(bad("robot_start".into(), "lies outside the interior".into()));
             }
         }
-        self.validate_entries(origin)
+        self.validate_entries(origin)?;
+        self.validate_scenario(origin)?;
+        self.validate_agent_paths(origin)
+    }
+
+    /// The storage areas' shapes and the route's waypoints.
+    fn validate_scenario(&self, origin: &str) -> Result<(), SimError> {
+        let bad = |entry: String, problem: String| SimError::Invalid { origin: origin.to_string(), entry, problem };
+        for (i, a) in self.storage_areas.iter().enumerate() {
+            let entry = format!("storage_areas[{i}] \"{}\"", a.id);
+            if let Some(p) = a.shape.problem() {
+                return Err(bad(entry, p));
+            }
+            if a.shape.area().abs() < 0.25 {
+                return Err(bad(
+                    entry,
+                    format!("is too small to hold goods ({:.3} m², need ≥ 0.25 m²)", a.shape.area().abs()),
+                ));
+            }
+        }
+        if let Some(r) = &self.route {
+            if r.waypoints.is_empty() {
+                return Err(bad("route.waypoints".into(), "a route needs at least one waypoint".into()));
+            }
+            for (list, pts) in [("waypoints", &r.waypoints), ("exploration", &r.exploration)] {
+                if let Some((i, p)) = pts.iter().enumerate().find(|(_, p)| !(p[0].is_finite() && p[1].is_finite())) {
+                    return Err(bad(format!("route.{list}[{i}]"), format!("must be finite, got {p:?}")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Agents are kinematic and would pass through anything: their paths, swept by their
+    /// footprints, must stay clear of walls, columns, rack footprints and movable items, and
+    /// inside the interior.
+    fn validate_agent_paths(&self, origin: &str) -> Result<(), SimError> {
+        let mut solid: Vec<(String, Shape)> = Vec::new();
+        solid.extend(self.walls.iter().map(|w| (format!("wall \"{}\"", w.id), w.shape.clone())));
+        solid.extend(self.columns.iter().map(|w| (format!("column \"{}\"", w.id), w.shape.clone())));
+        solid.extend(self.racks.iter().map(|r| (format!("rack \"{}\"", r.id), r.footprint())));
+        solid.extend(self.movable.iter().map(|m| (format!("movable item \"{}\"", m.id), m.shape.clone())));
+        for (i, a) in self.agents.iter().enumerate() {
+            let reach = a.footprint.center().distance(Point2::new(0.0, 0.0)) + a.footprint.bounding_radius();
+            let mut pts = a.motion.waypoints();
+            if matches!(a.motion, Motion::Loop { .. }) && pts.len() >= 3 {
+                pts.push(pts[0]);
+            }
+            let bad = |problem: String| SimError::Invalid {
+                origin: origin.to_string(),
+                entry: format!("agents[{i}] \"{}\"", a.id),
+                problem,
+            };
+            if let Some(interior) = &self.interior
+                && let Some((k, p)) = pts.iter().enumerate().find(|(_, p)| !interior.contains(**p))
+            {
+                return Err(bad(format!("waypoint {k} [{}, {}] lies outside the interior", p.x, p.y)));
+            }
+            for (k, seg) in pts.windows(2).enumerate() {
+                for (what, shape) in &solid {
+                    let d = shape.segment_distance(seg[0], seg[1]);
+                    if d < reach - 1e-9 {
+                        return Err(bad(format!(
+                            "path segment {k} [{}, {}] → [{}, {}] comes within {d:.3} m of {what}, but the \
+                             agent reaches {reach:.3} m from its path (agents pass through obstacles: keep \
+                             their paths clear)",
+                            seg[0].x, seg[0].y, seg[1].x, seg[1].y
+                        )));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The entries' checks: unique non-empty ids, shapes, racks' posts, agents.
@@ -374,6 +505,9 @@ impl World {
             if let Some(p) = m.shape.problem() {
                 return Err(bad(entry, p));
             }
+        }
+        for (i, a) in self.storage_areas.iter().enumerate() {
+            check_id(&format!("storage_areas[{i}] \"{}\"", a.id), &a.id)?;
         }
         for (i, a) in self.agents.iter().enumerate() {
             let entry = format!("agents[{i}] \"{}\"", a.id);

@@ -34,6 +34,8 @@ fn room(start: Pose2, agents: Vec<Agent>) -> World {
         racks: vec![],
         movable: vec![],
         agents,
+        storage_areas: vec![],
+        route: None,
     }
 }
 

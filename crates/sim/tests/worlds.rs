@@ -114,3 +114,30 @@ fn default_ground_truth_resembles_the_real_map() {
     let geometry = world.default_map_geometry(0.05).unwrap();
     assert!(geometry.width() >= 280 && geometry.height() >= 419);
 }
+
+#[test]
+fn the_default_warehouse_carries_its_route_and_storage_areas() {
+    let w = World::default_warehouse();
+    assert_eq!(World::embedded("warehouse"), Some(w.clone()));
+    let route = w.route.as_ref().expect("the default warehouse carries its route");
+    assert_eq!(route.waypoints, mapkeeper_sim::Route::default_warehouse().waypoints);
+    assert_eq!(route.exploration, mapkeeper_sim::Route::exploration_warehouse().waypoints);
+    let ids: Vec<&str> = w.storage_areas.iter().map(|a| a.id.as_str()).collect();
+    assert_eq!(ids, ["east-yard", "centre-north", "centre-south"]);
+    assert!(World::embedded("nowhere").is_none());
+}
+
+#[test]
+fn the_lab_is_the_papers_room() {
+    let lab = World::embedded("lab").expect("embedded");
+    // About 80 m² of floor; a 10.5 m × 8.55 m map at 0.05 m (the paper's Table 2 maps).
+    let area = lab.interior.as_ref().expect("interior").area();
+    assert!((75.0..=85.0).contains(&area), "{area} m²");
+    let g = lab.default_map_geometry(0.05).unwrap();
+    assert_eq!((g.width(), g.height()), (210, 171), "10.5 m × 8.55 m");
+    assert!(lab.route.is_some() && lab.storage_areas.len() >= 2 && !lab.movable.is_empty());
+    assert_eq!(World::named_or_load(Path::new("lab")).unwrap(), lab);
+    // Any other name is a file.
+    let e = World::named_or_load(Path::new("no-such-world.toml")).unwrap_err().to_string();
+    assert!(e.starts_with("no-such-world.toml: "), "{e}");
+}
