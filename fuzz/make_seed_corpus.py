@@ -410,3 +410,25 @@ recovery = {
 for name, text in recovery.items():
     seed("params_toml", name, text, 2)
 
+# --- appended last so that the mutations above keep their random numbers ---------------------
+# Robot TOML (`--robot FILE`, docs/robot-format.md): the example robots and bad ones.
+for p in sorted((ROOT / "robots").glob("*.toml")):
+    seed("robot_toml", p.name, p.read_bytes(), 6)
+for name, text in {
+    "unknown_model.toml": 'format = "mapkeeper-robot"\nversion = 1\n[[lidars]]\nmodel = "velodyne"\nx = 0\ny = 0\nyaw_deg = 0\n',
+    "inline_missing.toml": 'format = "mapkeeper-robot"\nversion = 1\n[[lidars]]\nmodel = { fov_deg = 270 }\nx = 0\ny = 0\nyaw_deg = 0\n',
+    "nan_mount.toml": 'format = "mapkeeper-robot"\nversion = 1\n[[lidars]]\nmodel = "sick_s300"\nx = nan\ny = 0\nyaw_deg = 0\n',
+    "no_lidars.toml": 'format = "mapkeeper-robot"\nversion = 1\n',
+    "bad_body.toml": 'format = "mapkeeper-robot"\nversion = 1\n[body]\nwidth_m = -1\n[[lidars]]\nmodel = "sick_s300"\nx = 0\ny = 0\nyaw_deg = 0\n',
+    "noise.toml": 'format = "mapkeeper-robot"\nversion = 1\n[[lidars]]\nmodel = "hokuyo_ust20lx"\nx = 0\ny = 0\nyaw_deg = 0\nupside_down = true\nphase_offset_s = 0.01\n[lidars.noise]\nsigma_m = 0.02\nquantisation_m = 0.0\ndropout_probability = 0.0\nspurious_probability = 0.0\nspurious_max_m = 2.0\n',
+}.items():
+    write("robot_toml", name, text)
+
+# SimParams with sensor realism: every field of SensorRealism (the realistic profile), a bad
+# value, an upside-down lidar.
+for name, text in {
+    "sim_realism.toml": "[realism]\nmixed_pixels = true\nmixed_pixel_probability = 0.5\nmixed_pixel_min_jump_m = 0.3\nrange_noise = true\nrange_noise_sigma_per_m = 0.002\nmotion_distortion = true\nunsync = true\nextrinsic_error = true\nextrinsic_sigma_xy_m = 0.01\nextrinsic_sigma_yaw_rad = 0.008726646259971648\nlatency = true\nlatency_s = 0.015\njitter_s = 0.01\nlegs = true\nleg_radius_m = 0.06\nleg_separation_m = 0.22\nstride_m = 1.2\n",
+    "sim_realism_bad.toml": "[realism]\nlatency = true\nlatency_s = -1.0\n",
+    "sim_upside_down.toml": "[[lidars]]\nupside_down = true\n",
+}.items():
+    seed("params_toml", name, text, 2)

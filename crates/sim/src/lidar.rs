@@ -4,7 +4,8 @@
 
 use crate::error::{SimError, params_err};
 use crate::raycast::{StaticCaster, cast_shape};
-use crate::seeds::SimRng;
+use crate::realism::{PoseHistory, SensorRealism};
+use crate::seeds::{SimRng, stream_rng};
 use crate::shape::Shape;
 use mapkeeper_grid::Point2;
 use mapkeeper_grid::Pose2;
@@ -117,7 +118,24 @@ pub struct LidarParams {
     pub phase_offset_s: f64,
     /// Noise model.
     pub noise: LidarNoise,
+    /// Mounted upside down: rolled by π about its own x axis, whose heading in the base frame
+    /// is `lidar_in_robot.yaw`. Beam `i` then points at `−(angle_min_rad + i · angle_increment_rad)`
+    /// in the z-up frame, and the scans carry the mirror as a driver plus TF deliver it:
+    /// negated `angle_min_rad` and `angle_increment_rad` (a negative increment), ranges in the
+    /// scanner's own order. Default false (not written when false).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub upside_down: bool,
 }
+
+// serde's skip_serializing_if passes a reference.
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_false(v: &bool) -> bool {
+    !*v
+}
+
+/// The lidar models known by name: `sick_s300` ([`LidarParams::sick_s300`]) and
+/// `hokuyo_ust20lx` ([`LidarParams::hokuyo_ust20lx`]).
+pub const LIDAR_MODELS: &[&str] = &["sick_s300", "hokuyo_ust20lx"];
 
 impl Default for LidarParams {
     fn default() -> Self {
@@ -138,6 +156,7 @@ impl LidarParams {
             rate_hz: 12.5,
             phase_offset_s: 0.0,
             noise: LidarNoise::default(),
+            upside_down: false,
         }
     }
 
@@ -151,8 +170,10 @@ impl LidarParams {
         Self::sick_s300(Pose2::new(-0.2865, 0.2089, 3.0 * PI / 4.0))
     }
 
-    /// Hokuyo UST-20LX (270°, 1081 beams at 0.25°, 0.06-20 m, 40 Hz, σ 0.01 m) at
-    /// `lidar_in_robot`.
+    /// Hokuyo UST-20LX at `lidar_in_robot`, from its data sheet: 270° field of view, 0.25°
+    /// angular resolution (1081 beams), 0.06-20 m range, 40 Hz (25 ms per scan), accuracy
+    /// ±40 mm, here σ = 0.01 m (the ±40 mm tolerance taken as a bound of about 4σ, as the
+    /// project's spec sets it) and 1 mm steps.
     pub fn hokuyo_ust20lx(lidar_in_robot: Pose2) -> Self {
         Self {
             lidar_in_robot,
@@ -170,12 +191,39 @@ impl LidarParams {
                 spurious_probability: 0.0005,
                 spurious_max_m: 2.0,
             },
+            upside_down: false,
         }
     }
 
     /// The default pair: front and rear S300.
     pub fn summit_xl_pair() -> Vec<LidarParams> {
         vec![Self::sick_s300_front(), Self::sick_s300_rear()]
+    }
+
+    /// A lidar model by name ([`LIDAR_MODELS`]) at `lidar_in_robot`, upright.
+    pub fn model(name: &str, lidar_in_robot: Pose2) -> Option<Self> {
+        match name {
+            "sick_s300" => Some(Self::sick_s300(lidar_in_robot)),
+            "hokuyo_ust20lx" => Some(Self::hokuyo_ust20lx(lidar_in_robot)),
+            _ => None,
+        }
+    }
+
+    /// Direction of beam `i` in the z-up lidar frame (before the mount's yaw), radians: the
+    /// scanner's own angle, negated when the lidar is upside down.
+    pub fn beam_direction_rad(&self, i: usize) -> f64 {
+        let a = self.angle_min_rad + i as f64 * self.angle_increment_rad;
+        if self.upside_down { -a } else { a }
+    }
+
+    /// `(angle_min_rad, angle_increment_rad)` as the scans report them (z-up frame): negated
+    /// when the lidar is upside down.
+    pub fn scan_angles(&self) -> (f64, f64) {
+        if self.upside_down {
+            (-self.angle_min_rad, -self.angle_increment_rad)
+        } else {
+            (self.angle_min_rad, self.angle_increment_rad)
+        }
     }
 
     /// Checks every field.
@@ -243,6 +291,12 @@ impl NoiseStreams {
     /// `range_max_m`). Order of terms: dropout, spurious return, Gaussian noise, quantisation,
     /// then anything at or beyond `range_max_m` becomes +inf.
     pub(crate) fn reading(&mut self, truth: Option<f64>, p: &LidarParams) -> f32 {
+        self.reading_with(truth, p, 0.0)
+    }
+
+    /// [`NoiseStreams::reading`] with `extra` metres of noise added to a true return (the
+    /// range-dependent noise of [`SensorRealism`]; 0 adds nothing).
+    pub(crate) fn reading_with(&mut self, truth: Option<f64>, p: &LidarParams, extra: f64) -> f32 {
         let n = &p.noise;
         if n.dropout_probability > 0.0 && self.dropout.random::<f64>() < n.dropout_probability {
             return f32::INFINITY;
@@ -253,7 +307,8 @@ impl NoiseStreams {
         } else {
             match truth {
                 None => return f32::INFINITY,
-                Some(t) => t + self.normal.as_ref().map_or(0.0, |d| d.sample(&mut self.gauss)),
+                Some(t) if extra == 0.0 => t + self.normal.as_ref().map_or(0.0, |d| d.sample(&mut self.gauss)),
+                Some(t) => t + self.normal.as_ref().map_or(0.0, |d| d.sample(&mut self.gauss)) + extra,
             }
         };
         if n.quantisation_m > 0.0 {
@@ -272,28 +327,76 @@ pub(crate) struct LidarSim {
     /// Whether it fires at the current tick.
     pub(crate) fire_now: bool,
     period_ns: u64,
-    /// Beam directions in the lidar frame (cos, sin).
+    /// Beam directions in the z-up lidar frame (cos, sin).
     dirs: Vec<(f64, f64)>,
     noise: NoiseStreams,
+    /// The mount the rays are cast from: `params.lidar_in_robot` unless the extrinsic error is
+    /// on (the scans always carry `params.lidar_in_robot`).
+    pub(crate) cast_mount: Pose2,
+    /// The realism effects that act on the scans (none: the ideal lidar).
+    realism: Option<Box<LidarRealism>>,
+}
+
+/// The per-scan realism effects of one lidar and their random streams.
+#[derive(Clone)]
+struct LidarRealism {
+    cfg: SensorRealism,
+    mixed: SimRng,
+    range_noise: SimRng,
+    jitter: SimRng,
+    /// Time between two beams of the sweep, nanoseconds.
+    beam_dt_ns: f64,
 }
 
 impl LidarSim {
-    pub(crate) fn new(id: usize, params: &LidarParams, run_seed: u64, tick_ns: u64) -> Result<Self, SimError> {
+    pub(crate) fn new(
+        id: usize,
+        params: &LidarParams,
+        run_seed: u64,
+        tick_ns: u64,
+        realism: &SensorRealism,
+    ) -> Result<Self, SimError> {
         params.validate().map_err(|e| params_err(format!("lidars[{id}]"), e))?;
         let dirs = (0..params.beams)
             .map(|i| {
-                let a = params.angle_min_rad + i as f64 * params.angle_increment_rad;
+                let a = params.beam_direction_rad(i);
                 (a.cos(), a.sin())
             })
             .collect();
+        let period_ns = params.period_ns().max(1);
+        let mut next_fire_ns = tick_ns + (params.phase_offset_s * 1e9).round() as u64;
+        if realism.unsync {
+            let u: f64 = stream_rng(run_seed, &format!("lidar/{id}/phase")).random();
+            next_fire_ns += (u * period_ns as f64).round() as u64;
+        }
+        let mut cast_mount = params.lidar_in_robot;
+        if realism.extrinsic_error {
+            let mut rng = stream_rng(run_seed, &format!("lidar/{id}/extrinsic"));
+            let mut n = |sigma: f64| Normal::new(0.0, sigma).map_or(0.0, |d| d.sample(&mut rng));
+            let (dx, dy, dyaw) =
+                (n(realism.extrinsic_sigma_xy_m), n(realism.extrinsic_sigma_xy_m), n(realism.extrinsic_sigma_yaw_rad));
+            cast_mount = Pose2::new(cast_mount.x + dx, cast_mount.y + dy, cast_mount.yaw + dyaw);
+        }
+        let acts = realism.mixed_pixels || realism.range_noise || realism.needs_history();
+        let lidar_realism = acts.then(|| {
+            Box::new(LidarRealism {
+                cfg: realism.clone(),
+                mixed: SimRng::stream(run_seed, &format!("lidar/{id}/mixed")),
+                range_noise: SimRng::stream(run_seed, &format!("lidar/{id}/range_noise")),
+                jitter: SimRng::stream(run_seed, &format!("lidar/{id}/jitter")),
+                beam_dt_ns: period_ns as f64 * params.angle_increment_rad.abs() / (2.0 * PI),
+            })
+        });
         Ok(Self {
             id: id as u32,
             params: params.clone(),
-            next_fire_ns: tick_ns + (params.phase_offset_s * 1e9).round() as u64,
+            next_fire_ns,
             fire_now: false,
-            period_ns: params.period_ns().max(1),
+            period_ns,
             dirs,
             noise: NoiseStreams::new(run_seed, id, &params.noise),
+            cast_mount,
+            realism: lidar_realism,
         })
     }
 
@@ -308,37 +411,66 @@ impl LidarSim {
         true
     }
 
+    /// The longest look back into the robot's past poses a scan of this lidar needs,
+    /// nanoseconds.
+    pub(crate) fn lookback_ns(&self) -> u64 {
+        let Some(r) = &self.realism else { return 0 };
+        let sweep = if r.cfg.motion_distortion { r.beam_dt_ns * self.dirs.len() as f64 } else { 0.0 };
+        let delay = if r.cfg.latency { (r.cfg.latency_s + r.cfg.jitter_s) * 1e9 } else { 0.0 };
+        (sweep + delay).ceil() as u64
+    }
+
     /// Exact distances of every beam from the robot at `robot_in_map` (`None`: nothing within
     /// range), written into `out`.
     pub(crate) fn true_ranges(&self, scene: &Scene<'_>, robot_in_map: &Pose2, out: &mut Vec<Option<f64>>) {
-        let p = &self.params;
-        let lidar = robot_in_map.compose(&p.lidar_in_robot);
+        let lidar = robot_in_map.compose(&self.cast_mount);
         let (s, c) = lidar.yaw.sin_cos();
-        let max = p.range_max_m;
         out.clear();
         if scene.statics.inside(lidar.position()) {
             out.resize(self.dirs.len(), Some(0.0));
             return;
         }
         for &(dc, ds) in &self.dirs {
-            let (dx, dy) = (c * dc - s * ds, s * dc + c * ds);
-            let mut best = scene.statics.cast(lidar.x, lidar.y, dx, dy, max);
-            for (shape, center, radius) in scene.agents {
-                // Skip agents the ray passes wide of (or that lie behind it).
-                let (rx, ry) = (center.x - lidar.x, center.y - lidar.y);
-                let along = rx * dx + ry * dy;
-                if (rx * dy - ry * dx).abs() > *radius || along < -radius {
-                    continue;
-                }
-                if let Some(t) = cast_shape(shape, lidar.x, lidar.y, dx, dy)
-                    && best.is_none_or(|b| t < b)
-                    && t <= max
-                {
-                    best = Some(t);
-                }
-            }
-            out.push(best.filter(|&t| t < max));
+            out.push(self.cast_beam(scene, &lidar, (c * dc - s * ds, s * dc + c * ds)));
         }
+    }
+
+    /// As [`LidarSim::true_ranges`], beam `i` cast from the robot at `robot_at(i)`.
+    fn true_ranges_moving(&self, scene: &Scene<'_>, robot_at: impl Fn(usize) -> Pose2, out: &mut Vec<Option<f64>>) {
+        out.clear();
+        let n = self.dirs.len();
+        if scene.statics.inside(robot_at(n - 1).compose(&self.cast_mount).position()) {
+            out.resize(n, Some(0.0));
+            return;
+        }
+        for (i, &(dc, ds)) in self.dirs.iter().enumerate() {
+            let lidar = robot_at(i).compose(&self.cast_mount);
+            let (s, c) = lidar.yaw.sin_cos();
+            out.push(self.cast_beam(scene, &lidar, (c * dc - s * ds, s * dc + c * ds)));
+        }
+    }
+
+    /// The true range of one beam from `lidar` (map frame) along the unit vector `d`.
+    #[inline]
+    fn cast_beam(&self, scene: &Scene<'_>, lidar: &Pose2, d: (f64, f64)) -> Option<f64> {
+        let max = self.params.range_max_m;
+        let (dx, dy) = d;
+        let mut best = scene.statics.cast(lidar.x, lidar.y, dx, dy, max);
+        for (shape, center, radius) in scene.agents {
+            // Skip agents the ray passes wide of (or that lie behind it).
+            let (rx, ry) = (center.x - lidar.x, center.y - lidar.y);
+            let along = rx * dx + ry * dy;
+            if (rx * dy - ry * dx).abs() > *radius || along < -radius {
+                continue;
+            }
+            if let Some(t) = cast_shape(shape, lidar.x, lidar.y, dx, dy)
+                && best.is_none_or(|b| t < b)
+                && t <= max
+            {
+                best = Some(t);
+            }
+        }
+        best.filter(|&t| t < max)
     }
 
     /// True ranges through rapier's query pipeline (the reference the fast caster is checked
@@ -346,7 +478,7 @@ impl LidarSim {
     #[cfg(test)]
     pub(crate) fn true_ranges_rapier(&self, query: &QueryPipeline<'_>, robot_in_map: &Pose2) -> Vec<Option<f64>> {
         let p = &self.params;
-        let lidar = robot_in_map.compose(&p.lidar_in_robot);
+        let lidar = robot_in_map.compose(&self.cast_mount);
         let (s, c) = lidar.yaw.sin_cos();
         let origin = Vector::new(lidar.x as f32, lidar.y as f32);
         self.dirs
@@ -361,26 +493,97 @@ impl LidarSim {
             .collect()
     }
 
-    /// One scan from the robot at `robot_in_map`; `scratch` is reused between scans.
+    /// The true ranges of a scan stamped `stamp_ns` with the realism effects that move the
+    /// rays (latency, motion distortion) applied, `history` holding the robot's past poses.
+    fn realistic_true_ranges(
+        &mut self,
+        scene: &Scene<'_>,
+        robot_in_map: &Pose2,
+        stamp_ns: u64,
+        history: Option<&PoseHistory>,
+        scratch: &mut Vec<Option<f64>>,
+    ) {
+        let (Some(r), Some(h)) = (self.realism.as_mut(), history) else {
+            return self.true_ranges(scene, robot_in_map, scratch);
+        };
+        let delay_ns =
+            if r.cfg.latency { (r.cfg.latency_s + r.jitter.random::<f64>() * r.cfg.jitter_s) * 1e9 } else { 0.0 };
+        let t_end = stamp_ns as f64 - delay_ns;
+        let n = self.dirs.len();
+        if r.cfg.motion_distortion {
+            let dt = r.beam_dt_ns;
+            self.true_ranges_moving(scene, |i| h.at(t_end - (n - 1 - i) as f64 * dt).unwrap_or(*robot_in_map), scratch);
+        } else if r.cfg.latency {
+            self.true_ranges(scene, &h.at(t_end).unwrap_or(*robot_in_map), scratch);
+        } else {
+            self.true_ranges(scene, robot_in_map, scratch);
+        }
+    }
+
+    /// One scan from the robot at `robot_in_map`; `scratch` is reused between scans;
+    /// `history` (the robot's past poses) is needed by motion distortion and latency.
     pub(crate) fn scan(
         &mut self,
         scene: &Scene<'_>,
         robot_in_map: &Pose2,
         stamp_ns: u64,
         scratch: &mut Vec<Option<f64>>,
+        history: Option<&PoseHistory>,
     ) -> LaserScan {
-        self.true_ranges(scene, robot_in_map, scratch);
+        let ranges = if self.realism.is_some() {
+            self.realistic_true_ranges(scene, robot_in_map, stamp_ns, history, scratch);
+            let Some(r) = self.realism.as_mut() else { unreachable!("checked above") };
+            if r.cfg.mixed_pixels {
+                mix_pixels(scratch, &r.cfg, &mut r.mixed);
+            }
+            let per_m = if r.cfg.range_noise { r.cfg.range_noise_sigma_per_m } else { 0.0 };
+            let p = &self.params;
+            scratch
+                .iter()
+                .map(|&t| {
+                    let extra = match t {
+                        Some(t) if per_m > 0.0 => {
+                            Normal::new(0.0, per_m * t).map_or(0.0, |d| d.sample(&mut r.range_noise))
+                        }
+                        _ => 0.0,
+                    };
+                    self.noise.reading_with(t, p, extra)
+                })
+                .collect()
+        } else {
+            self.true_ranges(scene, robot_in_map, scratch);
+            let p = &self.params;
+            scratch.iter().map(|&t| self.noise.reading(t, p)).collect()
+        };
         let p = &self.params;
-        let ranges = scratch.iter().map(|&t| self.noise.reading(t, p)).collect();
+        let (angle_min_rad, angle_increment_rad) = p.scan_angles();
         LaserScan {
             stamp_ns,
             lidar_id: self.id,
             lidar_in_robot: p.lidar_in_robot,
-            angle_min_rad: p.angle_min_rad,
-            angle_increment_rad: p.angle_increment_rad,
+            angle_min_rad,
+            angle_increment_rad,
             range_min_m: p.range_min_m as f32,
             range_max_m: p.range_max_m as f32,
             ranges_m: ranges,
+        }
+    }
+}
+
+/// Mixed pixels: where two neighbouring beams both return and their ranges differ by at least
+/// `mixed_pixel_min_jump_m`, the farther one reads, with `mixed_pixel_probability`, a range
+/// uniform between the two surfaces (its footprint straddles the edge). Two draws per edge.
+fn mix_pixels(ranges: &mut [Option<f64>], cfg: &SensorRealism, rng: &mut SimRng) {
+    for i in 0..ranges.len().saturating_sub(1) {
+        let (Some(a), Some(b)) = (ranges[i], ranges[i + 1]) else { continue };
+        if (a - b).abs() < cfg.mixed_pixel_min_jump_m {
+            continue;
+        }
+        let (hit, u): (f64, f64) = (rng.random(), rng.random());
+        if hit < cfg.mixed_pixel_probability {
+            let (near, far_index) = if a < b { (a, i + 1) } else { (b, i) };
+            let far = a.max(b);
+            ranges[far_index] = Some(near + u * (far - near));
         }
     }
 }
@@ -481,7 +684,7 @@ mod tests {
     #[test]
     fn schedule_fires_at_rate() {
         let p = LidarParams::default();
-        let mut l = LidarSim::new(0, &p, 0, 20_000_000).unwrap();
+        let mut l = LidarSim::new(0, &p, 0, 20_000_000, &SensorRealism::default()).unwrap();
         let fired: Vec<u64> = (1..=20u64).map(|k| k * 20_000_000).filter(|&t| l.due(t)).collect();
         assert_eq!(fired, vec![20_000_000, 100_000_000, 180_000_000, 260_000_000, 340_000_000]);
     }

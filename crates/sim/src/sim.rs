@@ -6,9 +6,10 @@ use crate::error::{SimError, params_err};
 use crate::lidar::{LidarParams, LidarSim, Scene};
 use crate::odometry::{Odometry, OdometryParams};
 use crate::raycast::StaticCaster;
+use crate::realism::{PoseHistory, SensorRealism};
 use crate::robot::{DriveKind, Follower, Obstruction, RobotParams};
 use crate::shape::Shape;
-use crate::world::{ObstacleRef, World};
+use crate::world::{AgentKind, ObstacleRef, World};
 use mapkeeper_grid::{Point2, Pose2, angle_diff};
 use mapkeeper_sensor::{LaserScan, OdometryReading, TruePose};
 use rapier2d::prelude::*;
@@ -36,6 +37,10 @@ pub struct SimParams {
     pub odometry: OdometryParams,
     /// Agent behaviour.
     pub agents: AgentParams,
+    /// Sensor realism (mixed pixels, motion distortion, latency, …). Default: every effect
+    /// off, the `ideal` profile (not written then).
+    #[serde(default, skip_serializing_if = "SensorRealism::is_ideal")]
+    pub realism: SensorRealism,
 }
 
 impl Default for SimParams {
@@ -46,6 +51,7 @@ impl Default for SimParams {
             lidars: LidarParams::summit_xl_pair(),
             odometry: OdometryParams::default(),
             agents: AgentParams::default(),
+            realism: SensorRealism::default(),
         }
     }
 }
@@ -61,6 +67,7 @@ impl SimParams {
             l.validate().map_err(|e| params_err(format!("lidars[{i}]"), e))?;
         }
         self.odometry.validate().map_err(|e| params_err("OdometryParams", e))?;
+        self.realism.validate().map_err(|e| params_err("realism", e))?;
         self.agents.validate().map_err(|e| params_err("AgentParams", e))
     }
 }
@@ -142,6 +149,10 @@ pub struct Simulator {
     statics: StaticCaster,
     agent_shapes: Vec<(Shape, Point2, f64)>,
     scratch: Vec<Option<f64>>,
+    /// The robot's recent true poses (motion distortion and latency only).
+    history: Option<PoseHistory>,
+    /// Distance each agent has walked, metres (the gait of people's legs).
+    walked: Vec<f64>,
 }
 
 /// A copy of a running simulation: the same state, so that stepping the copy gives bit for bit
@@ -190,6 +201,8 @@ impl Clone for Simulator {
             statics: self.statics.clone(),
             agent_shapes: self.agent_shapes.clone(),
             scratch: self.scratch.clone(),
+            history: self.history.clone(),
+            walked: self.walked.clone(),
         }
     }
 }
@@ -283,8 +296,14 @@ impl Simulator {
             .lidars
             .iter()
             .enumerate()
-            .map(|(i, l)| LidarSim::new(i, l, seed, params.tick_ns))
+            .map(|(i, l)| LidarSim::new(i, l, seed, params.tick_ns, &params.realism))
             .collect::<Result<Vec<_>, _>>()?;
+        let history = params.realism.needs_history().then(|| {
+            let keep = lidars.iter().map(LidarSim::lookback_ns).max().unwrap_or(0) + 2 * params.tick_ns;
+            let mut h = PoseHistory::new(keep);
+            h.push(0, start);
+            h
+        });
         let events = Collector::default();
         // Make the colliders visible to scene queries before the first step.
         physics.detect_collisions(&(), &events);
@@ -314,6 +333,8 @@ impl Simulator {
             statics,
             agent_shapes: Vec::new(),
             scratch: Vec::new(),
+            history,
+            walked: vec![0.0; world.agents.len()],
         })
     }
 
@@ -398,6 +419,11 @@ impl Simulator {
         self.cmd_fwd = 0.0;
         self.cmd_omega = 0.0;
         self.prev_true = self.true_pose();
+        let (stamp, now) = (self.stamp_ns(), self.prev_true);
+        if let Some(h) = &mut self.history {
+            *h = PoseHistory::new(h.keep_ns());
+            h.push(stamp, now);
+        }
         // Refresh the broad phase so that queries see the robot where it now is.
         self.physics.detect_collisions(&(), &self.events);
     }
@@ -483,8 +509,10 @@ impl Simulator {
             b.set_angvel(self.cmd_omega as f32, true);
         }
         let view = self.robot_view(&pose);
-        for (state, body) in &mut self.agents {
+        for ((state, body), walked) in self.agents.iter_mut().zip(&mut self.walked) {
+            let before = state.pose.position();
             state.advance_near(dt, &view, &self.params.agents);
+            *walked += before.distance(state.pose.position());
             if let Some(b) = self.physics.bodies.get_mut(*body) {
                 b.set_next_kinematic_position(rapier_pose(&state.pose));
             }
@@ -495,6 +523,9 @@ impl Simulator {
         let truth = self.true_pose();
         self.odometry.update(&self.prev_true.between(&truth));
         self.prev_true = truth;
+        if let Some(h) = &mut self.history {
+            h.push(stamp_ns, truth);
+        }
         let mut scans = Vec::new();
         let mut any = false;
         for l in &mut self.lidars {
@@ -505,7 +536,7 @@ impl Simulator {
             self.refresh_agent_shapes();
             let scene = Scene { statics: &self.statics, agents: &self.agent_shapes };
             for l in self.lidars.iter_mut().filter(|l| l.fire_now) {
-                scans.push(l.scan(&scene, &truth, stamp_ns, &mut self.scratch));
+                scans.push(l.scan(&scene, &truth, stamp_ns, &mut self.scratch, self.history.as_ref()));
             }
         }
         let collisions = self.drain_events(stamp_ns);
@@ -528,14 +559,23 @@ impl Simulator {
         let stamp_ns = self.stamp_ns();
         self.refresh_agent_shapes();
         let scene = Scene { statics: &self.statics, agents: &self.agent_shapes };
-        self.lidars.iter_mut().map(|l| l.scan(&scene, &truth, stamp_ns, &mut self.scratch)).collect()
+        let history = self.history.as_ref();
+        self.lidars.iter_mut().map(|l| l.scan(&scene, &truth, stamp_ns, &mut self.scratch, history)).collect()
     }
 
-    /// The agents' outlines at their current poses.
+    /// The agents' outlines at their current poses (with `legs`, a person's disc is two legs).
     fn refresh_agent_shapes(&mut self) {
         self.agent_shapes.clear();
-        for (a, (state, _)) in self.world.agents.iter().zip(&self.agents) {
+        for ((a, (state, _)), walked) in self.world.agents.iter().zip(&self.agents).zip(&self.walked) {
             let shape = a.footprint.transformed(&state.pose);
+            if let (true, AgentKind::Person, Shape::Circle { center, .. }) = (self.params.realism.legs, a.kind, &shape)
+            {
+                let c = Point2::new(center[0], center[1]);
+                for (leg, r) in self.params.realism.legs_of(c, state.pose.yaw, *walked) {
+                    self.agent_shapes.push((Shape::circle(leg, r), leg, r));
+                }
+                continue;
+            }
             let (c, r) = (shape.center(), shape.bounding_radius());
             self.agent_shapes.push((shape, c, r));
         }

@@ -1,9 +1,9 @@
 //! Replays the kept fuzz corpus (`fuzz/corpus/`, see `docs/reliability.md`) through the
-//! simulator's parsers: world TOML, route TOML and SimParams TOML. No input may panic, and every
+//! simulator's parsers: world TOML, route TOML, robot TOML and SimParams TOML. No input may panic, and every
 //! rejection must be a one-line error that names the file and the place (line and column for
 //! a syntax error, the entry for an invalid value).
 
-use mapkeeper_sim::{Route, SimError, SimParams, World};
+use mapkeeper_sim::{RobotFile, Route, SimError, SimParams, World};
 use std::path::{Path, PathBuf};
 
 /// Every file of the corpus of fuzz target `target`, sorted.
@@ -62,6 +62,12 @@ fn world_toml_corpus_never_panics_and_errors_name_the_place() {
 fn route_toml_corpus_never_panics_and_errors_name_the_place() {
     let (ok, refused) = replay("route_toml", Route::from_toml_str);
     assert!(ok > 0 && refused > 0);
+}
+
+#[test]
+fn robot_toml_corpus_never_panics_and_errors_name_the_place() {
+    let (ok, refused) = replay("robot_toml", RobotFile::from_toml_str);
+    assert!(ok >= 3 && refused > 0);
 }
 
 #[test]
