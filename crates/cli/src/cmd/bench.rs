@@ -247,17 +247,9 @@ impl Table {
     }
 }
 
+/// The median of a row's samples (0 for none; every row has one per repeat).
 fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        0.0
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    mapkeeper_scenario::stats::median(v.to_vec()).unwrap_or(0.0)
 }
 
 /// The rows of the table, in order.
