@@ -231,6 +231,15 @@ const FLAGS: &[Flag] = &[
     other("render", "--out", Path),
     other("render", "--diff", Path),
     num("render", "--scale", Count),
+    other("validate", "--robot", Path),
+    other("validate", "--sensor-profile", Name),
+    other("validate", "--sensor-effects", Names),
+    other("simulate", "--robot", Path),
+    other("simulate", "--sensor-profile", Name),
+    other("simulate", "--sensor-effects", Names),
+    other("run", "--robot", Path),
+    other("run", "--sensor-profile", Name),
+    other("run", "--sensor-effects", Names),
 ];
 
 /// The bad values every scalar numeric flag gets (list flags accept "1,2").

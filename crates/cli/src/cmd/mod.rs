@@ -14,6 +14,7 @@ pub mod real_data;
 pub mod recover;
 pub mod render;
 pub mod run;
+pub mod sensor;
 pub mod simulate;
 pub mod update;
 pub mod validate;

@@ -60,6 +60,9 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
+    /// Robot file and sensor realism (with --world).
+    #[command(flatten)]
+    pub sensor: super::sensor::SensorArgs,
 }
 
 /// Runs the subcommand.
@@ -67,6 +70,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let world_path = match (&args.world, &args.log) {
         (Some(w), _) => w.clone(),
+        (None, Some(_)) if args.sensor.is_set() => {
+            anyhow::bail!("--robot, --sensor-profile and --sensor-effects need --world (a log brings its own scans)")
+        }
         (None, Some(log)) => return run_log(&args, log),
         (None, None) => anyhow::bail!("--world or --log is required"),
     };
@@ -87,6 +93,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..RunnerParams::default()
     };
     params.set_localiser(&args.localiser).context("--localiser")?;
+    args.sensor.apply(&mut params.sim)?;
     let dir = super::output_dir(&args.out, args.force)?;
     let start = Instant::now();
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline };

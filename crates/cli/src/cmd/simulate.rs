@@ -52,6 +52,9 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
+    /// Robot file and sensor realism.
+    #[command(flatten)]
+    pub sensor: super::sensor::SensorArgs,
 }
 
 /// Runs the subcommand.
@@ -65,7 +68,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, None) => Some(Route::default_warehouse()),
         (None, Some(_)) => None,
     };
-    let params = load_params(SimParams::default(), args.params.as_deref(), SimParams::validate)?;
+    let mut params = load_params(SimParams::default(), args.params.as_deref(), SimParams::validate)?;
+    args.sensor.apply(&mut params)?;
     let seconds = args.seconds.unwrap_or(if route.is_some() { 900.0 } else { 60.0 });
     let dir = super::output_dir(&args.out, args.force)?;
     let spec = DriveSpec {

@@ -109,6 +109,10 @@ pub struct Args {
     /// folders with `mapkeeper merge`.
     #[arg(long, value_name = "k/N", value_parser = str::parse::<Shard>, allow_hyphen_values = true)]
     pub shard: Option<Shard>,
+    /// Robot file and sensor realism (recorded in summary.json's parameters when not the
+    /// defaults).
+    #[command(flatten)]
+    pub sensor: super::sensor::SensorArgs,
 }
 
 /// First seed of the default run (after the tuning seeds 1-3 of the algorithms issue).
@@ -209,6 +213,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             p.generator.people_pause_s = s;
         }
         p.validate().context("--update-every / --route-clearance / --people-pause-s")?;
+        args.sensor.apply(&mut p.runner.sim)?;
     }
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {

@@ -55,7 +55,12 @@ pub fn visible_cells(exact: &OccupancyGrid, poses: &[Pose2], lidars: &[LidarPara
                 continue;
             }
             for k in 0..lidar.beams {
-                let angle = origin.yaw + lidar.angle_min_rad + k as f64 * lidar.angle_increment_rad;
+                // (Upright: summed in this order, as ever, so the cells stay bit for bit the same.)
+                let angle = if lidar.upside_down {
+                    origin.yaw + lidar.beam_direction_rad(k)
+                } else {
+                    origin.yaw + lidar.angle_min_rad + k as f64 * lidar.angle_increment_rad
+                };
                 let (s, c) = angle.sin_cos();
                 let r = lidar.range_max_m;
                 let end = Point2::new(origin.x + c * r, origin.y + s * r);
