@@ -227,6 +227,15 @@ const FLAGS: &[Flag] = &[
     other("render", "--out", Path),
     other("render", "--diff", Path),
     num("render", "--scale", Count),
+    other("validate", "--world", Path),
+    other("validate", "--route", Path),
+    other("generate", "--world", Path),
+    other("generate", "--route", Path),
+    other("recover", "--world", Path),
+    other("recover", "--route", Path),
+    other("import-map", "--out", Path),
+    other("import-map", "--name", Name),
+    ok("import-map", "--route-seed", Count, SEED_OK, SEED_WHY),
 ];
 
 /// The bad values every scalar numeric flag gets (list flags accept "1,2").
@@ -306,6 +315,7 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
         "localise" | "update" => vec!["--log".into(), p("log"), "--map".into(), p("m.yaml"), "--out".into(), o],
         "metrics" => vec![p("a.yaml"), p("b.yaml")],
         "render" => vec![p("m.yaml"), "-o".into(), o],
+        "import-map" => vec![p("m.yaml"), "--out".into(), o],
         _ => panic!("command {cmd} has no placeholders in flags_cli.rs: add them"),
     };
     v
