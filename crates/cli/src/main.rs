@@ -48,6 +48,8 @@ enum Command {
     Metrics(cmd::metrics::Args),
     /// Render a map, or the difference of two maps, as a PNG.
     Render(cmd::render::Args),
+    /// Turn a ROS map (map_server YAML + PGM/PNG) into a world file with storage areas and a route.
+    ImportMap(cmd::import_map::Args),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Command::Update(a) => cmd::update::run(a),
         Command::Metrics(a) => cmd::metrics::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::ImportMap(a) => cmd::import_map::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

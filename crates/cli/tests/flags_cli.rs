@@ -240,6 +240,28 @@ const FLAGS: &[Flag] = &[
     other("run", "--robot", Path),
     other("run", "--sensor-profile", Name),
     other("run", "--sensor-effects", Names),
+    other("validate", "--world", Path),
+    other("validate", "--route", Path),
+    other("generate", "--world", Path),
+    other("generate", "--route", Path),
+    other("recover", "--world", Path),
+    other("recover", "--route", Path),
+    other("import-map", "--out", Path),
+    other("import-map", "--name", Name),
+    ok("import-map", "--route-seed", Count, SEED_OK, SEED_WHY),
+    num("experiment sensor-realism", "--worlds", Count),
+    num("experiment sensor-realism", "--seeds", Count),
+    ok("experiment sensor-realism", "--seed", Count, SEED_OK, SEED_WHY),
+    other("experiment sensor-realism", "--preset", Name),
+    num("experiment sensor-realism", "--route-length", Real),
+    other("experiment sensor-realism", "--configs", Names),
+    other("experiment sensor-realism", "--world", Path),
+    other("experiment sensor-realism", "--route", Path),
+    other("experiment sensor-realism", "--robot", Path),
+    other("experiment sensor-realism", "--localiser", Name),
+    other("experiment sensor-realism", "--params", Path),
+    other("experiment sensor-realism", "--out", Path),
+    num("experiment sensor-realism", "--jobs", Count),
 ];
 
 /// The bad values every scalar numeric flag gets (list flags accept "1,2").
@@ -311,7 +333,8 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
         | "experiment check-detection"
         | "experiment table1"
         | "experiment kidnap-robot"
-        | "experiment real-data" => vec!["--out".into(), o],
+        | "experiment real-data"
+        | "experiment sensor-realism" => vec!["--out".into(), o],
         "convert" => vec!["--log".into(), p("log"), "--out".into(), o],
         "run" => vec!["--world".into(), p("w.toml"), "--map".into(), p("m.yaml"), "--out".into(), o],
         "merge" => vec![p("dir"), "--out".into(), o],
@@ -320,6 +343,7 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
         "localise" | "update" => vec!["--log".into(), p("log"), "--map".into(), p("m.yaml"), "--out".into(), o],
         "metrics" => vec![p("a.yaml"), p("b.yaml")],
         "render" => vec![p("m.yaml"), "-o".into(), o],
+        "import-map" => vec![p("m.yaml"), "--out".into(), o],
         _ => panic!("command {cmd} has no placeholders in flags_cli.rs: add them"),
     };
     v
@@ -514,7 +538,7 @@ fn clap_errors_are_one_line_and_help_is_not() {
         (vec!["generate".into(), "--out".into(), o.clone(), "--forc".into()], "'--force'"),
         (vec!["generate".into(), "--out".into(), o.clone(), "--worlds".into()], "--worlds"),
         (vec!["nope".into()], "'nope'"),
-        (vec!["run".into(), "--out".into(), o.clone()], "--world <FILE>"),
+        (vec!["run".into(), "--out".into(), o.clone()], "--world <NAME|FILE>"),
         (vec!["--versio".into()], "--version"),
     ] {
         let r = run(&args);

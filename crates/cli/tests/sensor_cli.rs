@@ -80,3 +80,52 @@ fn bad_robot_files_and_effect_names_are_refused_before_any_work() {
         assert!(!out.exists(), "{args:?}: made the output folder");
     }
 }
+
+#[test]
+fn the_sensor_realism_experiment_compares_each_switch_with_ideal_whatever_the_threads() {
+    let dir = scratch("sensor-cli", "realism");
+    let run = |jobs: &str| {
+        let out = dir.join(format!("j{jobs}"));
+        let r = mapkeeper(&[
+            "experiment",
+            "sensor-realism",
+            "--quick",
+            "--worlds",
+            "2",
+            "--route-length",
+            "10",
+            "--configs",
+            "latency,motion-distortion",
+            "--jobs",
+            jobs,
+            "--out",
+            s(&out),
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        out
+    };
+    let (a, b) = (run("1"), run("2"));
+    for f in ["summary.json", "worlds.csv", "report.md"] {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs across --jobs");
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
+    let configs = v["configs"].as_array().unwrap();
+    let names: Vec<&str> = configs.iter().map(|c| c["config"].as_str().unwrap()).collect();
+    assert_eq!(names, ["ideal", "latency", "motion-distortion"]);
+    assert_eq!(configs[0]["cc_updated_vs_ideal"]["mean"], 0.0);
+    for c in &configs[1..] {
+        assert_eq!(c["effects"].as_array().unwrap().len(), 1, "{c}");
+        // The switch reaches the scans: the run is not the ideal one.
+        assert_ne!(c["err_mean_m"], configs[0]["err_mean_m"], "{} changed nothing", c["config"]);
+        assert!(c["runs"] == 1 && c["routes_done"] == 1, "{c}");
+    }
+    let csv = std::fs::read_to_string(a.join("worlds.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3, "{csv}");
+    let report = std::fs::read_to_string(a.join("report.md")).unwrap();
+    assert!(report.contains("| motion-distortion |"), "{report}");
+    // A bad configuration is refused before any work, naming the flag.
+    let bad = dir.join("bad");
+    let r = mapkeeper(&["experiment", "sensor-realism", "--configs", "legs,fog", "--out", s(&bad)]);
+    assert!(!r.status.success() && stderr(&r).contains("--configs") && stderr(&r).contains("'fog'"), "{}", stderr(&r));
+    assert!(!bad.exists());
+}

@@ -45,3 +45,4 @@ pub use sim_source::{AheadSource, SimSource, Simulated};
 pub use worlds::WorldsError;
 pub use worlds::generator::{Edit, GeneratorParams, StorageArea, WorldChain, default_storage_areas, generate_worlds};
 pub use worlds::mapping::{InitialMap, MappingParams, build_initial_map};
+pub use worlds::site::{Site, SiteParams};

@@ -82,7 +82,7 @@ pub fn t_quantile_975(df: usize) -> Option<f64> {
 }
 
 /// A mean difference over paired units (seeds) with its 95 % interval.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct PairedDiff {
     /// Mean of the units' differences (0 for no unit).
     pub mean: f64,

@@ -49,7 +49,7 @@ pub use lidar::{LIDAR_MODELS, LidarNoise, LidarParams};
 pub use odometry::OdometryParams;
 pub use realism::{SensorEffect, SensorRealism};
 pub use robot::{DriveKind, FollowerParams, RobotParams};
-pub use robot_file::{ROBOT_FORMAT, RobotFile};
+pub use robot_file::{EMBEDDED_ROBOTS, ROBOT_FORMAT, RobotFile};
 pub use route::{ROUTE_FORMAT, Route};
 pub use shape::{Bounds, Shape, point_segment_distance};
 pub use sim::{CollisionEvent, SimParams, Simulator, StepOutput};

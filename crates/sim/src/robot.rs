@@ -214,6 +214,21 @@ impl Follower {
         (u.0 * v.0 + u.1 * v.1) / (nu * nv) < corner_cos
     }
 
+    /// Whether the robot has gone past the waypoint it drives to without coming within the
+    /// tolerance (it cut a corner, or a leg was shorter than the look-ahead): ahead of the
+    /// waypoint along both the leg into it and the leg out of it, and within the look-ahead of
+    /// the leg out. Without this the look-ahead, pinned to the missed waypoint, can hold the
+    /// robot swinging about it for ever.
+    fn passed(&self, pos: Point2, f: &FollowerParams) -> bool {
+        let k = self.target;
+        if k == 0 || k + 1 >= self.route.len() {
+            return false;
+        }
+        let (a, b, c) = (self.route[k - 1], self.route[k], self.route[k + 1]);
+        let ahead_of = |from: Point2, to: Point2| (pos.x - b.x) * (to.x - from.x) + (pos.y - b.y) * (to.y - from.y) > 0.0;
+        ahead_of(a, b) && ahead_of(b, c) && pos.distance(project(pos, b, c)) <= f.lookahead_m
+    }
+
     /// The look-ahead point on the route and the path distance to the next stop (a sharp
     /// corner or the goal), from `pos`.
     fn lookahead(&self, pos: Point2, f: &FollowerParams) -> (Point2, f64) {
@@ -263,7 +278,7 @@ impl Follower {
         while !self.done() {
             let last = self.target + 1 == self.route.len();
             let tol = if last { f.goal_tolerance_m } else { f.waypoint_tolerance_m };
-            if pos.distance(self.route[self.target]) <= tol {
+            if pos.distance(self.route[self.target]) <= tol || (!last && self.passed(pos, f)) {
                 self.target += 1;
             } else {
                 break;
@@ -365,6 +380,26 @@ mod tests {
         assert!((d.vel.0 - (2.0 * 0.48 * 0.1f64).sqrt()).abs() < 1e-9);
         f.desire(&Pose2::new(9.99, 0.0, 0.0), (0.0, 0.0), &p, &[]);
         assert!(f.done());
+    }
+
+    #[test]
+    fn a_missed_waypoint_is_passed_not_circled() {
+        let p = RobotParams::default();
+        let mut f = Follower::default();
+        // A 0.3 m jog: the robot, cutting it, goes by (3, 0.3) 0.2 m off.
+        f.set_route(vec![Point2::new(0.0, 0.0), Point2::new(3.0, 0.0), Point2::new(3.0, 0.3), Point2::new(3.0, 5.0)]);
+        f.target = 2;
+        // Before the waypoint along the leg into it: still its target.
+        f.desire(&Pose2::new(3.2, 0.1, 0.0), (0.5, 0.0), &p, &[]);
+        assert_eq!(f.target, 2);
+        // Past it along both legs, 0.2 m from it and from the leg out: the next one.
+        let d = f.desire(&Pose2::new(3.2, 0.5, 0.0), (0.5, 0.0), &p, &[]);
+        assert_eq!(f.target, 3);
+        assert!(d.vel.1 > 0.0, "heads on along the leg out: {:?}", d.vel);
+        // Far off the leg out (beyond the look-ahead): not counted as passed.
+        f.target = 2;
+        f.desire(&Pose2::new(4.0, 0.5, 0.0), (0.5, 0.0), &p, &[]);
+        assert_eq!(f.target, 2);
     }
 
     #[test]

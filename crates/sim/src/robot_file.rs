@@ -14,6 +14,10 @@ use std::path::Path;
 /// The `format` value of a robot file.
 pub const ROBOT_FORMAT: &str = "mapkeeper-robot";
 
+/// The robots embedded in the binary (`robots/*.toml`), by name: the Summit-XL Steel with its
+/// S300 pair mounted upside down, with the lab's Hokuyo UST-20LX pair, and one generic lidar.
+pub const EMBEDDED_ROBOTS: [&str; 3] = ["summit-xl-steel-s300", "summit-xl-steel-ust20lx", "generic-lidar"];
+
 /// A robot file as written.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -157,6 +161,29 @@ impl RobotFile {
         Ok(RobotFile { name, robot: raw.body, lidars })
     }
 
+    /// An embedded robot by name ([`EMBEDDED_ROBOTS`], the files of `robots/`).
+    pub fn embedded(name: &str) -> Option<RobotFile> {
+        let text = match name {
+            "summit-xl-steel-s300" => include_str!("../../../robots/summit-xl-steel-s300.toml"),
+            "summit-xl-steel-ust20lx" => include_str!("../../../robots/summit-xl-steel-ust20lx.toml"),
+            "generic-lidar" => include_str!("../../../robots/generic-lidar.toml"),
+            _ => return None,
+        };
+        match RobotFile::from_toml_str(text, &format!("robots/{name}.toml (embedded)")) {
+            Ok(r) => Some(r),
+            // The embedded files are checked by the crate's tests; this cannot happen in a release.
+            Err(e) => panic!("an embedded robot file is invalid: {e}"),
+        }
+    }
+
+    /// A robot named on the command line: an embedded robot's name, else a robot file.
+    pub fn named_or_load(arg: &Path) -> Result<RobotFile, SimError> {
+        match arg.to_str().and_then(RobotFile::embedded) {
+            Some(r) => Ok(r),
+            None => RobotFile::load(arg),
+        }
+    }
+
     /// Reads a robot file.
     pub fn load(path: &Path) -> Result<RobotFile, SimError> {
         let text = std::fs::read_to_string(path).map_err(|source| SimError::Io { path: path.to_path_buf(), source })?;
@@ -227,6 +254,20 @@ mod tests {
         let g = &r.lidars[1];
         assert_eq!(g.beams, 481);
         assert!((g.angle_min_rad + 120f64.to_radians()).abs() < 1e-12 && g.rate_hz == 10.0 && !g.upside_down);
+    }
+
+    #[test]
+    fn every_embedded_robot_parses_and_names_resolve_before_files() {
+        for name in EMBEDDED_ROBOTS {
+            let r = RobotFile::embedded(name).unwrap();
+            assert_eq!(r.name, name);
+            assert_eq!(RobotFile::named_or_load(Path::new(name)).unwrap(), r);
+        }
+        let lab = RobotFile::embedded("summit-xl-steel-ust20lx").unwrap();
+        assert!(lab.lidars.len() == 2 && lab.lidars.iter().all(|l| l.beams == 1081 && l.rate_hz == 40.0));
+        assert!(RobotFile::embedded("nope").is_none());
+        let e = RobotFile::named_or_load(Path::new("/nonexistent/bot.toml")).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent/bot.toml"), "{e}");
     }
 
     #[test]

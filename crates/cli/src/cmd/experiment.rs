@@ -42,6 +42,9 @@ pub enum Which {
     /// Real logs with reference poses (CARMEN, bags): the localiser's error against the
     /// reference, where odometry contradicts it, the updater on each log's own map.
     RealData(super::real_data::Args),
+    /// Each sensor-realism switch alone (and all of them) against the ideal lidars: map
+    /// quality and localisation of the validation chain on a short setting.
+    SensorRealism(super::realism::Args),
 }
 
 /// Arguments of `mapkeeper experiment kidnap-robot`.
@@ -314,6 +317,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Table1(a) => table1(a),
         Which::KidnapRobot(a) => kidnap_robot(a),
         Which::RealData(a) => super::real_data::run(a),
+        Which::SensorRealism(a) => super::realism::run(a),
     }
 }
 

@@ -42,6 +42,13 @@ pub struct Args {
     /// this many seconds, 0 to 600.
     #[arg(long, value_name = "SECONDS", value_parser = super::real_in(0.0, 600.0, "s"), allow_hyphen_values = true)]
     pub people_pause_s: Option<f64>,
+    /// The world W_1: `warehouse` (the default), `lab`, or a world file; its storage areas and
+    /// route from the file, derived and planned when absent (docs/world-format.md).
+    #[arg(long, value_name = "NAME|FILE")]
+    pub world: Option<PathBuf>,
+    /// Route file overriding the world's route.
+    #[arg(long, value_name = "FILE")]
+    pub route: Option<PathBuf>,
     /// Also write one simulated drive of each world as a sensor log: jsonl or mcap.
     #[arg(long, value_name = "FORMAT", value_parser = ["jsonl", "mcap"])]
     pub logs: Option<String>,
@@ -53,14 +60,19 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let w1 = World::default_warehouse();
-    let route = Route::default_warehouse();
-    let geometry = w1.default_map_geometry(args.resolution).context("map geometry")?;
-    let params = GeneratorParams {
+    let mut params = GeneratorParams {
         route_variants: args.route_variants,
         people_pause_s: args.people_pause_s.unwrap_or(0.0),
         ..GeneratorParams::default()
     };
+    let (w1, route) = match super::load_site(args.world.as_deref(), args.route.as_deref(), true)? {
+        Some((_, site)) => {
+            params.storage_areas = site.storage;
+            (site.world, site.route)
+        }
+        None => (World::default_warehouse(), Route::default_warehouse()),
+    };
+    let geometry = w1.default_map_geometry(args.resolution).context("map geometry")?;
     let chain = generate_worlds(&w1, &route, args.worlds, args.seed, &params)?;
     let dir = super::output_dir(&args.out, args.force)?;
     let manifest = write_scenario_set(&dir, &chain, &route, args.seed, &geometry)?;

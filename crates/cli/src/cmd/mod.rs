@@ -5,12 +5,14 @@ pub mod converge;
 pub mod convert;
 pub mod experiment;
 pub mod generate;
+pub mod import_map;
 pub mod localise;
 pub mod log_input;
 pub mod map;
 pub mod merge;
 pub mod metrics;
 pub mod real_data;
+pub mod realism;
 pub mod recover;
 pub mod render;
 pub mod run;
@@ -145,6 +147,48 @@ pub fn parse_pose(s: &str) -> Result<Pose2, String> {
         *slot = real_in(-max, max, unit)(p).map_err(|e| format!("{name} {e}"))?;
     }
     Ok(Pose2::new(v[0], v[1], v[2]))
+}
+
+/// `--world` and `--route` of `validate`, `generate`, `recover` and `run`: the world (an
+/// embedded world's name, `warehouse` or `lab`, or a world file) with its scenario resolved
+/// (storage areas and route from the file, derived or planned when absent; the route file
+/// overrides the world's route), and the name it goes by in the outputs. `None` when neither
+/// flag is given: the commands keep their defaults (the embedded warehouse, unchanged).
+/// With `need_areas` (the commands that generate worlds), a world whose storage areas can be
+/// neither read nor derived is refused.
+pub fn load_site(
+    world: Option<&Path>,
+    route: Option<&Path>,
+    need_areas: bool,
+) -> anyhow::Result<Option<(String, mapkeeper_scenario::Site)>> {
+    if world.is_none() && route.is_none() {
+        return Ok(None);
+    }
+    let world_arg = world.unwrap_or(Path::new("warehouse"));
+    let w = mapkeeper_sim::World::named_or_load(world_arg).context("--world")?;
+    let name = world_arg.display().to_string();
+    let origin = match world_arg.to_str() {
+        Some(n) if mapkeeper_sim::EMBEDDED_WORLDS.contains(&n) => format!("world {n} (embedded)"),
+        _ => name.clone(),
+    };
+    let route = route.map(mapkeeper_sim::Route::load).transpose().context("--route")?;
+    // Commands that do not generate worlds only drive the route (no exploration in W_1).
+    let params = mapkeeper_scenario::SiteParams { check_exploration: need_areas, ..Default::default() };
+    let site = mapkeeper_scenario::Site::resolve(&w, route.as_ref(), &origin, &params).context("--world")?;
+    if need_areas {
+        site.require_storage(&origin, &params).context("--world")?;
+    }
+    if site.planned_route {
+        eprintln!(
+            "mapkeeper: note: {origin} has no route: planned a {:.1} m patrol ({} waypoints)",
+            site.route.length_m(),
+            site.route.waypoints.len()
+        );
+    }
+    if site.derived_areas {
+        eprintln!("mapkeeper: note: {origin} has no storage areas: derived {}", site.storage.len());
+    }
+    Ok(Some((name, site)))
 }
 
 /// The wall clock the libraries get injected (they read none themselves).

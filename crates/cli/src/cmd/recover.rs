@@ -48,6 +48,13 @@ pub struct Args {
     /// Parameter file (TOML, any field of the recovery parameters; see docs/recovery.md).
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
+    /// The world W_1: `warehouse` (the default), `lab`, or a world file; its route (the tour)
+    /// and storage areas from the file, planned and derived when absent.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub world: Option<PathBuf>,
+    /// Route file overriding the world's route (the tour).
+    #[arg(long, value_name = "FILE")]
+    pub route: Option<PathBuf>,
     /// Skip the best case (map = current world) of the kidnap suite.
     #[arg(long)]
     pub no_best_case: bool,
@@ -92,14 +99,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_best_case {
         params.kidnap.best_case = false;
     }
-    params.validate().context("--trials / --no-best-case")?;
+    let site = super::load_site(args.world.as_deref(), args.route.as_deref(), true)?;
+    let w1 = match site {
+        Some((_, site)) => {
+            params.tour = site.route;
+            params.exploration_route = site.exploration;
+            params.generator.storage_areas = site.storage;
+            site.world
+        }
+        None => World::default_warehouse(),
+    };
+    params.validate().context("--trials / --no-best-case / --world")?;
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
     let dir = super::output_dir(&out, args.force)?;
     let cases = if params.kidnap.best_case { 2 } else { 1 };
     let bar = super::progress_bar(4 + (cases * args.trials) as u64, "steps");
     let pool = super::thread_pool(args.jobs)?;
     let start = Instant::now();
-    let w1 = World::default_warehouse();
     let progress = |_: Progress| bar.inc(1);
     let mut results = pool.install(|| run_recovery(&w1, &params, args.seed, &progress))?;
     bar.finish_and_clear();

@@ -6,7 +6,6 @@ use mapkeeper_grid::map_io::{load_map, save_map};
 use mapkeeper_scenario::stats::median;
 use mapkeeper_scenario::{RunInputs, RunnerParams, run_world, run_world_with};
 use mapkeeper_sensor::tum::format_tum;
-use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -17,8 +16,9 @@ use std::time::Instant;
 Output in OUT: map.yaml + map.pgm (the updated map), true.tum, chain.tum, baseline.tum and \
 run.json (localisation statistics, verdict counts, cells changed, collisions).")]
 pub struct Args {
-    /// World file (TOML, docs/world-format.md).
-    #[arg(long, value_name = "FILE", required_unless_present = "log")]
+    /// The world: `warehouse`, `lab` (embedded), or a world file (TOML, docs/world-format.md);
+    /// its route is driven (planned when it has none) unless --route is given.
+    #[arg(long, value_name = "NAME|FILE", required_unless_present = "log")]
     pub world: Option<PathBuf>,
     /// Instead of a world: a recorded log (any format `--log` takes: jsonl, MCAP, ROS 1 bag,
     /// CARMEN): the chain localiser and the updater run over it on MAP, as `mapkeeper update
@@ -31,7 +31,7 @@ pub struct Args {
     /// The baseline localiser's map (default: MAP).
     #[arg(long, value_name = "MAP.yaml")]
     pub baseline_map: Option<PathBuf>,
-    /// Route file (default: the default warehouse route).
+    /// Route file (default: the world's route, or a planned patrol when it has none).
     #[arg(long, value_name = "FILE")]
     pub route: Option<PathBuf>,
     /// Updater preset.
@@ -76,15 +76,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, Some(log)) => return run_log(&args, log),
         (None, None) => anyhow::bail!("--world or --log is required"),
     };
-    let world = World::load(&world_path)?;
+    let Some((_, site)) = super::load_site(Some(&world_path), args.route.as_deref(), false)? else {
+        anyhow::bail!("--world is required");
+    };
+    let (world, route) = (site.world, site.route);
     let map = load_map(&args.map)?;
     let baseline = match &args.baseline_map {
         Some(p) => load_map(p)?,
         None => map.clone(),
-    };
-    let route = match &args.route {
-        Some(p) => Route::load(p)?,
-        None => Route::default_warehouse(),
     };
     let mut params = RunnerParams {
         updater: super::update::load_updater_params(&args.preset, args.params.as_deref())?,

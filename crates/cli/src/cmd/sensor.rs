@@ -9,9 +9,11 @@ use std::path::PathBuf;
 /// The robot file and the sensor-realism switches.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct SensorArgs {
-    /// Robot file: body and lidars (model by name or inline, mount x/y/yaw, upside-down flag);
-    /// docs/robot-format.md. Default: the Summit-XL Steel with two upright-folded SICK S300.
-    #[arg(long, value_name = "FILE")]
+    /// Robot: an embedded robot's name (summit-xl-steel-s300, summit-xl-steel-ust20lx,
+    /// generic-lidar: the files of robots/) or a robot file (body and lidars: model by name or
+    /// inline, mount x/y/yaw, upside-down flag; docs/robot-format.md). Default: the Summit-XL
+    /// Steel with two SICK S300, their mirror folded into the mount.
+    #[arg(long, value_name = "NAME|FILE")]
     pub robot: Option<PathBuf>,
     /// Sensor realism profile: `ideal` (the default: exact geometry plus the lidars' noise
     /// model) or `realistic` (every effect of --sensor-effects on).
@@ -49,7 +51,7 @@ impl SensorArgs {
     pub fn apply(&self, params: &mut SimParams) -> anyhow::Result<()> {
         let realism = self.realism()?;
         if let Some(path) = &self.robot {
-            RobotFile::load(path).context("--robot")?.apply(params);
+            RobotFile::named_or_load(path).context("--robot")?.apply(params);
         }
         if let Some(r) = realism {
             params.realism = r;

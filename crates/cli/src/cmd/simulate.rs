@@ -19,7 +19,8 @@ Writes DIR/log.jsonl (sensor log, docs/sensor-log.md: odometry and true pose at 
 scans as the lidars fire), DIR/truth.tum (TUM: t x y z qx qy qz qw, t in seconds), \
 DIR/ground_truth.yaml + .pgm (ROS map_server, 0.05 m, covering the world), DIR/world.toml (the \
 world simulated) and DIR/summary.json (seed, duration, distance, collisions).\n\n\
-Without --world the embedded default warehouse is used, with its default 72 m route; a route file \
+Without --world the embedded default warehouse is used, with its default 72 m route; a world file \
+drives its own route ([route], docs/world-format.md) unless --route is given; a route file \
 is TOML: format = \"mapkeeper-route\", version = 1, waypoints = [[x, y], ...] (metres, map frame). \
 Without --seconds the run lasts until the route is done (at most 900 s; 60 s without a route).",
     after_help = "Examples:\n  mapkeeper simulate --out runs/default\n  \
@@ -29,7 +30,8 @@ pub struct Args {
     /// World file (default: the embedded AWS small warehouse).
     #[arg(long, value_name = "FILE")]
     pub world: Option<PathBuf>,
-    /// Route file (default: the default warehouse tour when no --world is given, else none).
+    /// Route file (default: the default warehouse tour when no --world is given, else the
+    /// world's `[route]`, or none when it has none).
     #[arg(long, value_name = "FILE")]
     pub route: Option<PathBuf>,
     /// Simulated duration, seconds: > 0 and ≤ 86400 (a day; the log grows by about 0.1 MB
@@ -66,7 +68,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let route = match (&args.route, &args.world) {
         (Some(p), _) => Some(Route::load(p)?),
         (None, None) => Some(Route::default_warehouse()),
-        (None, Some(_)) => None,
+        (None, Some(_)) => world.route.as_ref().map(mapkeeper_sim::WorldRoute::route),
     };
     let mut params = load_params(SimParams::default(), args.params.as_deref(), SimParams::validate)?;
     args.sensor.apply(&mut params)?;

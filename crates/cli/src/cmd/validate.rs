@@ -66,6 +66,15 @@ pub struct Args {
     /// the best achievable map are reported beside it.
     #[arg(long, value_name = "exact|observed", default_value = "exact", value_parser = str::parse::<GroundTruth>)]
     pub ground_truth: GroundTruth,
+    /// The world W_1: an embedded world, `warehouse` (the default) or `lab` (the paper's
+    /// lab, §5.5), or a world file (docs/world-format.md). Its storage areas and route come
+    /// from the file, or are derived and planned when it has none; the resolved world is
+    /// written as OUT/world.toml.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub world: Option<PathBuf>,
+    /// Route file (docs/world-format.md) overriding the world's route.
+    #[arg(long, value_name = "FILE")]
+    pub route: Option<PathBuf>,
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -176,6 +185,25 @@ fn simulate_ahead_if_cores_free(
     pool
 }
 
+/// The flags that override fields of every preset's parameters.
+fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Result<()> {
+    for p in &mut plan.params {
+        if let Some(k) = args.update_every {
+            p.update_every = k;
+        }
+        if let Some(c) = args.route_clearance {
+            p.generator.route_clearance_m = c;
+        }
+        p.generator.route_variants |= args.route_variants;
+        if let Some(s) = args.people_pause_s {
+            p.generator.people_pause_s = s;
+        }
+        p.validate().context("--update-every / --route-clearance / --people-pause-s")?;
+        args.sensor.apply(&mut p.runner.sim)?;
+    }
+    Ok(())
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let presets = match (&args.presets, &args.preset) {
@@ -193,6 +221,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         shard: args.shard,
         localiser: args.localiser.clone(),
         ground_truth: args.ground_truth,
+        site: super::load_site(args.world.as_deref(), args.route.as_deref(), true)?,
     };
     mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let mut plan = spec.plan()?;
@@ -201,20 +230,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             p.runner.updater = super::load_params(p.runner.updater.clone(), Some(file), UpdaterParams::validate)?;
         }
     }
-    for p in &mut plan.params {
-        if let Some(k) = args.update_every {
-            p.update_every = k;
-        }
-        if let Some(c) = args.route_clearance {
-            p.generator.route_clearance_m = c;
-        }
-        p.generator.route_variants |= args.route_variants;
-        if let Some(s) = args.people_pause_s {
-            p.generator.people_pause_s = s;
-        }
-        p.validate().context("--update-every / --route-clearance / --people-pause-s")?;
-        args.sensor.apply(&mut p.runner.sim)?;
-    }
+    apply_overrides(&args, &mut plan)?;
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {
         anyhow::bail!("--mcap-worlds: world {w} is beyond --worlds {}", args.worlds);
@@ -235,6 +251,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let group = plan.runs_of(p, &runs);
         let record = ValidationRecord::new(&plan.params[p], &group, !args.no_timing, wall_time_s, args.shard);
         let summary = write_validation(&dir, &group, &record)?;
+        if let Some((_, site)) = &spec.site {
+            dir.write("world.toml", site.world.to_toml_string()?.as_bytes())?;
+        }
         let written = dir.finish()?;
         let seeds: Vec<u64> = group.iter().map(|r| r.seed).collect();
         let shard =

@@ -11,6 +11,7 @@ pub mod real_data;
 pub mod recovery;
 pub mod run_events;
 pub mod runner;
+pub mod sensor_realism;
 pub mod sweep;
 pub mod table1_hold;
 pub mod validation;

@@ -26,6 +26,9 @@ pub struct SweepSpec {
     pub localiser: String,
     /// The ground truth of the map metrics.
     pub ground_truth: crate::GroundTruth,
+    /// The world W_1 (its name in the outputs and its resolved scenario); `None`: the embedded
+    /// default warehouse.
+    pub site: Option<(String, crate::worlds::site::Site)>,
 }
 
 /// A checked sweep.
@@ -61,11 +64,14 @@ impl SweepSpec {
             let mut p = ValidationParams::new(self.worlds, preset)?;
             p.runner.set_localiser(&self.localiser)?;
             p.ground_truth = self.ground_truth;
+            if let Some((name, site)) = &self.site {
+                p.use_site(name, site);
+            }
             if let Some(len) = self.route_length_m {
                 if !(len.is_finite() && len > 0.0) {
                     return Err(invalid("route_length", format!("must be a positive number of metres, got {len}")));
                 }
-                p.route = ValidationParams::short_route(len);
+                p.route = ValidationParams::truncated_route(&p.route, len);
             }
             params.push(p);
         }

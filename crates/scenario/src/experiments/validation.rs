@@ -109,6 +109,14 @@ pub struct ValidationParams {
     /// written to a file).
     #[serde(skip)]
     pub mcap_dir: Option<std::path::PathBuf>,
+    /// The world W_1 by name (`validate --world`: an embedded world's name or the file as
+    /// given). Default none: the embedded default warehouse (not written when none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub world: Option<String>,
+    /// W_1 itself, with its scenario resolved ([`ValidationParams::use_site`]); never read from
+    /// or written to a file (`world` names it). None: the embedded default warehouse.
+    #[serde(skip)]
+    pub world_data: Option<World>,
 }
 
 fn one() -> usize {
@@ -142,6 +150,8 @@ impl Default for ValidationParams {
             update_every: 1,
             mcap_worlds: Vec::new(),
             mcap_dir: None,
+            world: None,
+            world_data: None,
         }
     }
 }
@@ -159,10 +169,27 @@ impl ValidationParams {
         Ok(p)
     }
 
-    /// A shortened route (the first `length_m` metres of the default tour and straight back),
-    /// for quick tests.
+    /// Runs in `site`'s world (named `name` in the outputs): its route, exploration tour and
+    /// storage areas.
+    pub fn use_site(&mut self, name: &str, site: &crate::worlds::site::Site) {
+        self.route = site.route.clone();
+        self.exploration_route = site.exploration.clone();
+        self.generator.storage_areas.clone_from(&site.storage);
+        self.world = Some(name.to_string());
+        self.world_data = Some(site.world.clone());
+    }
+
+    /// A shortened route (the first `length_m` metres of the default tour), for quick tests.
     pub fn short_route(length_m: f64) -> Route {
-        let r = Route::default_warehouse().points();
+        Self::truncated_route(&Route::default_warehouse(), length_m)
+    }
+
+    /// The first `length_m` metres of `route` (all of it when it is shorter).
+    pub fn truncated_route(route: &Route, length_m: f64) -> Route {
+        let r = route.points();
+        if r.is_empty() {
+            return route.clone();
+        }
         let mut pts = vec![r[0]];
         let mut left = length_m;
         for w in r.windows(2) {
@@ -497,8 +524,10 @@ pub fn run_seed(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SeedRun, ExperimentError> {
     params.validate()?;
-    let w1 = World::default_warehouse();
-    run_seed_in(&w1, params, seed, clock, progress)
+    match &params.world_data {
+        Some(w1) => run_seed_in(w1, params, seed, clock, progress),
+        None => run_seed_in(&World::default_warehouse(), params, seed, clock, progress),
+    }
 }
 
 /// Scores maps against both ground truth variants of each world and keeps the best achievable

@@ -11,6 +11,7 @@ pub mod merge;
 pub mod real_data_report;
 pub mod recovery_report;
 pub mod report;
+pub mod sensor_realism_report;
 pub mod table1_hold_report;
 
 use std::path::PathBuf;

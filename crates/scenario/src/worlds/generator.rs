@@ -19,7 +19,8 @@ use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-/// An axis-aligned storage area where goods may be put down.
+/// A storage area where goods may be put down: an axis-aligned box, or any shape (`shape`)
+/// whose bounding box is `min`–`max`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StorageArea {
@@ -29,16 +30,51 @@ pub struct StorageArea {
     pub min: [f64; 2],
     /// Upper-right corner `[x, y]`, metres.
     pub max: [f64; 2],
+    /// The area's outline when it is not the box `min`–`max` (a turned rectangle, a circle, a
+    /// polygon): an item must lie inside it. Not written when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape: Option<Shape>,
 }
 
 impl StorageArea {
+    /// The area of a world's storage area: an unturned rectangle becomes its box (corners
+    /// rounded to the millimetre), any other shape keeps its outline inside its bounding box.
+    pub fn of_region(region: &mapkeeper_sim::StorageRegion) -> StorageArea {
+        let b = region.shape.bounds();
+        let mm = |v: f64| (v * 1000.0).round() / 1000.0;
+        let boxed = matches!(region.shape, Shape::Rect { yaw_deg, .. } if yaw_deg.rem_euclid(180.0) == 0.0);
+        StorageArea {
+            name: region.id.clone(),
+            min: [mm(b.min.x), mm(b.min.y)],
+            max: [mm(b.max.x), mm(b.max.y)],
+            shape: (!boxed).then(|| region.shape.clone()),
+        }
+    }
+
     fn area_m2(&self) -> f64 {
-        (self.max[0] - self.min[0]).max(0.0) * (self.max[1] - self.min[1]).max(0.0)
+        match &self.shape {
+            Some(s) => s.area().abs(),
+            None => (self.max[0] - self.min[0]).max(0.0) * (self.max[1] - self.min[1]).max(0.0),
+        }
     }
 
     fn holds(&self, shape: &Shape) -> bool {
         let b = shape.bounds();
-        b.min.x >= self.min[0] && b.min.y >= self.min[1] && b.max.x <= self.max[0] && b.max.y <= self.max[1]
+        let in_box =
+            b.min.x >= self.min[0] && b.min.y >= self.min[1] && b.max.x <= self.max[0] && b.max.y <= self.max[1];
+        match &self.shape {
+            None => in_box,
+            // Every corner inside the outline and no corner of the outline inside the item (a
+            // concave outline's notch); a circular item by its bounding box's corners.
+            Some(area) => {
+                let corners = shape.vertices().unwrap_or_else(|| {
+                    vec![b.min, Point2::new(b.max.x, b.min.y), b.max, Point2::new(b.min.x, b.max.y)]
+                });
+                in_box
+                    && corners.iter().all(|&c| area.contains(c))
+                    && area.vertices().unwrap_or_default().iter().all(|&v| !shape.contains(v))
+            }
+        }
     }
 }
 
@@ -47,9 +83,9 @@ impl StorageArea {
 /// cross aisle).
 pub fn default_storage_areas() -> Vec<StorageArea> {
     vec![
-        StorageArea { name: "east-yard".into(), min: [2.0, 1.2], max: [6.95, 10.42] },
-        StorageArea { name: "centre-north".into(), min: [-2.7, -1.0], max: [0.3, 10.42] },
-        StorageArea { name: "centre-south".into(), min: [-2.7, -10.42], max: [0.3, -3.5] },
+        StorageArea { name: "east-yard".into(), min: [2.0, 1.2], max: [6.95, 10.42], shape: None },
+        StorageArea { name: "centre-north".into(), min: [-2.7, -1.0], max: [0.3, 10.42], shape: None },
+        StorageArea { name: "centre-south".into(), min: [-2.7, -10.42], max: [0.3, -3.5], shape: None },
     ]
 }
 
@@ -161,6 +197,15 @@ impl GeneratorParams {
         {
             return bad("storage_areas", "need at least one area, each with max > min".into());
         }
+        for a in &self.storage_areas {
+            let finite = a.min.iter().chain(&a.max).all(|v| v.is_finite());
+            if !finite || a.max[0] <= a.min[0] || a.max[1] <= a.min[1] {
+                return bad("storage_areas", format!("area \"{}\" needs finite corners with max > min", a.name));
+            }
+            if let Some(p) = a.shape.as_ref().and_then(Shape::problem) {
+                return bad("storage_areas", format!("area \"{}\": {p}", a.name));
+            }
+        }
         Ok(())
     }
 }
@@ -235,7 +280,8 @@ impl Context {
                 {
                     w.push(first);
                 }
-                (Outline::Polyline(w), a.footprint.bounding_radius())
+                let reach = a.footprint.center().distance(Point2::new(0.0, 0.0)) + a.footprint.bounding_radius();
+                (Outline::Polyline(w), reach)
             })
             .collect();
         Context { statics, route: Outline::Polyline(pts), agent_paths, interior: world.interior.clone() }

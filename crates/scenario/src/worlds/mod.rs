@@ -6,6 +6,7 @@ pub mod generator;
 pub mod mapping;
 pub mod observed;
 pub mod outline;
+pub mod site;
 
 /// What can go wrong while generating worlds or building M_1.
 #[derive(Debug, thiserror::Error)]

@@ -1,0 +1,141 @@
+//! `--world` and `import-map` end to end (issue 13): a ROS map written here becomes a world
+//! that `validate` runs; the lab runs as an embedded world; a world whose route cannot be
+//! driven is refused naming the file and the waypoint.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{mapkeeper, s, scratch};
+
+/// A 9 m × 6 m room with a pillar as a trinary PGM at 0.05 m (walls two cells thick, unknown
+/// outside) and its map_server YAML.
+fn write_room_map(dir: &std::path::Path) -> std::path::PathBuf {
+    let (w, h) = (200usize, 140usize);
+    let mut px = vec![205u8; w * h];
+    for r in 0..h {
+        for c in 0..w {
+            let inside = (10..190).contains(&c) && (10..130).contains(&r);
+            let wall = (8..192).contains(&c) && (8..132).contains(&r) && !inside;
+            let pillar = (95..105).contains(&c) && (65..75).contains(&r);
+            // PGM rows run top down.
+            px[r * w + c] = if wall || pillar {
+                0
+            } else if inside {
+                254
+            } else {
+                205
+            };
+        }
+    }
+    let mut pgm = format!("P5\n# written by world_cli.rs\n{w} {h}\n255\n").into_bytes();
+    pgm.extend_from_slice(&px);
+    std::fs::write(dir.join("room.pgm"), pgm).unwrap();
+    let yaml = dir.join("room.yaml");
+    std::fs::write(
+        &yaml,
+        "image: room.pgm\nresolution: 0.05\norigin: [-5.0, -3.5, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+    )
+    .unwrap();
+    yaml
+}
+
+#[test]
+fn an_imported_map_validates_end_to_end() {
+    let dir = scratch("world-cli", "import");
+    let yaml = write_room_map(&dir);
+    let world = dir.join("room.toml");
+    let out = mapkeeper(&["import-map", s(&yaml), "--out", s(&world)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&world).unwrap();
+    assert!(
+        text.contains("name = \"room\"") && text.contains("[[storage_areas]]") && text.contains("[route]"),
+        "{text}"
+    );
+    // Not overwritten without --force.
+    let again = mapkeeper(&["import-map", s(&yaml), "--out", s(&world)]);
+    assert!(!again.status.success());
+    let v = dir.join("v");
+    let out = mapkeeper(&[
+        "validate",
+        "--world",
+        s(&world),
+        "--worlds",
+        "2",
+        "--seeds",
+        "1",
+        "--preset",
+        "mapkeeper",
+        "--no-timing",
+        "--out",
+        s(&v),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(v.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["params"]["world"], s(&world));
+    assert_eq!(summary["routes_completed"], 1, "{}", summary["routes_completed"]);
+    assert_eq!(summary["collisions"], 0);
+    assert!(summary["map_quality"]["cc"]["updated_mean"].as_f64().unwrap() > 30.0);
+    let resolved = std::fs::read_to_string(v.join("world.toml")).unwrap();
+    assert!(resolved.contains("[route]"));
+    // A missing map names the file.
+    let out = mapkeeper(&["import-map", "/nonexistent/m.yaml", "--out", s(&dir.join("x.toml"))]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/m.yaml"));
+}
+
+#[test]
+fn the_lab_runs_and_bad_routes_are_refused() {
+    let dir = scratch("world-cli", "lab");
+    let v = dir.join("lab");
+    let out = mapkeeper(&[
+        "validate",
+        "--world",
+        "lab",
+        "--worlds",
+        "2",
+        "--seeds",
+        "1",
+        "--preset",
+        "mapkeeper",
+        "--route-length",
+        "8",
+        "--no-timing",
+        "--out",
+        s(&v),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(v.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["params"]["world"], "lab");
+    assert_eq!(summary["params"]["generator"]["storage_areas"][0]["name"], "centre");
+    // A route through the lab's pillar: refused naming the route file's waypoints.
+    let route = dir.join("through.toml");
+    std::fs::write(
+        &route,
+        "format = \"mapkeeper-route\"\nversion = 1\nwaypoints = [[-2.5, -1.5], [-2.0, 0.0], [3.0, 0.0]]\n",
+    )
+    .unwrap();
+    let bad = dir.join("bad");
+    let out = mapkeeper(&["validate", "--world", "lab", "--route", s(&route), "--worlds", "2", "--out", s(&bad)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("route.waypoints[1] [-2, 0] → route.waypoints[2] [3, 0] is blocked by column \"pillar\""),
+        "{err}"
+    );
+    assert!(!bad.exists(), "no output folder for a refused world");
+    // A world file whose agent walks through a wall: file, agent and place named.
+    let w = dir.join("w.toml");
+    std::fs::write(
+        &w,
+        "format = \"mapkeeper-world\"\nversion = 1\nname = \"w\"\nrobot_start = { x = 0.0, y = 1.0 }\n\
+         [[walls]]\nid = \"w1\"\nshape = { type = \"rect\", center = [1.5, 0.0], size = [0.2, 4.0] }\n\
+         [[agents]]\nid = \"p\"\nkind = \"person\"\nfootprint = { type = \"circle\", radius = 0.25 }\n\
+         speed_mps = 1.0\nmotion = { type = \"loop\", waypoints = [[-1.0, 0.0], [3.0, 0.0]] }\n",
+    )
+    .unwrap();
+    let out = mapkeeper(&["generate", "--world", s(&w), "--worlds", "2", "--out", s(&dir.join("g"))]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(&format!("{}: agents[0] \"p\": path segment 0", w.display())), "{err}");
+    assert!(err.contains("wall \"w1\""), "{err}");
+}
