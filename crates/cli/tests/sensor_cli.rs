@@ -129,3 +129,30 @@ fn the_sensor_realism_experiment_compares_each_switch_with_ideal_whatever_the_th
     assert!(!r.status.success() && stderr(&r).contains("--configs") && stderr(&r).contains("'fog'"), "{}", stderr(&r));
     assert!(!bad.exists());
 }
+
+#[test]
+fn validate_runs_with_the_realistic_profile_and_records_it() {
+    let dir = scratch("sensor-cli", "validate-realistic");
+    let out = dir.join("v");
+    let r = mapkeeper(&[
+        "validate",
+        "--sensor-profile",
+        "realistic",
+        "--worlds",
+        "2",
+        "--seeds",
+        "1",
+        "--preset",
+        "mapkeeper",
+        "--route-length",
+        "8",
+        "--no-timing",
+        "--out",
+        s(&out),
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let realism = &v["params"]["runner"]["sim"]["realism"];
+    assert!(realism.is_object(), "realism not recorded: {}", v["params"]["runner"]["sim"]);
+    assert_eq!(v["routes_completed"], 1);
+}

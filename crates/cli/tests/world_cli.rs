@@ -107,6 +107,11 @@ fn the_lab_runs_and_bad_routes_are_refused() {
     let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(v.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["params"]["world"], "lab");
     assert_eq!(summary["params"]["generator"]["storage_areas"][0]["name"], "centre");
+    // The report has the per-world table of Table 2's layout with the paper's lab beside it.
+    let report = std::fs::read_to_string(v.join("report.md")).unwrap();
+    assert!(report.contains("## Per world (the layout of the paper's Table 2)"), "{report}");
+    let cc = report.lines().find(|l| l.starts_with("| W_2 | CC |")).unwrap_or_else(|| panic!("{report}"));
+    assert!(cc.ends_with("| 69.69 | 78.95 | +9.26 |"), "{cc}");
     // A route through the lab's pillar: refused naming the route file's waypoints.
     let route = dir.join("through.toml");
     std::fs::write(
@@ -138,4 +143,105 @@ fn the_lab_runs_and_bad_routes_are_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains(&format!("{}: agents[0] \"p\": path segment 0", w.display())), "{err}");
     assert!(err.contains("wall \"w1\""), "{err}");
+}
+
+/// A 10 m × 7 m room with a column and two boxes: no storage areas, no route.
+const ROOM: &str = r#"format = "mapkeeper-world"
+version = 1
+name = "test-room"
+robot_start = { x = -3.5, y = -2.3, yaw_deg = 0.0 }
+interior = { type = "rect", center = [0.0, 0.0], size = [10.0, 7.0] }
+[[walls]]
+id = "north"
+shape = { type = "rect", center = [0.0, 3.6], size = [10.4, 0.2] }
+[[walls]]
+id = "south"
+shape = { type = "rect", center = [0.0, -3.6], size = [10.4, 0.2] }
+[[walls]]
+id = "east"
+shape = { type = "rect", center = [5.1, 0.0], size = [0.2, 7.0] }
+[[walls]]
+id = "west"
+shape = { type = "rect", center = [-5.1, 0.0], size = [0.2, 7.0] }
+[[columns]]
+id = "column"
+shape = { type = "rect", center = [0.0, 0.0], size = [0.6, 0.6] }
+[[movable]]
+id = "box-1"
+kind = "box"
+shape = { type = "rect", center = [2.5, 1.0], size = [0.8, 0.8] }
+[[movable]]
+id = "box-2"
+kind = "box"
+shape = { type = "rect", center = [-2.5, 1.5], size = [0.6, 0.9], yaw_deg = 20.0 }
+"#;
+
+/// `recover --params` shortening every experiment, with no warehouse coordinates in it.
+const SHORT_RECOVER_ANY_WORLD: &str = "[demo]\nduration_s = 4.0\n[table1]\nruns = 1\nroute_length_m = 4.0\n[lost]\nruns = 1\n\
+route_length_m = 4.0\n[kidnap]\nstale_max_world = 2\nkidnap_min_s = 2.0\nkidnap_max_s = 2.5\nrecovery_window_s = 4.0\n";
+
+#[test]
+fn a_world_written_here_without_scenario_runs_in_generate_validate_run_and_recover() {
+    let dir = scratch("world-cli", "room");
+    let world = dir.join("room.toml");
+    std::fs::write(&world, ROOM).unwrap();
+    let stderr = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    // generate: the patrol is planned and the areas derived (noted), the worlds carry both.
+    let g = dir.join("g");
+    let out = mapkeeper(&["generate", "--world", s(&world), "--worlds", "3", "--seed", "4", "--out", s(&g)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let note = stderr(&out);
+    assert!(note.contains("has no route: planned a") && note.contains("has no storage areas: derived"), "{note}");
+    let w3 = std::fs::read_to_string(g.join("worlds/W_003.toml")).unwrap();
+    assert!(w3.contains("[route]") && w3.contains("derived-area-"), "{w3}");
+    // validate: the chain runs, the route is driven to its end without a collision.
+    let v = dir.join("v");
+    let out = mapkeeper(&[
+        "validate",
+        "--world",
+        s(&world),
+        "--worlds",
+        "2",
+        "--seeds",
+        "1",
+        "--preset",
+        "paper",
+        "--no-timing",
+        "--out",
+        s(&v),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(v.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["routes_completed"], 1);
+    assert_eq!(summary["collisions"], 0);
+    // run: one world on the generated map M = G_1, along the planned patrol.
+    let r = dir.join("r");
+    let map = g.join("ground_truth/G_001.yaml");
+    let out = mapkeeper(&["run", "--world", s(&world), "--map", s(&map), "--out", s(&r)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let run: serde_json::Value = serde_json::from_slice(&std::fs::read(r.join("run.json")).unwrap()).unwrap();
+    assert_eq!(run["route_done"], true, "{run}");
+    assert_eq!(run["collisions"], 0, "{run}");
+    // recover: the stress suite in this world.
+    let params = dir.join("short.toml");
+    std::fs::write(&params, SHORT_RECOVER_ANY_WORLD).unwrap();
+    let rec = dir.join("rec");
+    let out = mapkeeper(&[
+        "recover",
+        "--world",
+        s(&world),
+        "--trials",
+        "1",
+        "--seed",
+        "2",
+        "--no-best-case",
+        "--params",
+        s(&params),
+        "--out",
+        s(&rec),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let sum = std::fs::read_to_string(rec.join("summary.json")).unwrap();
+    // The tour recorded is the room's planned patrol (it starts at the room's robot_start).
+    assert!(sum.contains("-3.5") && sum.contains("-2.3"), "the room's tour is not in the summary");
 }

@@ -152,7 +152,8 @@ fn l_map(arm: i32) -> OccupancyGrid {
     let g = GridGeometry::new(240, 200, 0.05, Pose2::new(-1.0, -1.0, 0.0)).unwrap();
     let mut m = OccupancyGrid::filled(g, CellState::Unknown);
     let inside = |c: i32, r: i32| {
-        ((10..230).contains(&c) && (10..10 + arm).contains(&r)) || ((10..10 + arm).contains(&c) && (10..190).contains(&r))
+        ((10..230).contains(&c) && (10..10 + arm).contains(&r))
+            || ((10..10 + arm).contains(&c) && (10..190).contains(&r))
     };
     for r in 0..200 {
         for c in 0..240 {

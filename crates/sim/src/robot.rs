@@ -215,7 +215,8 @@ impl Follower {
     }
 
     /// Whether the robot has gone past the waypoint it drives to without coming within the
-    /// tolerance (it cut a corner, or a leg was shorter than the look-ahead): ahead of the
+    /// tolerance (it cut a gentle corner, or a leg was shorter than the look-ahead; never at a
+    /// sharp corner, which is a stop): ahead of the
     /// waypoint along both the leg into it and the leg out of it, and within the look-ahead of
     /// the leg out. Without this the look-ahead, pinned to the missed waypoint, can hold the
     /// robot swinging about it for ever.
@@ -224,8 +225,13 @@ impl Follower {
         if k == 0 || k + 1 >= self.route.len() {
             return false;
         }
+        // A sharp corner is a stop: the robot comes to rest on it before turning.
+        if self.is_corner(k, f.corner_angle_deg.to_radians().cos()) {
+            return false;
+        }
         let (a, b, c) = (self.route[k - 1], self.route[k], self.route[k + 1]);
-        let ahead_of = |from: Point2, to: Point2| (pos.x - b.x) * (to.x - from.x) + (pos.y - b.y) * (to.y - from.y) > 0.0;
+        let ahead_of =
+            |from: Point2, to: Point2| (pos.x - b.x) * (to.x - from.x) + (pos.y - b.y) * (to.y - from.y) > 0.0;
         ahead_of(a, b) && ahead_of(b, c) && pos.distance(project(pos, b, c)) <= f.lookahead_m
     }
 
@@ -396,6 +402,12 @@ mod tests {
         let d = f.desire(&Pose2::new(3.2, 0.5, 0.0), (0.5, 0.0), &p, &[]);
         assert_eq!(f.target, 3);
         assert!(d.vel.1 > 0.0, "heads on along the leg out: {:?}", d.vel);
+        // A sharp corner (90° here) is a stop, never passed: the robot is brought back to it.
+        let mut g = Follower::default();
+        g.set_route(vec![Point2::new(0.0, 0.0), Point2::new(0.0, 2.0), Point2::new(3.0, 2.0)]);
+        g.target = 1;
+        g.desire(&Pose2::new(0.5, 2.2, 0.0), (0.0, 1.0), &p, &[]);
+        assert_eq!(g.target, 1);
         // Far off the leg out (beyond the look-ahead): not counted as passed.
         f.target = 2;
         f.desire(&Pose2::new(4.0, 0.5, 0.0), (0.5, 0.0), &p, &[]);

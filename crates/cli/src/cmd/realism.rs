@@ -3,7 +3,7 @@
 //! effect on map quality and localisation against `ideal` (docs/evaluation.md, Sensor realism).
 
 use anyhow::Context;
-use mapkeeper_scenario::experiments::sensor_realism::{SensorRealismParams, run_sensor_realism};
+use mapkeeper_scenario::experiments::sensor_realism::{SensorRealismParams, SensorRealismResult, run_sensor_realism};
 use mapkeeper_scenario::results::sensor_realism_report::write_sensor_realism;
 use mapkeeper_scenario::{GroundTruth, SweepSpec};
 use std::path::PathBuf;
@@ -88,24 +88,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let mut file = super::load_params(base, args.params.as_deref(), |f: &File| f.sensor_realism.validate())?;
     let p = &mut file.sensor_realism;
-    if let Some(v) = args.worlds {
-        p.worlds = v;
-    }
-    if let Some(v) = args.seeds {
-        p.seeds = v;
-    }
-    if let Some(v) = args.seed {
-        p.first_seed = v;
-    }
-    if let Some(v) = &args.preset {
-        p.preset.clone_from(v);
-    }
-    if let Some(v) = args.route_length {
-        p.route_length_m = v;
-    }
-    if let Some(v) = &args.configs {
-        p.configs = v.iter().map(|c| c.trim().to_string()).collect();
-    }
+    apply_flags(&args, p);
     p.validate().context("--worlds / --seeds / --seed / --preset / --route-length / --configs")?;
     mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let spec = SweepSpec {
@@ -147,7 +130,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         p.preset,
         start.elapsed().as_secs_f64()
     );
-    println!("{:<18} {:>9} {:>22} {:>11} {:>9} {:>5}", "configuration", "CC M_i %", "Δ CC vs ideal", "mean err m", "max err m", "Lost");
+    print_table(&r);
+    println!("wrote {}", written.display());
+    Ok(())
+}
+
+/// The command-line overrides of the parameter file.
+fn apply_flags(args: &Args, p: &mut SensorRealismParams) {
+    if let Some(v) = args.worlds {
+        p.worlds = v;
+    }
+    if let Some(v) = args.seeds {
+        p.seeds = v;
+    }
+    if let Some(v) = args.seed {
+        p.first_seed = v;
+    }
+    if let Some(v) = &args.preset {
+        p.preset.clone_from(v);
+    }
+    if let Some(v) = args.route_length {
+        p.route_length_m = v;
+    }
+    if let Some(v) = &args.configs {
+        p.configs = v.iter().map(|c| c.trim().to_string()).collect();
+    }
+}
+
+/// Prints the summary table on stdout.
+fn print_table(r: &SensorRealismResult) {
+    println!(
+        "{:<18} {:>9} {:>22} {:>11} {:>9} {:>5}",
+        "configuration", "CC M_i %", "Δ CC vs ideal", "mean err m", "max err m", "Lost"
+    );
     for c in &r.summaries {
         println!(
             "{:<18} {:>9.2} {:>22} {:>11.4} {:>9.3} {:>5}",
@@ -159,8 +174,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             c.lost_episodes
         );
     }
-    println!("wrote {}", written.display());
-    Ok(())
 }
 
 fn default_out(seed: u64, worlds: usize) -> PathBuf {

@@ -108,6 +108,34 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let wall = start.elapsed().as_secs_f64();
     save_map(&r.map, &dir.file("map.yaml")?)?;
+    write_outputs(&dir, &args, &world_path, &params, &r, wall)?;
+    let out = dir.finish()?;
+    println!(
+        "run: {:.1} s simulated in {wall:.1} s; chain error mean {:.3} m max {:.3} m; baseline mean {:.3} m; \
+         Update {} Suspend {} Lost {}; {} cells changed; {} collisions; wrote {}",
+        r.sim_time_s,
+        r.chain.mean_error_m,
+        r.chain.max_error_m,
+        r.baseline.mean_error_m,
+        r.updater.update,
+        r.updater.suspend,
+        r.updater.lost,
+        r.cells_changed,
+        r.collisions,
+        out.display()
+    );
+    Ok(())
+}
+
+/// Writes the trajectories and `run.json` of a closed-loop run.
+fn write_outputs(
+    dir: &mapkeeper_grid::StagedDir,
+    args: &Args,
+    world_path: &std::path::Path,
+    params: &RunnerParams,
+    r: &mapkeeper_scenario::WorldRun,
+    wall: f64,
+) -> anyhow::Result<()> {
     if let Some(t) = &r.trajectories {
         dir.write("true.tum", format_tum(&t.truth).as_bytes())?;
         dir.write("chain.tum", format_tum(&t.chain).as_bytes())?;
@@ -133,21 +161,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "wall_time_s": wall,
     });
     dir.write("run.json", format!("{}\n", serde_json::to_string_pretty(&json)?).as_bytes())?;
-    let out = dir.finish()?;
-    println!(
-        "run: {:.1} s simulated in {wall:.1} s; chain error mean {:.3} m max {:.3} m; baseline mean {:.3} m; \
-         Update {} Suspend {} Lost {}; {} cells changed; {} collisions; wrote {}",
-        r.sim_time_s,
-        r.chain.mean_error_m,
-        r.chain.max_error_m,
-        r.baseline.mean_error_m,
-        r.updater.update,
-        r.updater.suspend,
-        r.updater.lost,
-        r.cells_changed,
-        r.collisions,
-        out.display()
-    );
     Ok(())
 }
 

@@ -79,7 +79,10 @@ impl SensorRealismParams {
             return Err(invalid("sensor_realism.first_seed", "the last seed overflows 2^64".into()));
         }
         if !(self.route_length_m.is_finite() && self.route_length_m > 0.0 && self.route_length_m <= 10_000.0) {
-            return Err(invalid("sensor_realism.route_length_m", format!("{} is not in (0, 10000]", self.route_length_m)));
+            return Err(invalid(
+                "sensor_realism.route_length_m",
+                format!("{} is not in (0, 10000]", self.route_length_m),
+            ));
         }
         if self.configs.is_empty() {
             return Err(invalid("sensor_realism.configs", "at least one configuration is needed".into()));

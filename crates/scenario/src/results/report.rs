@@ -436,8 +436,68 @@ pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summa
     let edits: Vec<_> = record.seeds.iter().map(|r| (r.seed, &r.edits)).collect();
     dir.write("edits.json", json("edits.json", &edits)?.as_bytes())?;
     let figures = write_figures(dir, record)?;
-    dir.write("report.md", report_md_with_figures(&summary, &figures).as_bytes())?;
+    let mut report = report_md_with_figures(&summary, &figures);
+    report.push_str(&per_world_md(record));
+    dir.write("report.md", report.as_bytes())?;
     Ok(summary)
+}
+
+/// The paper's Table 2 (the lab, §5.5): per world i = 2, 3, 4, CC, MS and OPDF (%) of M_1/G_i
+/// and M_i/G_i.
+pub const PAPER_TABLE2: [(usize, [f64; 3], [f64; 3]); 3] = [
+    (2, [69.69, 54.63, 84.61], [78.95, 74.57, 97.25]),
+    (3, [63.77, 51.44, 78.92], [68.80, 72.58, 95.37]),
+    (4, [60.87, 50.45, 82.18], [67.14, 70.26, 94.33]),
+];
+
+/// Reads one score out of a map's scores.
+type ScoreOf<'a> = &'a dyn Fn(&crate::experiments::validation::Scores) -> f64;
+
+/// For a short chain (at most 10 worlds): a table per world of M_1/G_i and M_i/G_i, means over
+/// the seeds, in the layout of the paper's Table 2; in the lab (`--world lab`), the paper's
+/// Table 2 beside it. Empty for longer chains.
+pub fn per_world_md(record: &ValidationRecord) -> String {
+    let worlds = record.params.worlds;
+    if worlds > 10 || record.seeds.is_empty() {
+        return String::new();
+    }
+    let lab = record.params.world.as_deref() == Some("lab");
+    let mut s = format!(
+        "\n## Per world (the layout of the paper's Table 2)\n\nMeans over {} seed(s) of M_1/G_i and M_i/G_i, %{}.\n\n",
+        record.seeds.len(),
+        if lab { "; the paper's Table 2 (its real lab, one run) in the rows marked *paper*" } else { "" }
+    );
+    s.push_str("| world | metric | M_1/G_i | M_i/G_i | M_i − M_1 |");
+    if lab {
+        s.push_str(" paper M_1/G_i | paper M_i/G_i | paper M_i − M_1 |");
+    }
+    s.push('\n');
+    s.push_str(if lab { "|---|---|---|---|---|---|---|---|\n" } else { "|---|---|---|---|---|\n" });
+    for i in 2..=worlds {
+        let rows: Vec<&crate::experiments::validation::WorldRow> =
+            record.seeds.iter().flat_map(|r| r.rows.iter().filter(move |w| w.world == i)).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let pick = |f: ScoreOf<'_>, updated: bool| {
+            crate::stats::mean(rows.iter().map(|w| f(if updated { &w.updated_map } else { &w.static_map })))
+        };
+        let metrics: [(&str, ScoreOf<'_>); 3] = [("CC", &|x| x.cc), ("MS", &|x| x.ms), ("OPDF", &|x| x.opdf)];
+        for (k, (name, f)) in metrics.iter().enumerate() {
+            let (a, b) = (pick(*f, false), pick(*f, true));
+            let _ = write!(s, "| W_{i} | {name} | {a:.2} | {b:.2} | {:+.2} |", b - a);
+            if lab {
+                match PAPER_TABLE2.iter().find(|(w, _, _)| *w == i) {
+                    Some((_, st, up)) => {
+                        let _ = write!(s, " {:.2} | {:.2} | {:+.2} |", st[k], up[k], up[k] - st[k]);
+                    }
+                    None => s.push_str(" – | – | – |"),
+                }
+            }
+            s.push('\n');
+        }
+    }
+    s
 }
 
 /// Writes the whole validation folder into `dir`: [`write_results`] for `record` (made from

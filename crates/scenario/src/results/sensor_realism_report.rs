@@ -78,12 +78,20 @@ pub fn report_md(r: &SensorRealismResult, header: &str) -> String {
             "| {} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {:.4} | {} | {:.3} | {} | {} | {}/{} |",
             c.config,
             c.cc_updated_mean,
-            if c.config == "ideal" { "—".into() } else { with_ci(c.cc_updated_vs_ideal.mean, c.cc_updated_vs_ideal.ci95, 2) },
+            if c.config == "ideal" {
+                "—".into()
+            } else {
+                with_ci(c.cc_updated_vs_ideal.mean, c.cc_updated_vs_ideal.ci95, 2)
+            },
             c.ms_updated_mean,
             c.opdf_updated_mean,
             c.cc_static_mean,
             c.err_mean_m,
-            if c.config == "ideal" { "—".into() } else { with_ci(c.err_mean_vs_ideal_m.mean, c.err_mean_vs_ideal_m.ci95, 4) },
+            if c.config == "ideal" {
+                "—".into()
+            } else {
+                with_ci(c.err_mean_vs_ideal_m.mean, c.err_mean_vs_ideal_m.ci95, 4)
+            },
             c.err_max_m,
             c.lost_episodes,
             c.collisions,
