@@ -465,7 +465,7 @@ pub fn per_world_md(record: &ValidationRecord) -> String {
     let mut s = format!(
         "\n## Per world (the layout of the paper's Table 2)\n\nMeans over {} seed(s) of M_1/G_i and M_i/G_i, %{}.\n\n",
         record.seeds.len(),
-        if lab { "; the paper's Table 2 (its real lab, one run) in the rows marked *paper*" } else { "" }
+        if lab { "; the paper's Table 2 (its real lab, one run) in the columns headed *paper*" } else { "" }
     );
     s.push_str("| world | metric | M_1/G_i | M_i/G_i | M_i − M_1 |");
     if lab {
