@@ -101,6 +101,11 @@ pub struct FollowerParams {
     pub goal_tolerance_m: f64,
     /// Turns sharper than this stop the robot at the waypoint, degrees (default 60).
     pub corner_angle_deg: f64,
+    /// At a gentler turn the robot slows so that turning its velocity at the braking
+    /// acceleration would cut the corner by at most this much, metres (default 0.1; 0 turns
+    /// the rule off). Without it a robot at full speed swings wide of a 30-50° turn by more
+    /// than half a metre.
+    pub corner_cut_m: f64,
     /// Heading gain: commanded yaw rate per radian of heading error, 1/s (default 2.5).
     pub yaw_gain: f64,
     /// Omni drive: turn to face the direction of travel (default true).
@@ -121,6 +126,7 @@ impl Default for FollowerParams {
             waypoint_tolerance_m: 0.15,
             goal_tolerance_m: 0.05,
             corner_angle_deg: 60.0,
+            corner_cut_m: 0.1,
             yaw_gain: 2.5,
             face_travel_direction: true,
             agent_lookahead_m: 0.5,
@@ -145,6 +151,7 @@ impl FollowerParams {
         }
         for (name, v) in [
             ("corner_angle_deg", self.corner_angle_deg),
+            ("corner_cut_m", self.corner_cut_m),
             ("agent_lookahead_m", self.agent_lookahead_m),
             ("agent_clearance_m", self.agent_clearance_m),
             ("creep_speed_mps", self.creep_speed_mps),
@@ -198,20 +205,26 @@ impl Follower {
         self.target >= self.route.len()
     }
 
-    fn is_corner(&self, k: usize, corner_cos: f64) -> bool {
+    /// The cosine of the turn at waypoint `k` (1 where there is none: the start, a repeated
+    /// point; −1 at the goal, a stop).
+    fn turn_cos(&self, k: usize) -> f64 {
         if k + 1 >= self.route.len() {
-            return true; // the goal
+            return -1.0;
         }
         if k == 0 {
-            return false;
+            return 1.0;
         }
         let (a, b, c) = (self.route[k - 1], self.route[k], self.route[k + 1]);
         let (u, v) = ((b.x - a.x, b.y - a.y), (c.x - b.x, c.y - b.y));
         let (nu, nv) = (u.0.hypot(u.1), v.0.hypot(v.1));
         if nu == 0.0 || nv == 0.0 {
-            return false;
+            return 1.0;
         }
-        (u.0 * v.0 + u.1 * v.1) / (nu * nv) < corner_cos
+        ((u.0 * v.0 + u.1 * v.1) / (nu * nv)).clamp(-1.0, 1.0)
+    }
+
+    fn is_corner(&self, k: usize, corner_cos: f64) -> bool {
+        self.turn_cos(k) < corner_cos
     }
 
     /// Whether the robot has gone past the waypoint it drives to without coming within the
@@ -235,9 +248,10 @@ impl Follower {
         ahead_of(a, b) && ahead_of(b, c) && pos.distance(project(pos, b, c)) <= f.lookahead_m
     }
 
-    /// The look-ahead point on the route and the path distance to the next stop (a sharp
-    /// corner or the goal), from `pos`.
-    fn lookahead(&self, pos: Point2, f: &FollowerParams) -> (Point2, f64) {
+    /// The look-ahead point on the route, the path distance to the next stop (a sharp corner
+    /// or the goal), from `pos`, and the highest speed from which every gentle corner before
+    /// that stop can still be slowed for (braking at `accel`).
+    fn lookahead(&self, pos: Point2, f: &FollowerParams, accel: f64) -> (Point2, f64, f64) {
         let corner_cos = f.corner_angle_deg.to_radians().cos();
         // Look-ahead point and path distance to the next stop (sharp corner or goal).
         let start =
@@ -245,6 +259,7 @@ impl Follower {
         let mut from = start;
         let mut along = 0.0;
         let mut look = None;
+        let mut cap = f64::INFINITY;
         let mut k = self.target;
         loop {
             let to = self.route[k];
@@ -254,6 +269,16 @@ impl Follower {
                 look = Some(Point2::new(from.x + t * (to.x - from.x), from.y + t * (to.y - from.y)));
             }
             along += seg;
+            if f.corner_cut_m > 0.0 && !self.is_corner(k, corner_cos) {
+                // Turning the velocity v through θ at acceleration a, along the straight line
+                // in velocity space, cuts the corner by v² sin²(θ/2) / 2a.
+                let half_sin = ((1.0 - self.turn_cos(k)) / 2.0).sqrt();
+                if half_sin > 1e-6 {
+                    let v_corner = (2.0 * accel * f.corner_cut_m).sqrt() / half_sin;
+                    let d = pos.distance(start) + along;
+                    cap = cap.min((v_corner * v_corner + 2.0 * accel * d).sqrt());
+                }
+            }
             if self.is_corner(k, corner_cos) || (along > 20.0 && look.is_some()) {
                 if look.is_none() {
                     look = Some(to);
@@ -265,7 +290,7 @@ impl Follower {
         }
         let stop_dist = pos.distance(start) + along;
         let look = look.unwrap_or(self.route[self.target]);
-        (look, stop_dist)
+        (look, stop_dist, cap)
     }
 
     /// The desired motion from `pose`, given the robot's parameters and the agents nearby.
@@ -284,7 +309,13 @@ impl Follower {
         while !self.done() {
             let last = self.target + 1 == self.route.len();
             let tol = if last { f.goal_tolerance_m } else { f.waypoint_tolerance_m };
-            if pos.distance(self.route[self.target]) <= tol || (!last && self.passed(pos, f)) {
+            // A stop (a sharp corner) counts as reached only once the robot is on its braking
+            // curve there: arriving faster (after a short leg, or a corner cut), it would swing
+            // wide when it turns.
+            let slow_enough = last
+                || !self.is_corner(self.target, f.corner_angle_deg.to_radians().cos())
+                || speed <= 1.1 * (2.0 * 0.8 * p.max_accel_mps2 * tol).sqrt();
+            if (pos.distance(self.route[self.target]) <= tol && slow_enough) || (!last && self.passed(pos, f)) {
                 self.target += 1;
             } else {
                 break;
@@ -293,15 +324,16 @@ impl Follower {
         if self.done() || self.stopped {
             return Desire::default();
         }
-        let (look, stop_dist) = self.lookahead(pos, f);
+        let a = 0.8 * p.max_accel_mps2;
+        let (look, stop_dist, corner_cap) = self.lookahead(pos, f, a);
         let (dx, dy) = (look.x - pos.x, look.y - pos.y);
         let dist = dx.hypot(dy);
         if dist < 1e-9 {
             return Desire::default();
         }
         let dir = (dx / dist, dy / dist);
-        let a = 0.8 * p.max_accel_mps2;
-        let mut v = p.max_speed_mps.min((2.0 * a * stop_dist).sqrt()).max(0.05_f64.min(p.max_speed_mps));
+        let mut v =
+            p.max_speed_mps.min((2.0 * a * stop_dist).sqrt()).min(corner_cap).max(0.05_f64.min(p.max_speed_mps));
         let travel_yaw = dir.1.atan2(dir.0);
         // Agents in the corridor ahead.
         let braking = speed * speed / (2.0 * p.max_accel_mps2) + f.agent_lookahead_m;
@@ -412,6 +444,39 @@ mod tests {
         f.target = 2;
         f.desire(&Pose2::new(4.0, 0.5, 0.0), (0.5, 0.0), &p, &[]);
         assert_eq!(f.target, 2);
+    }
+
+    #[test]
+    fn the_robot_slows_for_gentle_corners_and_stops_at_sharp_ones() {
+        let p = RobotParams::default();
+        let a = 0.8 * p.max_accel_mps2;
+        // A 40° turn 1 m ahead: v ≤ √(v_c² + 2·a·d), v_c = √(2·a·cut) / sin(20°).
+        let mut f = Follower::default();
+        let turn = 40f64.to_radians();
+        f.set_route(vec![
+            Point2::new(0.0, 0.0),
+            Point2::new(10.0, 0.0),
+            Point2::new(10.0 + 5.0 * turn.cos(), 5.0 * turn.sin()),
+        ]);
+        f.target = 1;
+        let d = f.desire(&Pose2::new(9.0, 0.0, 0.0), (1.5, 0.0), &p, &[]);
+        let v_c = (2.0 * a * p.follower.corner_cut_m).sqrt() / (turn / 2.0).sin();
+        let want = (v_c * v_c + 2.0 * a * 1.0).sqrt();
+        assert!((d.vel.0.hypot(d.vel.1) - want).abs() < 1e-9, "{:?} against {want}", d.vel);
+        assert!(want < p.max_speed_mps);
+        // Switched off, the same corner is taken at full speed.
+        let mut q = p.clone();
+        q.follower.corner_cut_m = 0.0;
+        let d = f.desire(&Pose2::new(9.0, 0.0, 0.0), (1.5, 0.0), &q, &[]);
+        assert!((d.vel.0.hypot(d.vel.1) - q.max_speed_mps).abs() < 1e-9);
+        // A sharp (90°) corner within the tolerance is reached only at braking-curve speed.
+        let mut g = Follower::default();
+        g.set_route(vec![Point2::new(0.0, 0.0), Point2::new(5.0, 0.0), Point2::new(5.0, 5.0)]);
+        g.target = 1;
+        g.desire(&Pose2::new(4.9, 0.0, 0.0), (0.7, 0.0), &p, &[]);
+        assert_eq!(g.target, 1, "too fast to turn: still braking for the corner");
+        g.desire(&Pose2::new(4.9, 0.0, 0.0), (0.3, 0.0), &p, &[]);
+        assert_eq!(g.target, 2);
     }
 
     #[test]
