@@ -5,10 +5,12 @@
 #   docs/scale-out/local-shards.sh N P OUT [validate arguments…]
 #   e.g. docs/scale-out/local-shards.sh 4 2 sweep --presets paper,mapkeeper --seeds 8
 #
-# Each shard runs with --jobs 1 (the parallelism is the P processes). A shard whose folder is
-# complete (it has runs.json: folders appear whole or not at all) is skipped, so re-running the
-# same command after a kill runs only the shards that did not finish; a killed shard's
-# `.k.partial` staging folder is reported and removed by its re-run. OUT/recipe.txt records N and
+# Each shard runs with --jobs 1 (the parallelism is the P processes) and --resume. A shard whose
+# folder is complete (it has runs.json: folders appear whole or not at all) is skipped, so
+# re-running the same command after a kill runs only the shards that did not finish, and within
+# a killed shard only the (preset, seed) jobs it had not finished (their checkpoints are in
+# `.k.jobs`); a killed shard's `.k.partial` staging folder is reported and removed by its
+# re-run. Do not pass --force (it would defeat the resume). OUT/recipe.txt records N and
 # the validate arguments: a re-run with other ones is refused (it would mix shards of two
 # sweeps). OUT/all is rewritten by every run. Set MAPKEEPER to the binary (default: `mapkeeper`
 # on PATH).
@@ -23,6 +25,12 @@ for v in "$n" "$p"; do
     case "$v" in
         *[!0-9]* | '' | 0*) echo "$0: N and P must be whole numbers ≥ 1, got N = '$n', P = '$p'" >&2; exit 2 ;;
     esac
+done
+for a in "$@"; do
+    if [ "$a" = "--force" ]; then
+        echo "$0: drop --force: shards resume what a killed run finished (--resume)" >&2
+        exit 2
+    fi
 done
 bin=${MAPKEEPER:-mapkeeper}
 mkdir -p "$out/shards"
@@ -42,7 +50,7 @@ for k in $(seq 1 "$n"); do
 done
 if [ ${#todo[@]} -gt 0 ]; then
     printf '%s\n' "${todo[@]}" |
-        xargs -P "$p" -I{} "$bin" validate "$@" --shard "{}/$n" --jobs 1 --out "$out/shards/{}"
+        xargs -P "$p" -I{} "$bin" validate "$@" --shard "{}/$n" --jobs 1 --resume --out "$out/shards/{}"
 fi
 shards=()
 for k in $(seq 1 "$n"); do shards+=("$out/shards/$k"); done

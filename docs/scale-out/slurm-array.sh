@@ -24,4 +24,4 @@ if [ -f "$out/shards/$k/runs.json" ] || [ -f "$out/shards/$k/summary.json" ]; th
 fi
 mkdir -p "$out/shards"
 mapkeeper validate --presets paper,mapkeeper --seeds 30 --shard "$k/$n" \
-    --jobs "${SLURM_CPUS_PER_TASK:-1}" --out "$out/shards/$k"
+    --jobs "${SLURM_CPUS_PER_TASK:-1}" --resume --out "$out/shards/$k"

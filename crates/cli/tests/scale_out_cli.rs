@@ -21,7 +21,7 @@ fn text(o: &Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
 }
 
-const SWEEP: [&str; 14] = [
+const SWEEP: [&str; 13] = [
     "--presets",
     "paper,no-update",
     "--localiser",
@@ -35,7 +35,6 @@ const SWEEP: [&str; 14] = [
     "--route-length",
     "6",
     "--no-timing",
-    "--force",
 ];
 
 #[test]
@@ -83,6 +82,14 @@ fn shards_through_xargs_merge_into_the_unsharded_sweep_and_resume_skips_complete
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("holds shards of another sweep"), "{}", text(&o));
     assert_eq!(files(&out.join("all")), files(&whole));
+
+    // --force would defeat the resume: refused.
+    let mut forced = vec!["3", "2", s(&out)];
+    forced.extend(SWEEP);
+    forced.push("--force");
+    let o = recipe(&forced);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("drop --force"), "{}", text(&o));
 
     // Bad counts are refused with the usage.
     for bad in [["x", "2"], ["3", ""], ["0", "1"], ["2", "-1"]] {

@@ -214,10 +214,81 @@ impl GridGeometry {
 /// assert_eq!(c, CellCoord::new(2, 1));
 /// assert_eq!(grid.get(c), Some(CellState::Occupied));
 /// ```
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(into = "GridRecord", try_from = "GridRecord")]
 pub struct OccupancyGrid {
     geometry: GridGeometry,
     cells: Vec<CellState>,
+}
+
+/// How an [`OccupancyGrid`] is serialised (checkpoints of long runs): its geometry and its
+/// cells run-length encoded, row-major from the bottom row, as runs of a count and a letter
+/// (`f` free, `o` occupied, `u` unknown): `"120u3o7f"`. Read back through
+/// [`GridGeometry::new`] and [`OccupancyGrid::from_cells`], so a damaged record is refused,
+/// never a panic.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GridRecord {
+    width: usize,
+    height: usize,
+    resolution_m: f64,
+    origin: Pose2,
+    cells: String,
+}
+
+fn cell_letter(c: CellState) -> char {
+    match c {
+        CellState::Free => 'f',
+        CellState::Occupied => 'o',
+        CellState::Unknown => 'u',
+    }
+}
+
+impl From<OccupancyGrid> for GridRecord {
+    fn from(g: OccupancyGrid) -> Self {
+        use std::fmt::Write as _;
+        let mut cells = String::new();
+        for run in g.cells.chunk_by(|a, b| a == b) {
+            let _ = write!(cells, "{}{}", run.len(), cell_letter(run[0]));
+        }
+        let geo = g.geometry;
+        GridRecord { width: geo.width, height: geo.height, resolution_m: geo.resolution_m, origin: geo.origin, cells }
+    }
+}
+
+impl TryFrom<GridRecord> for OccupancyGrid {
+    type Error = String;
+
+    fn try_from(r: GridRecord) -> Result<Self, String> {
+        let geometry = GridGeometry::new(r.width, r.height, r.resolution_m, r.origin).map_err(|e| e.to_string())?;
+        let mut cells = Vec::with_capacity(geometry.len());
+        let mut count: usize = 0;
+        for (i, b) in r.cells.bytes().enumerate() {
+            let state = match b {
+                b'0'..=b'9' => {
+                    count = count
+                        .checked_mul(10)
+                        .and_then(|c| c.checked_add(usize::from(b - b'0')))
+                        .filter(|&c| c <= geometry.len())
+                        .ok_or_else(|| format!("cells: the run ending at character {} is longer than the grid", i + 1))?;
+                    continue;
+                }
+                b'f' => CellState::Free,
+                b'o' => CellState::Occupied,
+                b'u' => CellState::Unknown,
+                _ => return Err(format!("cells: character {} is {:?}, not a digit, f, o or u", i + 1, char::from(b))),
+            };
+            if count == 0 || cells.len() + count > geometry.len() {
+                return Err(format!("cells: run at character {} is empty or goes past the grid's end", i + 1));
+            }
+            cells.resize(cells.len() + count, state);
+            count = 0;
+        }
+        if count != 0 {
+            return Err("cells: ends in a count without its letter".into());
+        }
+        OccupancyGrid::from_cells(geometry, cells).map_err(|e| e.to_string())
+    }
 }
 
 impl OccupancyGrid {
@@ -302,6 +373,37 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_grid_round_trips_through_json_and_damaged_records_are_refused() {
+        let geo = GridGeometry::new(3, 2, 0.05, Pose2::new(-1.25, 0.5, 0.3)).unwrap();
+        let cells = vec![
+            CellState::Free,
+            CellState::Occupied,
+            CellState::Unknown,
+            CellState::Occupied,
+            CellState::Free,
+            CellState::Unknown,
+        ];
+        let g = OccupancyGrid::from_cells(geo, cells).unwrap();
+        let text = serde_json::to_string(&g).unwrap();
+        assert!(text.contains(r#""cells":"1f1o1u1o1f1u""#), "{text}");
+        assert_eq!(serde_json::from_str::<OccupancyGrid>(&text).unwrap(), g);
+        let runs = OccupancyGrid::filled(GridGeometry::new(400, 300, 0.05, Pose2::default()).unwrap(), CellState::Unknown);
+        let t = serde_json::to_string(&runs).unwrap();
+        assert!(t.contains(r#""cells":"120000u""#), "{t}");
+        assert_eq!(serde_json::from_str::<OccupancyGrid>(&t).unwrap(), runs);
+        let damaged = |from: &str, to: &str| {
+            serde_json::from_str::<OccupancyGrid>(&text.replace(from, to)).unwrap_err().to_string()
+        };
+        assert!(damaged("1f1o1u1o1f1u", "1f1o1x1o1f1u").contains("character 6"));
+        assert!(damaged("1f1o1u1o1f1u", "1f1o1u1o").contains("6 cells"), "{}", damaged("1f1o1u1o1f1u", "1f1o1u1o"));
+        assert!(damaged("1f1o1u1o1f1u", "1f1o1u1o1f2u").contains("past the grid's end"));
+        assert!(damaged("1f1o1u1o1f1u", "1f1o1u1o1f0u1u").contains("empty"));
+        assert!(damaged("1f1o1u1o1f1u", "1f1o1u1o1f1").contains("without its letter"));
+        assert!(damaged("1f1o1u1o1f1u", "99999999999999999999999f").contains("longer than the grid"));
+        assert!(damaged(r#""width":3"#, r#""width":0"#).contains("no cells"));
+    }
 
     #[test]
     fn eq1_floor_with_offset_origin() {

@@ -105,7 +105,7 @@ pub struct ErrorSample {
 }
 
 /// The true and estimated trajectories of a run (TUM-ready).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Trajectories {
     /// The true pose.
     pub truth: Vec<StampedPose>,

@@ -4,6 +4,7 @@
 use anyhow::Context;
 use mapkeeper_scenario::results::comparison::{Comparison, write_comparison};
 use mapkeeper_scenario::results::report::write_validation;
+use mapkeeper_scenario::experiments::checkpoint::Checkpoints;
 use mapkeeper_scenario::{Clock, GroundTruth, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
 use mapkeeper_updater::UpdaterParams;
 use std::path::{Path, PathBuf};
@@ -84,6 +85,12 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
+    /// Resume a killed run (needs --out): every finished (preset, seed) job is kept in
+    /// `.NAME.jobs/` beside OUT until the run completes; with --resume those jobs are read back
+    /// rather than run again (the outputs are the same), and an OUT already complete is left as
+    /// it is. Without --resume a new run discards them.
+    #[arg(long, requires = "out", conflicts_with = "force")]
+    pub resume: bool,
     /// Drive only the first this-many metres of the route (quick checks); > 0 and ≤ 10000 m
     /// (the default tour is 72 m: longer values drive all of it).
     #[arg(long, value_name = "METRES", value_parser = super::route_length, allow_hyphen_values = true)]
@@ -176,9 +183,10 @@ fn plan_mcap(plan: &mut SweepPlan, dirs: &[StagedDir], worlds: &[usize]) -> anyh
 /// same results bit for bit; docs/benchmarks.md).
 fn simulate_ahead_if_cores_free(
     plan: &mut mapkeeper_scenario::SweepPlan,
+    runs: usize,
     pool: rayon::ThreadPool,
 ) -> rayon::ThreadPool {
-    let ahead = plan.jobs.len() < pool.current_num_threads();
+    let ahead = runs < pool.current_num_threads();
     for p in &mut plan.params {
         p.runner.simulate_ahead = ahead;
     }
@@ -235,14 +243,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {
         anyhow::bail!("--mcap-worlds: world {w} is beyond --worlds {}", args.worlds);
     }
+    if args.resume && is_complete(&out, &plan, sweep, args.shard)? {
+        println!("validate: {} is complete (--resume): nothing to run", out.display());
+        return Ok(());
+    }
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
     plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
+    let checkpoints = Checkpoints::beside(&out);
+    let done = if args.resume {
+        let done = plan.load_checkpoints(&checkpoints)?;
+        let n = done.iter().flatten().count();
+        println!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
+        done
+    } else {
+        let n = checkpoints.count();
+        if n > 0 {
+            eprintln!(
+                "mapkeeper: note: {}: discarded {n} finished job(s) of an interrupted run (--resume keeps them)",
+                checkpoints.dir().display()
+            );
+        }
+        checkpoints.remove()?;
+        vec![None; plan.jobs.len()]
+    };
     let bar = super::progress_bar(plan.total_worlds(), "worlds");
     let start = Instant::now();
     let wall = super::Wall::start();
     let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };
-    let pool = simulate_ahead_if_cores_free(&mut plan, super::thread_pool(args.jobs)?);
-    let runs = pool.install(|| plan.run(clock, &|_| bar.inc(1)))?;
+    let to_run = done.iter().filter(|d| d.is_none()).count();
+    let pool = simulate_ahead_if_cores_free(&mut plan, to_run, super::thread_pool(args.jobs)?);
+    let runs = pool.install(|| plan.run_resuming(done, Some(&checkpoints), clock, &|_| bar.inc(1)))?;
     bar.finish_and_clear();
     let elapsed_s = start.elapsed().as_secs_f64();
     let wall_time_s = if args.no_timing { 0.0 } else { elapsed_s };
@@ -277,5 +307,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             out.join("report.md").display()
         );
     }
+    checkpoints.remove()?;
     Ok(())
+}
+
+/// Whether OUT holds the finished outputs of this very run (each preset's summary.json with
+/// the same parameters, and for a sweep the comparison): `validate --resume` then has nothing
+/// to do. An OUT that holds another run's results is an error.
+fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, shard: Option<Shard>) -> anyhow::Result<bool> {
+    if !out.join("summary.json").is_file() {
+        return Ok(false);
+    }
+    for p in plan.groups() {
+        let dir = if sweep { out.join(&plan.presets[p]) } else { out.to_path_buf() };
+        let file = dir.join("summary.json");
+        let text = std::fs::read_to_string(&file).with_context(|| format!("--resume: {}", file.display()))?;
+        let json: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("--resume: {}", file.display()))?;
+        let (want, want_shard) = (serde_json::to_value(&plan.params[p])?, serde_json::to_value(shard)?);
+        if json.get("params") != Some(&want) || json.get("shard").unwrap_or(&serde_json::Value::Null) != &want_shard {
+            anyhow::bail!(
+                "--resume: {} holds a run with other parameters or another shard than these flags (use another --out)",
+                file.display()
+            );
+        }
+    }
+    Ok(true)
 }

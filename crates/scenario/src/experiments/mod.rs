@@ -5,6 +5,7 @@
 //! error ([`convergence`]).
 
 pub mod check_detection;
+pub mod checkpoint;
 pub mod convergence;
 pub mod kidnap_robot;
 pub mod real_data;
@@ -50,4 +51,12 @@ pub enum ExperimentError {
     /// An input cannot be used (a recorded log without reference poses, a preset unknown).
     #[error("{0}")]
     Invalid(String),
+    /// A job's checkpoint (`validate --resume`) cannot be written, read or used.
+    #[error("checkpoint {}: {problem}", path.display())]
+    Checkpoint {
+        /// The checkpoint file or folder.
+        path: std::path::PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
 }

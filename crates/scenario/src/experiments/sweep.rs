@@ -3,6 +3,7 @@
 //! caller's rayon pool, collected in job order), and the runs of one preset.
 
 use crate::experiments::ExperimentError;
+use crate::experiments::checkpoint::Checkpoints;
 use crate::experiments::runner::Clock;
 use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
 use rayon::prelude::*;
@@ -117,7 +118,46 @@ impl SweepPlan {
 
     /// Runs every job on the current rayon pool; `progress` is called after each world.
     pub fn run(&self, clock: &dyn Clock, progress: &(dyn Fn(usize) + Sync)) -> Result<Vec<SeedRun>, ExperimentError> {
-        self.jobs.par_iter().map(|&(p, s)| run_seed(&self.params[p], s, clock, progress)).collect()
+        self.run_resuming(vec![None; self.jobs.len()], None, clock, progress)
+    }
+
+    /// The finished runs of this plan's jobs found in `checkpoints` (in job order; `None`: to
+    /// run). A checkpoint another run wrote is an error.
+    pub fn load_checkpoints(&self, checkpoints: &Checkpoints) -> Result<Vec<Option<SeedRun>>, ExperimentError> {
+        self.jobs.iter().map(|&(p, s)| checkpoints.load(&self.params[p], s)).collect()
+    }
+
+    /// Runs the jobs that `done` (in job order) does not hold, on the current rayon pool, each
+    /// written to `checkpoints` as soon as it finishes; `progress` is called after each world
+    /// (for a job already done, once per world at the start). The runs come back in job order,
+    /// the same whichever were resumed.
+    pub fn run_resuming(
+        &self,
+        done: Vec<Option<SeedRun>>,
+        checkpoints: Option<&Checkpoints>,
+        clock: &dyn Clock,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Result<Vec<SeedRun>, ExperimentError> {
+        if done.len() != self.jobs.len() {
+            return Err(ExperimentError::Invalid(format!("{} finished runs for {} jobs", done.len(), self.jobs.len())));
+        }
+        for (&(p, _), _) in self.jobs.iter().zip(&done).filter(|(_, d)| d.is_some()) {
+            (1..=self.params[p].worlds).for_each(progress);
+        }
+        self.jobs
+            .par_iter()
+            .zip(done)
+            .map(|(&(p, s), done)| {
+                if let Some(run) = done {
+                    return Ok(run);
+                }
+                let run = run_seed(&self.params[p], s, clock, progress)?;
+                if let Some(c) = checkpoints {
+                    c.save(&self.params[p], &run)?;
+                }
+                Ok(run)
+            })
+            .collect()
     }
 
     /// The runs of preset `p`, in job order.

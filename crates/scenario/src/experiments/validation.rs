@@ -319,7 +319,7 @@ pub struct WorldRow {
 }
 
 /// Maps and trajectories of a saved world.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SavedWorld {
     /// i in W_i.
     pub world: usize,
@@ -331,8 +331,8 @@ pub struct SavedWorld {
     pub trajectories: Option<Trajectories>,
 }
 
-/// Everything one seed produced.
-#[derive(Clone, Debug, PartialEq)]
+/// Everything one seed produced (serialisable for the checkpoints of `validate --resume`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SeedRun {
     /// The run seed.
     pub seed: u64,

@@ -1,0 +1,125 @@
+//! `validate --resume` (issue 15): a sweep killed after some (preset, seed) jobs, re-run with
+//! --resume, runs only the rest and writes the same files as an uninterrupted run; damaged or
+//! foreign checkpoints are refused with the file named.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{files, mapkeeper, s, scratch};
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::Duration;
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+/// A sweep of 2 presets × 2 seeds of short worlds, one job at a time (`--route-length 12` in
+/// `extra` replaces the 10 m).
+fn sweep(out: &Path, extra: &[&str]) -> Vec<String> {
+    let route = if extra.contains(&"12") { "12" } else { "10" };
+    let extra: Vec<&str> = extra.iter().copied().filter(|&a| a != "--route-length" && a != "12").collect();
+    let mut a: Vec<String> = [
+        "validate",
+        "--presets",
+        "paper,mapkeeper",
+        "--localiser",
+        "mapkeeper",
+        "--seeds",
+        "2",
+        "--worlds",
+        "3",
+        "--route-length",
+        route,
+        "--jobs",
+        "1",
+        "--no-timing",
+        "--out",
+    ]
+    .iter()
+    .map(ToString::to_string)
+    .collect();
+    a.push(s(out).to_string());
+    a.extend(extra.iter().map(ToString::to_string));
+    a
+}
+
+fn run(args: &[String]) -> Output {
+    mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+#[test]
+fn a_killed_sweep_resumes_with_the_same_outputs() {
+    let dir = scratch("resume", "sweep");
+    let full = dir.join("full");
+    let o = run(&sweep(&full, &[]));
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!dir.join(".full.jobs").exists(), "a finished run leaves no checkpoints");
+
+    // Killed (SIGKILL) as soon as its first job is written.
+    let part = dir.join("part");
+    let jobs = dir.join(".part.jobs");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
+        .args(sweep(&part, &[]))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let first = jobs.join("paper-s11.json");
+    while !first.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be killed");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!part.exists(), "a killed run leaves no output folder");
+    let kept = dir.join("kept.json");
+    std::fs::copy(&first, &kept).unwrap();
+
+    let o = run(&sweep(&part, &["--resume"]));
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let done = t.lines().find(|l| l.contains("job(s) already done")).unwrap_or_else(|| panic!("{t}"));
+    assert!(done.ends_with("of 4 job(s) already done") && !done.contains(": 0 of"), "{done}");
+    assert!(t.contains(".part.partial: removed the incomplete folder"), "{t}");
+    assert_eq!(files(&part), files(&full), "the resumed sweep differs from the uninterrupted one");
+    assert!(!jobs.exists(), "the checkpoints are removed once the run is complete");
+
+    // Complete: nothing to run; other flags on a complete folder are refused.
+    let o = run(&sweep(&part, &["--resume"]));
+    assert!(o.status.success() && text(&o).contains("is complete (--resume): nothing to run"), "{}", text(&o));
+    let o = run(&sweep(&part, &["--resume", "--route-length", "12"]));
+    assert!(!o.status.success() && text(&o).contains("holds a run with other parameters"), "{}", text(&o));
+    assert_eq!(files(&part), files(&full));
+
+    // A checkpoint of another run (other parameters) is refused, naming the file.
+    let other = dir.join("other");
+    std::fs::create_dir_all(dir.join(".other.jobs")).unwrap();
+    std::fs::copy(&kept, dir.join(".other.jobs/paper-s11.json")).unwrap();
+    let o = run(&sweep(&other, &["--resume", "--route-length", "12"]));
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains(".other.jobs/paper-s11.json") && t.contains("a run with other parameters"), "{t}");
+    assert!(!other.exists());
+
+    // A damaged checkpoint is refused, naming the file and what to do.
+    std::fs::write(dir.join(".other.jobs/paper-s11.json"), "{\"format\": 1, \"fingerpr").unwrap();
+    let o = run(&sweep(&other, &["--resume"]));
+    let t = text(&o);
+    assert!(!o.status.success() && t.contains("paper-s11.json: unreadable") && t.contains("remove it"), "{t}");
+
+    // Without --resume a new run discards them, says so, and runs every job.
+    std::fs::copy(&kept, dir.join(".other.jobs/paper-s11.json")).unwrap();
+    let o = run(&sweep(&other, &[]));
+    let t = text(&o);
+    assert!(o.status.success() && t.contains("discarded 1 finished job(s) of an interrupted run"), "{t}");
+    assert_eq!(files(&other), files(&full));
+    assert!(!dir.join(".other.jobs").exists());
+
+    // --resume needs --out and does not go with --force.
+    let o = mapkeeper(&["validate", "--resume"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let o = run(&sweep(&other, &["--resume", "--force"]));
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

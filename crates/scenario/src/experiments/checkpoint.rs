@@ -1,0 +1,170 @@
+//! Checkpoints of a sweep's jobs, so that a killed `validate` re-run with `--resume` skips the
+//! (preset, seed) jobs it had finished.
+//!
+//! Each finished job is written at once, atomically, to `<folder>/<preset>-s<seed>.json` (with
+//! the job's MCAP bags copied beside it): the whole [`SeedRun`] (scores, rows, edits, maps,
+//! trajectories, timings) and a fingerprint of what computed it, the preset's parameters as
+//! JSON and a hash of the world W_1. A checkpoint is used only when its fingerprint equals the
+//! current job's; otherwise the resume is refused with the file named (it belongs to another
+//! run). Floats are written so they read back bit for bit (`serde_json`'s `float_roundtrip`),
+//! so a resumed sweep's outputs equal an uninterrupted one's.
+
+use crate::experiments::ExperimentError;
+use crate::experiments::validation::{SeedRun, ValidationParams};
+use mapkeeper_grid::write_atomic;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Version of the checkpoint files; other versions are refused.
+const FORMAT: u32 = 1;
+
+/// What computed a job: compared field for field before a checkpoint is used.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Fingerprint {
+    /// The preset's parameters (as in summary.json), without how the run is executed.
+    params: serde_json::Value,
+    /// FNV-1a 64 of W_1's TOML, hexadecimal; "default" for the embedded warehouse.
+    world: String,
+    /// The run seed.
+    seed: u64,
+}
+
+/// One checkpoint file.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JobFile {
+    format: u32,
+    fingerprint: Fingerprint,
+    /// Names of the job's MCAP bags kept beside the checkpoint.
+    mcap: Vec<String>,
+    run: SeedRun,
+}
+
+/// FNV-1a, 64 bits: a fingerprint of the world's text, not a security measure.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+fn fingerprint(params: &ValidationParams, seed: u64) -> Result<Fingerprint, ExperimentError> {
+    let mut p = params.clone();
+    // How the run is executed, not what it computes.
+    p.runner.simulate_ahead = false;
+    p.runner.parallel_baseline = true;
+    let params = serde_json::to_value(&p).map_err(|e| ExperimentError::Invalid(format!("parameters: {e}")))?;
+    let world = match &p.world_data {
+        Some(w) => format!("{:016x}", fnv1a(w.to_toml_string()?.as_bytes())),
+        None => "default".to_string(),
+    };
+    Ok(Fingerprint { params, world, seed })
+}
+
+/// The job's MCAP bag names (as the validation writes them).
+fn mcap_names(params: &ValidationParams, seed: u64) -> Vec<String> {
+    params.mcap_worlds.iter().map(|i| format!("{}-s{seed}-W{i:03}.mcap", params.preset)).collect()
+}
+
+/// The checkpoint folder of one run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Checkpoints {
+    dir: PathBuf,
+}
+
+impl Checkpoints {
+    /// The checkpoints of a run whose output folder is `target`: `.NAME.jobs` beside it (not in
+    /// its staging folder, which an interrupted run's successor removes).
+    pub fn beside(target: &Path) -> Checkpoints {
+        let name = target.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+        let parent = match target.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Checkpoints { dir: parent.join(format!(".{name}.jobs")) }
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The checkpoint file of a job.
+    pub fn file(&self, preset: &str, seed: u64) -> PathBuf {
+        self.dir.join(format!("{preset}-s{seed}.json"))
+    }
+
+    fn err(path: &Path, problem: impl std::fmt::Display) -> ExperimentError {
+        ExperimentError::Checkpoint { path: path.to_path_buf(), problem: problem.to_string() }
+    }
+
+    /// Writes a finished job, copying its MCAP bags from `params.mcap_dir`.
+    pub fn save(&self, params: &ValidationParams, run: &SeedRun) -> Result<(), ExperimentError> {
+        std::fs::create_dir_all(&self.dir).map_err(|e| Self::err(&self.dir, e))?;
+        let mcap = mcap_names(params, run.seed);
+        if let Some(src) = &params.mcap_dir {
+            for name in &mcap {
+                let (from, to) = (src.join(name), self.dir.join(name));
+                std::fs::copy(&from, &to).map_err(|e| Self::err(&to, format!("copying {}: {e}", from.display())))?;
+            }
+        }
+        let file = JobFile { format: FORMAT, fingerprint: fingerprint(params, run.seed)?, mcap, run: run.clone() };
+        let path = self.file(&params.preset, run.seed);
+        let bytes = serde_json::to_vec(&file).map_err(|e| Self::err(&path, e))?;
+        write_atomic(&path, &bytes).map_err(|e| Self::err(&path, e))
+    }
+
+    /// The finished run of a job, if its checkpoint is there; its MCAP bags are copied back to
+    /// `params.mcap_dir`. A checkpoint that cannot be read, or that another run wrote (its
+    /// parameters, world or seed differ), is an error naming the file.
+    pub fn load(&self, params: &ValidationParams, seed: u64) -> Result<Option<SeedRun>, ExperimentError> {
+        let path = self.file(&params.preset, seed);
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(Self::err(&path, e)),
+        };
+        let file: JobFile = serde_json::from_slice(&bytes)
+            .map_err(|e| Self::err(&path, format!("unreadable ({e}); remove it to run the job again")))?;
+        if file.format != FORMAT {
+            return Err(Self::err(&path, format!("format {} is not {FORMAT}; remove it", file.format)));
+        }
+        let want = fingerprint(params, seed)?;
+        if file.fingerprint != want || file.run.seed != seed {
+            let what = if file.fingerprint.world != want.world {
+                "another world"
+            } else if file.fingerprint.seed != seed || file.run.seed != seed {
+                "another seed"
+            } else {
+                "other parameters"
+            };
+            return Err(Self::err(
+                &path,
+                format!("was written by a run with {what}; resume with the same flags, or remove {}", self.dir.display()),
+            ));
+        }
+        if file.mcap != mcap_names(params, seed) {
+            return Err(Self::err(&path, "its MCAP bags are not the ones this run asks for"));
+        }
+        if let Some(dst) = &params.mcap_dir {
+            for name in &file.mcap {
+                let (from, to) = (self.dir.join(name), dst.join(name));
+                std::fs::copy(&from, &to).map_err(|e| Self::err(&from, format!("copying to {}: {e}", to.display())))?;
+            }
+        }
+        Ok(Some(file.run))
+    }
+
+    /// Removes the folder (the run is complete).
+    pub fn remove(&self) -> Result<(), ExperimentError> {
+        match std::fs::remove_dir_all(&self.dir) {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+            Err(e) => Err(Self::err(&self.dir, e)),
+        }
+    }
+
+    /// How many checkpoint files the folder holds (0 if there is none).
+    pub fn count(&self) -> usize {
+        std::fs::read_dir(&self.dir)
+            .map(|d| d.flatten().filter(|e| e.path().extension().is_some_and(|x| x == "json")).count())
+            .unwrap_or(0)
+    }
+}
