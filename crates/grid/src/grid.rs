@@ -270,7 +270,9 @@ impl TryFrom<GridRecord> for OccupancyGrid {
                         .checked_mul(10)
                         .and_then(|c| c.checked_add(usize::from(b - b'0')))
                         .filter(|&c| c <= geometry.len())
-                        .ok_or_else(|| format!("cells: the run ending at character {} is longer than the grid", i + 1))?;
+                        .ok_or_else(|| {
+                            format!("cells: the run ending at character {} is longer than the grid", i + 1)
+                        })?;
                     continue;
                 }
                 b'f' => CellState::Free,
@@ -389,7 +391,8 @@ mod tests {
         let text = serde_json::to_string(&g).unwrap();
         assert!(text.contains(r#""cells":"1f1o1u1o1f1u""#), "{text}");
         assert_eq!(serde_json::from_str::<OccupancyGrid>(&text).unwrap(), g);
-        let runs = OccupancyGrid::filled(GridGeometry::new(400, 300, 0.05, Pose2::default()).unwrap(), CellState::Unknown);
+        let runs =
+            OccupancyGrid::filled(GridGeometry::new(400, 300, 0.05, Pose2::default()).unwrap(), CellState::Unknown);
         let t = serde_json::to_string(&runs).unwrap();
         assert!(t.contains(r#""cells":"120000u""#), "{t}");
         assert_eq!(serde_json::from_str::<OccupancyGrid>(&t).unwrap(), runs);

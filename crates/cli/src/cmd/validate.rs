@@ -2,9 +2,9 @@
 //! seeds in parallel; the wall clock is read here (not in the libraries).
 
 use anyhow::Context;
+use mapkeeper_scenario::experiments::checkpoint::Checkpoints;
 use mapkeeper_scenario::results::comparison::{Comparison, write_comparison};
 use mapkeeper_scenario::results::report::write_validation;
-use mapkeeper_scenario::experiments::checkpoint::Checkpoints;
 use mapkeeper_scenario::{Clock, GroundTruth, NoClock, Shard, StagedDir, SweepPlan, SweepSpec, ValidationRecord};
 use mapkeeper_updater::UpdaterParams;
 use std::path::{Path, PathBuf};

@@ -137,7 +137,10 @@ impl Checkpoints {
             };
             return Err(Self::err(
                 &path,
-                format!("was written by a run with {what}; resume with the same flags, or remove {}", self.dir.display()),
+                format!(
+                    "was written by a run with {what}; resume with the same flags, or remove {}",
+                    self.dir.display()
+                ),
             ));
         }
         if file.mcap != mcap_names(params, seed) {
