@@ -250,22 +250,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
     plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
     let checkpoints = Checkpoints::beside(&out);
-    let done = if args.resume {
-        let done = plan.load_checkpoints(&checkpoints)?;
-        let n = done.iter().flatten().count();
-        println!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
-        done
-    } else {
-        let n = checkpoints.count();
-        if n > 0 {
-            eprintln!(
-                "mapkeeper: note: {}: discarded {n} finished job(s) of an interrupted run (--resume keeps them)",
-                checkpoints.dir().display()
-            );
-        }
-        checkpoints.remove()?;
-        vec![None; plan.jobs.len()]
-    };
+    let done = finished_jobs(&plan, &checkpoints, &out, args.resume)?;
     let bar = super::progress_bar(plan.total_worlds(), "worlds");
     let start = Instant::now();
     let wall = super::Wall::start();
@@ -309,6 +294,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     checkpoints.remove()?;
     Ok(())
+}
+
+/// The jobs a killed run had finished (with --resume; in job order, `None`: to run), or none,
+/// discarding what an interrupted run left (without --resume).
+fn finished_jobs(
+    plan: &SweepPlan,
+    checkpoints: &Checkpoints,
+    out: &Path,
+    resume: bool,
+) -> anyhow::Result<Vec<Option<mapkeeper_scenario::SeedRun>>> {
+    if resume {
+        let done = plan.load_checkpoints(checkpoints)?;
+        let n = done.iter().flatten().count();
+        println!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
+        return Ok(done);
+    }
+    let n = checkpoints.count();
+    if n > 0 {
+        eprintln!(
+            "mapkeeper: note: {}: discarded {n} finished job(s) of an interrupted run (--resume keeps them)",
+            checkpoints.dir().display()
+        );
+    }
+    checkpoints.remove()?;
+    Ok(vec![None; plan.jobs.len()])
 }
 
 /// Whether OUT holds the finished outputs of this very run (each preset's summary.json with
