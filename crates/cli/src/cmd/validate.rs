@@ -14,7 +14,7 @@ use std::time::Instant;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Default: the paper's setting over three hold-out seeds: presets paper and \
 mapkeeper side by side (a sweep, below), the amcl localiser, seeds 11, 12, 13, a hundred worlds each \
-(about 36 min on two cores). --preset P runs one preset into OUT itself.\n\n\
+(72 min measured on two cores shared with a CI run). --preset P runs one preset into OUT itself.\n\n\
 For each seed: generate W_1 … W_N; build M_1 in W_1 with the log-odds mapper; in each \
 W_i (i ≥ 2) drive the route with a chain localiser on M_{i-1} (feeding the updater, which makes M_i) and a \
 baseline localiser on M_1; score M_1/G_i and M_i/G_i with CC, MS, OPDF.\n\n\
