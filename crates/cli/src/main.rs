@@ -5,7 +5,42 @@ use clap::error::ErrorKind;
 use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
 
+/// `print!` to standard output that never panics: a reader that went away
+/// (`mapkeeper … | head`) ends the printing, not the run, whose files are still written. Other
+/// write errors are reported once on standard error.
+macro_rules! out {
+    ($($t:tt)*) => { crate::write_stream(false, format_args!($($t)*)) };
+}
+
+/// `println!` that never panics (see `out!`).
+macro_rules! outln {
+    () => { crate::write_stream(false, format_args!("\n")) };
+    ($($t:tt)*) => { crate::write_stream(false, format_args!("{}\n", format_args!($($t)*))) };
+}
+
+/// `eprintln!` that never panics (see `out!`).
+macro_rules! errln {
+    ($($t:tt)*) => { crate::write_stream(true, format_args!("{}\n", format_args!($($t)*))) };
+}
+
 mod cmd;
+
+/// Writes to standard output (or error), ignoring a closed pipe and reporting any other error
+/// once, on standard error (the run goes on: its results are its files).
+fn write_stream(to_stderr: bool, args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static REPORTED: AtomicBool = AtomicBool::new(false);
+    let result =
+        if to_stderr { std::io::stderr().lock().write_fmt(args) } else { std::io::stdout().lock().write_fmt(args) };
+    if let Err(e) = result
+        && e.kind() != std::io::ErrorKind::BrokenPipe
+        && !to_stderr
+        && !REPORTED.swap(true, Ordering::Relaxed)
+    {
+        let _ = writeln!(std::io::stderr(), "mapkeeper: note: cannot write to standard output: {e}");
+    }
+}
 
 /// Safe and robust lifelong map updating (Stefanini et al., Sensors 2023) with a headless 2D
 /// warehouse testbed.
@@ -78,7 +113,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("mapkeeper: error: {}", one_line(&e));
+            errln!("mapkeeper: error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
@@ -96,7 +131,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         _ => {
             let cmd = subcommand_name(std::env::args_os().skip(1));
             let see = cmd.map_or_else(|| "mapkeeper --help".to_string(), |c| format!("mapkeeper {c} --help"));
-            eprintln!("mapkeeper: error: {} (see {see})", clap_message(&e.to_string()));
+            errln!("mapkeeper: error: {} (see {see})", clap_message(&e.to_string()));
             ExitCode::from(2)
         }
     }

@@ -123,3 +123,26 @@ fn a_killed_sweep_resumes_with_the_same_outputs() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `mapkeeper validate … | head -1`: the reader is gone when the run prints its tables; the run
+/// still succeeds and writes its folder, and nothing panics.
+#[test]
+fn a_closed_standard_output_does_not_lose_the_run() {
+    let dir = scratch("resume", "pipe");
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
+        .args(sweep(&out, &[]))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for f in ["summary.json", "report.md", "paper/summary.json", "mapkeeper/runs.json"] {
+        assert!(out.join(f).is_file(), "{f} missing: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -322,7 +322,7 @@ fn measure_components(
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    eprintln!("bench: recording the scene ({} steps, seed {})", args.steps, args.seed);
+    errln!("bench: recording the scene ({} steps, seed {})", args.steps, args.seed);
     let scene = build_scene(args.seed, args.steps)?;
     let m1 = if args.no_loop {
         None
@@ -336,7 +336,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let keys = table_rows(&mut table, m1.is_some());
     let caster = RayCaster::new(&scene.map, true);
     for r in 0..args.repeats {
-        eprintln!("bench: repeat {} of {}", r + 1, args.repeats);
+        errln!("bench: repeat {} of {}", r + 1, args.repeats);
         table.reference.push(timed(reference_workload).0);
         measure_components(&scene, &caster, args.seed, &mut table, &keys)?;
         if let Some(m1) = &m1 {
@@ -382,14 +382,14 @@ fn finish(table: &Table) -> Vec<Row> {
 
 fn print_table(rows: &[Row], table: &Table, repeats: usize, steps: usize) {
     let reference = median(&table.reference);
-    println!(
+    outln!(
         "mapkeeper bench: {steps}-step scene, {repeats} repeat(s); reference workload median {:.2} ms CPU\n",
         reference * 1e3
     );
-    println!("| what | median | min-max | × reference | throughput |");
-    println!("|---|---|---|---|---|");
+    outln!("| what | median | min-max | × reference | throughput |");
+    outln!("|---|---|---|---|---|");
     for r in rows {
-        println!(
+        outln!(
             "| {} | {:.4} {} | {:.4}-{:.4} | {} | {:.1} {} |",
             r.what,
             r.median,

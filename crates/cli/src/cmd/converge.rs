@@ -130,8 +130,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         format!("# Convergence from a start error\n\nW_1 (default warehouse), ground-truth map, {route}.\n\n{table}");
     dir.write("summary.md", md.as_bytes())?;
     let out = dir.finish()?;
-    print!("{table}");
-    println!("wrote {}", out.display());
+    out!("{table}");
+    outln!("wrote {}", out.display());
     Ok(())
 }
 

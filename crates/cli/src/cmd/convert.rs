@@ -51,12 +51,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = dir.finish()?;
     if let Some(r) = &imported.report {
         for line in r.lines() {
-            println!("{line}");
+            outln!("{line}");
         }
     }
     let scans = imported.log.scans().count();
     let odom = imported.log.odometry().count();
-    println!(
+    outln!(
         "wrote {}/log.jsonl ({scans} scans, {odom} odometry readings, {} reference poses) and import.json{}",
         out.display(),
         truth.len(),

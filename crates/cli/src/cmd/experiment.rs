@@ -110,7 +110,7 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
     write_kidnap_robot(&dir, &r)?;
     let out = dir.finish()?;
     let k = &r.kidnap_robot;
-    println!(
+    outln!(
         "kidnap-robot: seed {}, preset {}, {} trials ({} moved), {:.1} s wall: recovered by pose updating {:.1} %, by \
          the filter {:.1} %, failed {:.1} %, false Lost {:.1} %, median recovery {}, map damage CC {:.2} MS {:.2} OPDF \
          {:.2}",
@@ -128,7 +128,7 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
         k.map_damage.ms,
         k.map_damage.opdf
     );
-    println!("wrote {}", out.display());
+    outln!("wrote {}", out.display());
     Ok(())
 }
 
@@ -193,9 +193,13 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     r.summary.wall_time_s = wall_time_s;
     write_table1_hold(&dir, &r)?;
     let out = dir.finish()?;
-    println!(
+    outln!(
         "table1: seed {}, {} trials, {} runs, localiser {}, {:.1} s wall",
-        args.seed, r.summary.params.trials, runs, r.summary.recovery.runner.localiser, r.summary.wall_time_s
+        args.seed,
+        r.summary.params.trials,
+        runs,
+        r.summary.recovery.runner.localiser,
+        r.summary.wall_time_s
     );
     for (preset, by_cond) in &r.summary.table1 {
         for (cond, by_var) in by_cond {
@@ -209,10 +213,10 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
                     )
                 })
                 .collect();
-            println!("{preset:<10} {cond:<11} {}", line.join(" | "));
+            outln!("{preset:<10} {cond:<11} {}", line.join(" | "));
         }
     }
-    println!("wrote {}", out.display());
+    outln!("wrote {}", out.display());
     Ok(())
 }
 
@@ -351,7 +355,7 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
     r.summary.wall_time_s = wall_time_s;
     write_check_detection(&dir, &r)?;
     let out = dir.finish()?;
-    println!(
+    outln!(
         "check-detection: seed {}, {} trials per preset, worlds W_2-W_{}, localiser {}, {:.1} s wall",
         args.seed,
         r.summary.trials,
@@ -360,7 +364,7 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
         r.summary.wall_time_s
     );
     for (name, d) in &r.summary.check_detection {
-        println!(
+        outln!(
             "{name:<12} detection {:.1} % ({}/{}), false alarms {:.2} % of {} clean steps, median latency {}",
             100.0 * d.detection_rate,
             d.detection.hits,
@@ -370,6 +374,6 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
             d.median_latency_s.map_or_else(|| "–".into(), |v| format!("{v:.2} s"))
         );
     }
-    println!("wrote {}", out.display());
+    outln!("wrote {}", out.display());
     Ok(())
 }

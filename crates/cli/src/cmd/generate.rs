@@ -81,7 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let out = dir.finish()?;
     let edits: usize = chain.edits.iter().map(Vec::len).sum();
-    println!(
+    outln!(
         "wrote {} worlds ({} edits, {} movable items in W_{}){} to {}",
         manifest.worlds,
         edits,

@@ -56,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Read back before writing: the file must load as it is.
     World::from_toml_str(&text, &args.out.display().to_string()).context("the imported world")?;
     mapkeeper_grid::write_atomic(&args.out, text.as_bytes()).with_context(|| format!("{}", args.out.display()))?;
-    println!(
+    outln!(
         "wrote {}: {} walls, {} storage areas, a {:.1} m patrol of {} waypoints, start ({:.2}, {:.2})",
         args.out.display(),
         site.world.walls.len(),

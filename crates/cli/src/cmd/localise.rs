@@ -89,17 +89,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let record = serde_json::json!({ "localiser": args.localiser, "seed": args.seed, "filter": params });
     dir.write("params.json", format!("{}\n", serde_json::to_string_pretty(&record)?).as_bytes())?;
     let out = dir.finish()?;
-    println!(
+    outln!(
         "{} updates ({} sensor updates, {} degenerate and recovered, {} without usable beams); \
 {} scan times before the first odometry skipped; init {init}; localiser {}; seed {}",
-        r.updates, r.sensor_updates, r.degenerate, r.no_beams, r.no_odometry, args.localiser, args.seed
+        r.updates,
+        r.sensor_updates,
+        r.degenerate,
+        r.no_beams,
+        r.no_odometry,
+        args.localiser,
+        args.seed
     );
     if let Some((pos, yaw, n)) = r.rmse {
-        println!("position RMSE {pos:.4} m, yaw RMSE {:.3} deg over {n} estimates", yaw.to_degrees());
+        outln!("position RMSE {pos:.4} m, yaw RMSE {:.3} deg over {n} estimates", yaw.to_degrees());
     }
-    println!("wrote {0}/estimate.tum, {0}/covariance.csv and {0}/params.json", out.display());
+    outln!("wrote {0}/estimate.tum, {0}/covariance.csv and {0}/params.json", out.display());
     if let Some(p) = mcap {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
     Ok(())
 }

@@ -105,7 +105,7 @@ impl LogInput {
         let Imported { log, report, path } = self.read_imported()?;
         if let Some(r) = report {
             for line in r.lines() {
-                eprintln!("import: {line}");
+                errln!("import: {line}");
             }
         }
         Ok((log, path))

@@ -85,10 +85,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let grid = r.map;
     map_io::save_map(&grid, &args.out)?;
     let (b, placed, skipped) = (r.beams, r.scans_mapped, r.scans_skipped);
-    println!("scans: {placed} mapped, {skipped} skipped (no true pose within {} s)", args.max_pose_gap_s);
-    println!("beams: {} returns, {} no-return cleared, {} ignored", b.hits, b.clears, b.ignored);
+    outln!("scans: {placed} mapped, {skipped} skipped (no true pose within {} s)", args.max_pose_gap_s);
+    outln!("beams: {} returns, {} no-return cleared, {} ignored", b.hits, b.clears, b.ignored);
     let g = grid.geometry();
-    println!(
+    outln!(
         "map: {} × {} cells at {} m, origin ({}, {}, {}); {} occupied, {} free, {} unknown",
         g.width(),
         g.height(),
@@ -100,6 +100,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         grid.count(CellState::Free),
         grid.count(CellState::Unknown)
     );
-    println!("wrote {}", args.out.display());
+    outln!("wrote {}", args.out.display());
     Ok(())
 }

@@ -35,21 +35,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let c = merge_sweeps(&args.dirs, &out)?;
         out.finish()?;
         let merged: Vec<&str> = c.rows.iter().filter(|r| r.seed.is_none()).map(|r| r.preset.as_str()).collect();
-        println!("merge: {} sweep folder(s), presets {merged:?}, {} worlds", args.dirs.len(), c.worlds);
-        println!("wrote {}", args.out.display());
+        outln!("merge: {} sweep folder(s), presets {merged:?}, {} worlds", args.dirs.len(), c.worlds);
+        outln!("wrote {}", args.out.display());
         return Ok(());
     }
     let out = super::output_dir(&args.out, args.force)?;
     let (_, summary) = merge_dirs(&args.dirs, &out)?;
     out.finish()?;
-    println!(
+    outln!(
         "merge: {} folder(s), seeds {:?}, {} worlds, preset {}",
         args.dirs.len(),
         summary.seeds,
         summary.worlds,
         summary.preset
     );
-    print!("{}", summary.table());
-    println!("wrote {}", args.out.display());
+    out!("{}", summary.table());
+    outln!("wrote {}", args.out.display());
     Ok(())
 }

@@ -77,12 +77,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("metrics of {} and {}", args.a.display(), args.b.display()))?;
     if args.json {
         let object = serde_json::json!({ "cc": m.cc, "ms": m.ms, "opdf": m.opdf });
-        println!("{object}");
+        outln!("{object}");
         return Ok(());
     }
-    println!("A: {} ({})", args.a.display(), describe(a.geometry()));
-    println!("B: {}{}", args.b.display(), if resampled { " (resampled onto A)" } else { "" });
-    println!(
+    outln!("A: {} ({})", args.a.display(), describe(a.geometry()));
+    outln!("B: {}{}", args.b.display(), if resampled { " (resampled onto A)" } else { "" });
+    outln!(
         "cells {}, occupied in A {}, in B {}, in either {}; unknown value {}, OPDF window {} m (r = {:.2} cells)",
         m.cells,
         m.occupied_a,
@@ -92,17 +92,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.opdf_window_m,
         m.opdf_radius_cells
     );
-    println!();
-    println!("{:<12} {:>9}", "metric", "%");
-    println!(
+    outln!();
+    outln!("{:<12} {:>9}", "metric", "%");
+    outln!(
         "{:<12} {:>9.2}{}",
         "CC",
         m.cc,
         if m.cc_degenerate { "  (constant map: rule, see docs/metrics.md)" } else { "" }
     );
-    println!("{:<12} {:>9.2}", "MS", m.ms);
-    println!("{:<12} {:>9.2}", "OPDF", m.opdf);
-    println!("{:<12} {:>9.2}", "  OPDF A→B", m.opdf_ab);
-    println!("{:<12} {:>9.2}", "  OPDF B→A", m.opdf_ba);
+    outln!("{:<12} {:>9.2}", "MS", m.ms);
+    outln!("{:<12} {:>9.2}", "OPDF", m.opdf);
+    outln!("{:<12} {:>9.2}", "  OPDF A→B", m.opdf_ab);
+    outln!("{:<12} {:>9.2}", "  OPDF B→A", m.opdf_ba);
     Ok(())
 }

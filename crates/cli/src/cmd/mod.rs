@@ -44,7 +44,7 @@ where
 pub fn output_dir(out: &Path, force: bool) -> anyhow::Result<StagedDir> {
     let dir = StagedDir::create(out, force)?;
     if let Some(left) = dir.leftover() {
-        eprintln!("mapkeeper: note: {left}");
+        errln!("mapkeeper: note: {left}");
     }
     Ok(dir)
 }
@@ -179,14 +179,14 @@ pub fn load_site(
         site.require_storage(&origin, &params).context("--world")?;
     }
     if site.planned_route {
-        eprintln!(
+        errln!(
             "mapkeeper: note: {origin} has no route: planned a {:.1} m patrol ({} waypoints)",
             site.route.length_m(),
             site.route.waypoints.len()
         );
     }
     if site.derived_areas {
-        eprintln!("mapkeeper: note: {origin} has no storage areas: derived {}", site.storage.len());
+        errln!("mapkeeper: note: {origin} has no storage areas: derived {}", site.storage.len());
     }
     Ok(Some((name, site)))
 }

@@ -152,7 +152,7 @@ the Intel log only)"
     let out = dir.finish()?;
     for d in &results {
         for l in &d.localisers {
-            println!(
+            outln!(
                 "{} ({} scans, {:.0} m): {} mean RMSE {:.4} m, mean max {:.3} m over {} seeds; both targets met by {} of them",
                 d.name,
                 d.scans,
@@ -165,6 +165,6 @@ the Intel log only)"
             );
         }
     }
-    println!("{:.1} s wall; wrote {}", wall, out.display());
+    outln!("{:.1} s wall; wrote {}", wall, out.display());
     Ok(())
 }

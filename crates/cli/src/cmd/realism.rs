@@ -122,7 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     write_sensor_realism(&dir, &r, &header)?;
     let written = dir.finish()?;
-    println!(
+    outln!(
         "sensor-realism: {} configurations × {} seed(s) × {} worlds of {world_name}, preset {}, {:.1} s wall",
         r.summaries.len(),
         p.seeds,
@@ -131,7 +131,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64()
     );
     print_table(&r);
-    println!("wrote {}", written.display());
+    outln!("wrote {}", written.display());
     Ok(())
 }
 
@@ -159,12 +159,17 @@ fn apply_flags(args: &Args, p: &mut SensorRealismParams) {
 
 /// Prints the summary table on stdout.
 fn print_table(r: &SensorRealismResult) {
-    println!(
+    outln!(
         "{:<18} {:>9} {:>22} {:>11} {:>9} {:>5}",
-        "configuration", "CC M_i %", "Δ CC vs ideal", "mean err m", "max err m", "Lost"
+        "configuration",
+        "CC M_i %",
+        "Δ CC vs ideal",
+        "mean err m",
+        "max err m",
+        "Lost"
     );
     for c in &r.summaries {
-        println!(
+        outln!(
             "{:<18} {:>9.2} {:>22} {:>11.4} {:>9.3} {:>5}",
             c.config,
             c.cc_updated_mean,

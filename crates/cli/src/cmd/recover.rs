@@ -73,7 +73,7 @@ fn default_out(seed: u64, trials: usize) -> PathBuf {
 
 fn print_kidnap(name: &str, k: &KidnapSummary) {
     let t = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.1} s"));
-    println!(
+    outln!(
         "kidnap, {name:<6} {} trials: detected {:.1} %, recovered {:.1} % (≤ 1.5 m: {:.1} % of {}), false Lost \
          {:.1} %, median recovery {}, map damage OPDF {:.3} points (max {:.3}), wrong poses {}/{}",
         k.trials,
@@ -124,12 +124,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     write_recovery(&dir, &results)?;
     let out = dir.finish()?;
     let s = &results.summary;
-    println!(
+    outln!(
         "recover: seed {}, {} kidnap trials per case, localiser {}, {:.1} s wall",
-        args.seed, args.trials, params.runner.localiser, wall_time_s
+        args.seed,
+        args.trials,
+        params.runner.localiser,
+        wall_time_s
     );
     let d = &s.demo;
-    println!(
+    outln!(
         "loc-check demo: first Suspend {:?} s, first Update {:?} s, verdicts U{} S{} L{}: suspended then updated: {}",
         d.first_suspend_s,
         d.first_update_s,
@@ -139,17 +142,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         d.suspended_then_updated
     );
     let t = &s.table1;
-    println!("{:<10} {:>14} {:>10} {:>14}", "Table 1", "always-update", "check", "paper");
+    outln!("{:<10} {:>14} {:>10} {:>14}", "Table 1", "always-update", "check", "paper");
     for (name, a, c, pa, pc) in [
         ("CC %", t.always_update.cc, t.check.cc, t.paper_always_update.cc, t.paper_check.cc),
         ("MS %", t.always_update.ms, t.check.ms, t.paper_always_update.ms, t.paper_check.ms),
         ("OPDF %", t.always_update.opdf, t.check.opdf, t.paper_always_update.opdf, t.paper_check.opdf),
     ] {
-        println!("{name:<10} {a:>14.2} {c:>10.2} {:>14}", format!("{pa:.2} → {pc:.2}"));
+        outln!("{name:<10} {a:>14.2} {c:>10.2} {:>14}", format!("{pa:.2} → {pc:.2}"));
     }
-    println!("Table 1 direction reproduced: {}", t.direction_reproduced);
+    outln!("Table 1 direction reproduced: {}", t.direction_reproduced);
     let l = &s.lost_robot;
-    println!(
+    outln!(
         "lost robot ({} runs, {:.1} m): Lost {} recovered {} (pose updating {}), OPDF/G_2 {:.2} vs {:.2} without \
          error ({:.2} always-update), not corrupted: {}",
         l.runs,
@@ -166,6 +169,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &s.kidnap_best_case {
         print_kidnap("best", b);
     }
-    println!("wrote {}", out.display());
+    outln!("wrote {}", out.display());
     Ok(())
 }

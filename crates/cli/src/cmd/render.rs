@@ -56,6 +56,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let image = if args.scale > 1 { image.scaled(args.scale)? } else { image };
     mapkeeper_grid::check_output_file(&args.out, args.force)?;
     image.write_png(&args.out)?;
-    println!("wrote {} ({} × {} pixels)", args.out.display(), image.width(), image.height());
+    outln!("wrote {} ({} × {} pixels)", args.out.display(), image.width(), image.height());
     Ok(())
 }

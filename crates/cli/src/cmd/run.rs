@@ -101,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(path)?;
             let r = run_world_with(&inputs, &params, args.seed, "run", &super::Wall::start(), &mut [&mut rec])
                 .context("closed-loop run")?;
-            println!("wrote {}", rec.finish(Some(&r.map))?.display());
+            outln!("wrote {}", rec.finish(Some(&r.map))?.display());
             r
         }
         None => run_world(&inputs, &params, args.seed, "run", &super::Wall::start()).context("closed-loop run")?,
@@ -110,7 +110,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     save_map(&r.map, &dir.file("map.yaml")?)?;
     write_outputs(&dir, &args, &world_path, &params, &r, wall)?;
     let out = dir.finish()?;
-    println!(
+    outln!(
         "run: {:.1} s simulated in {wall:.1} s; chain error mean {:.3} m max {:.3} m; baseline mean {:.3} m; \
          Update {} Suspend {} Lost {}; {} cells changed; {} collisions; wrote {}",
         r.sim_time_s,

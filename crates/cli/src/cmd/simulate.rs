@@ -111,7 +111,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (Some(_), true) => ", route done",
         (Some(_), false) => ", route not finished",
     };
-    println!(
+    outln!(
         "simulated {:.1} s of '{}' (seed {}): {:.1} m driven, {} scans, {started} collisions{route_note}; wrote {}",
         d.simulated_s,
         world.name,
@@ -121,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.display()
     );
     if let Some(p) = mcap {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
     Ok(())
 }

@@ -141,7 +141,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let out = dir.finish()?;
     let s = r.stats;
-    println!(
+    outln!(
         "{} steps: {} processed, {} gated, {} without valid beams; verdicts update/suspend/lost {}/{}/{}; \
          {} cell changes; recoveries {} ok / {} refused; wrote {}",
         s.steps,
@@ -157,7 +157,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.display()
     );
     if let Some(p) = mcap {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
     Ok(())
 }

@@ -212,15 +212,14 @@ fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
+/// The sweep the flags ask for (W_1 loaded and resolved).
+fn spec_of(args: &Args) -> anyhow::Result<SweepSpec> {
     let presets = match (&args.presets, &args.preset) {
         (Some(list), _) => list.clone(),
         (None, Some(one)) => vec![one.clone()],
         (None, None) => DEFAULT_PRESETS.iter().map(ToString::to_string).collect(),
     };
-    let sweep = args.preset.is_none();
-    let spec = SweepSpec {
+    Ok(SweepSpec {
         presets,
         worlds: args.worlds,
         first_seed: args.seed,
@@ -230,7 +229,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         localiser: args.localiser.clone(),
         ground_truth: args.ground_truth,
         site: super::load_site(args.world.as_deref(), args.route.as_deref(), true)?,
-    };
+    })
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let sweep = args.preset.is_none();
+    let spec = spec_of(&args)?;
     mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
     let mut plan = spec.plan()?;
     if let Some(file) = args.updater_params.as_deref() {
@@ -243,8 +248,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {
         anyhow::bail!("--mcap-worlds: world {w} is beyond --worlds {}", args.worlds);
     }
-    if args.resume && is_complete(&out, &plan, sweep, args.shard)? {
-        println!("validate: {} is complete (--resume): nothing to run", out.display());
+    if args.resume && is_complete(&out, &plan, sweep, &args)? {
+        outln!("validate: {} is complete (--resume): nothing to run", out.display());
         return Ok(());
     }
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
@@ -274,19 +279,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let shard =
             args.shard.map(|s| format!(" (shard {}/{}: seeds {:?})", s.index, s.count, seeds)).unwrap_or_default();
         let (n, preset) = (seeds.len(), &plan.presets[p]);
-        println!(
+        outln!(
             "validate: {n} seed(s) × {} worlds, preset {preset}, localiser {}, {elapsed_s:.1} s wall{shard}",
-            args.worlds, args.localiser
+            args.worlds,
+            args.localiser
         );
-        print!("{}", summary.table());
-        println!("wrote {}", written.display());
+        out!("{}", summary.table());
+        outln!("wrote {}", written.display());
         records.push(record);
     }
     if let Some(top) = top {
         let c = Comparison::new(&plan.presets, &records.iter().collect::<Vec<_>>());
         write_comparison(&top, &c)?;
         top.finish()?;
-        println!(
+        outln!(
             "wrote {} and {} (presets side by side)",
             out.join("summary.json").display(),
             out.join("report.md").display()
@@ -307,12 +313,12 @@ fn finished_jobs(
     if resume {
         let done = plan.load_checkpoints(checkpoints)?;
         let n = done.iter().flatten().count();
-        println!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
+        outln!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
         return Ok(done);
     }
     let n = checkpoints.count();
     if n > 0 {
-        eprintln!(
+        errln!(
             "mapkeeper: note: {}: discarded {n} finished job(s) of an interrupted run (--resume keeps them)",
             checkpoints.dir().display()
         );
@@ -324,7 +330,7 @@ fn finished_jobs(
 /// Whether OUT holds the finished outputs of this very run (each preset's summary.json with
 /// the same parameters, and for a sweep the comparison): `validate --resume` then has nothing
 /// to do. An OUT that holds another run's results is an error.
-fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, shard: Option<Shard>) -> anyhow::Result<bool> {
+fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, args: &Args) -> anyhow::Result<bool> {
     if !out.join("summary.json").is_file() {
         return Ok(false);
     }
@@ -334,7 +340,10 @@ fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, shard: Option<Shard>) 
         let text = std::fs::read_to_string(&file).with_context(|| format!("--resume: {}", file.display()))?;
         let json: serde_json::Value =
             serde_json::from_str(&text).with_context(|| format!("--resume: {}", file.display()))?;
-        let (want, want_shard) = (serde_json::to_value(&plan.params[p])?, serde_json::to_value(shard)?);
+        // As the run writes them: with the bags it was asked for.
+        let mut params = plan.params[p].clone();
+        params.mcap_worlds.clone_from(&args.mcap_worlds);
+        let (want, want_shard) = (serde_json::to_value(&params)?, serde_json::to_value(args.shard)?);
         if json.get("params") != Some(&want) || json.get("shard").unwrap_or(&serde_json::Value::Null) != &want_shard {
             anyhow::bail!(
                 "--resume: {} holds a run with other parameters or another shard than these flags (use another --out)",
