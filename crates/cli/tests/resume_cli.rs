@@ -7,7 +7,7 @@ mod common;
 
 use common::{files, mapkeeper, s, scratch};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::Duration;
 
 fn text(o: &Output) -> String {
@@ -44,6 +44,11 @@ fn sweep(out: &Path, extra: &[&str]) -> Vec<String> {
     a
 }
 
+/// The sweep into `out` as a child process, both its outputs made by `stdio`.
+fn spawn(out: &Path, stdio: fn() -> Stdio) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(sweep(out, &[])).stdout(stdio()).stderr(stdio()).spawn().unwrap()
+}
+
 fn run(args: &[String]) -> Output {
     mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>())
 }
@@ -59,12 +64,7 @@ fn a_killed_sweep_resumes_with_the_same_outputs() {
     // Killed (SIGKILL) as soon as its first job is written.
     let part = dir.join("part");
     let jobs = dir.join(".part.jobs");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
-        .args(sweep(&part, &[]))
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(&part, Stdio::null);
     let first = jobs.join("paper-s11.json");
     while !first.exists() {
         assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be killed");
@@ -130,12 +130,7 @@ fn a_killed_sweep_resumes_with_the_same_outputs() {
 fn a_closed_standard_output_does_not_lose_the_run() {
     let dir = scratch("resume", "pipe");
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
-        .args(sweep(&out, &[]))
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(&out, Stdio::piped);
     drop(child.stdout.take());
     let o = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);

@@ -227,6 +227,18 @@ fn take_lock(lock: &Path) -> std::io::Result<Option<(std::fs::File, String)>> {
     }
 }
 
+/// `.NAME.SUFFIX` beside `target` (`NAME` its last component, `out` if it has none; beside it
+/// in `.` if it has no parent): where a run keeps what belongs to its output folder without
+/// being part of it (the staging folder, its lock, `validate`'s job checkpoints).
+pub fn hidden_sibling(target: &Path, suffix: &str) -> PathBuf {
+    let name = target.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let parent = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    parent.join(format!(".{name}.{suffix}"))
+}
+
 impl StagedDir {
     /// Starts writing `target`. Fails if `target` exists, is not an empty folder and `force` is
     /// false, or if another running process is writing it. Removes what an interrupted run left
@@ -238,14 +250,10 @@ impl StagedDir {
         if target.is_file() {
             return Err(OutputError::NotAFolder(target.to_path_buf()));
         }
-        let name = target.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
+        let staging = hidden_sibling(target, "partial");
+        let lock = hidden_sibling(target, "partial.lock");
+        let parent = staging.parent().map_or_else(|| PathBuf::from("."), Path::to_path_buf);
         std::fs::create_dir_all(&parent).map_err(OutputError::io(&parent))?;
-        let staging = parent.join(format!(".{name}.partial"));
-        let lock = parent.join(format!(".{name}.partial.lock"));
         let Some((handle, previous)) = take_lock(&lock).map_err(OutputError::io(&lock))? else {
             let pid = std::fs::read_to_string(&lock).ok().and_then(|t| t.trim().parse().ok());
             return Err(OutputError::InUse { target: target.to_path_buf(), lock, pid });

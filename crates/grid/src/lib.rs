@@ -35,7 +35,7 @@ mod ray_caster;
 pub mod render;
 mod traversal;
 
-pub use atomic::{AtomicFile, Leftover, OutputError, StagedDir, check_output_file, write_atomic};
+pub use atomic::{AtomicFile, Leftover, OutputError, StagedDir, check_output_file, hidden_sibling, write_atomic};
 pub use distance::DistanceField;
 pub use grid::{CellCoord, CellState, GridGeometry, MAX_CELLS, MAX_SIDE, OccupancyGrid};
 pub use pose::{Point2, Pose2, angle_diff, wrap_angle};

@@ -10,8 +10,8 @@
 //! so a resumed sweep's outputs equal an uninterrupted one's.
 
 use crate::experiments::ExperimentError;
-use crate::experiments::validation::{SeedRun, ValidationParams};
-use mapkeeper_grid::write_atomic;
+use crate::experiments::validation::{SeedRun, ValidationParams, mcap_name};
+use mapkeeper_grid::{hidden_sibling, write_atomic};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -60,7 +60,7 @@ fn fingerprint(params: &ValidationParams, seed: u64) -> Result<Fingerprint, Expe
 
 /// The job's MCAP bag names (as the validation writes them).
 fn mcap_names(params: &ValidationParams, seed: u64) -> Vec<String> {
-    params.mcap_worlds.iter().map(|i| format!("{}-s{seed}-W{i:03}.mcap", params.preset)).collect()
+    params.mcap_worlds.iter().map(|&i| mcap_name(&params.preset, seed, i)).collect()
 }
 
 /// The checkpoint folder of one run.
@@ -73,12 +73,7 @@ impl Checkpoints {
     /// The checkpoints of a run whose output folder is `target`: `.NAME.jobs` beside it (not in
     /// its staging folder, which an interrupted run's successor removes).
     pub fn beside(target: &Path) -> Checkpoints {
-        let name = target.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        Checkpoints { dir: parent.join(format!(".{name}.jobs")) }
+        Checkpoints { dir: hidden_sibling(target, "jobs") }
     }
 
     /// The folder.

@@ -530,6 +530,11 @@ pub fn run_seed(
     }
 }
 
+/// The file name of the MCAP bag of world `i` of a seed (`--mcap-worlds`).
+pub fn mcap_name(preset: &str, seed: u64, i: usize) -> String {
+    format!("{preset}-s{seed}-W{i:03}.mcap")
+}
+
 /// Scores maps against both ground truth variants of each world and keeps the best achievable
 /// map M*_i of the chain.
 struct Judge<'a> {
@@ -640,7 +645,7 @@ pub fn run_seed_in(
         let inputs = RunInputs { world, route: &chain.routes[k], prev_map: &prev, baseline_map: &m1.map };
         let mcap = match &params.mcap_dir {
             Some(dir) if params.mcap_worlds.contains(&i) => {
-                let path = dir.join(format!("{}-s{seed}-W{i:03}.mcap", params.preset));
+                let path = dir.join(mcap_name(&params.preset, seed, i));
                 Some(mapkeeper_harness::mcap_out::McapRecorder::create(&path)?)
             }
             _ => None,
