@@ -196,8 +196,8 @@ fast_rotation_rad_s = inf
 fast_rotation_pause_s = 1.2
 fast_rotation_pause_m = 1.6
 max_range_m = inf
-virtual_rays_each_side = 1
-virtual_ray_spacing_beams = 0.5
+virtual_rays_each_side = 3
+virtual_ray_spacing_beams = 0.25
 virtual_window_rad = 0.0
 change_slope = 0.01327
 change_intercept_m = 0.1473
@@ -211,9 +211,9 @@ tol_slope = 0.01
 tol_intercept_m = 0.1
 tol_max_m = 0.2
 skip_changed_slope = 0.02
-skip_changed_min_m = 0.0
+skip_changed_min_m = 0.15
 skip_unchanged_slope = 0.02
-skip_unchanged_min_m = 0.0
+skip_unchanged_min_m = 0.15
 unchanged_hit = "adjacent8"
 unchanged_ray_free_only = false
 skip_near_changes_beams = 0
@@ -224,12 +224,12 @@ removal_max_offset_cells = inf
 removal_shadow = false
 map_update = true
 buffer_size = 10
-change_threshold = 7
+change_threshold = 8
 flags = "step-majority"
-revert = "never"
+revert = "below-threshold"
 neighbour_support = false
 border_reconstruction = true
-border_interior_only = false
+border_interior_only = true
 
 [pose_updating]
 enabled = true
@@ -267,6 +267,27 @@ truncate_m = 0.3
 better_margin_m = 0.015
 fit_ok_m = 0.2
 
+[registration]
+enabled = false
+max_points = 240
+min_points = 40
+yaw_search_rad = 0.05235987755982989
+yaw_step_rad = 0.003490658503988659
+truncate_m = 0.25
+iterations = 12
+inlier_m = 0.05
+min_inlier_share = 0.5
+max_inlier_rmse_m = 0.03
+min_constraint = 0.08
+max_shift_m = 0.3
+max_turn_rad = 0.05235987755982989
+
+[memory]
+enabled = false
+established_after_worlds = 3
+established_removal_threshold = 9
+scar_worlds = 30
+
 [log_odds]
 l_occ = 0.85
 l_free = -0.4
@@ -277,7 +298,7 @@ free_threshold = 0.196
 prior_l = 2.0
 """
 seed("updater_params", "paper.toml", paper, 3)
-# The fields in which `authors` and `mapkeeper` differ from `paper`.
+# The fields in which `authors` and `mapkeeper` differ from `paper-strict` (the `paper` of the first releases).
 seed("updater_params", "authors.toml", """gating_min_interval_s = 0.3
 fast_rotation_rad_s = 0.20943951023931956
 max_range_m = 18.0

@@ -25,13 +25,16 @@
 //! | `additions/hit_index.rs` | project addition: the hit clearance of the removal gates (edge cells of a wall hit by the same step voted "removed") |
 //! | `additions/free_pass.rs` | project addition: cells free in `M_{i-1}` got only "changed" votes, so new obstacles came out 2-4 cells thick |
 //! | `additions/shift_check.rs` | project addition (`mapkeeper-shift`): the change count cannot tell a wrong pose from a stale map; a nearby pose that fits better can |
+//! | `additions/registration.rs` | project addition: a yaw error of a fraction of a degree (AMCL on a stale map) is written into the map and erodes fixed walls; each step's pose is refined against `M_{i-1}` first, and a poor or ambiguous fit writes nothing |
+//! | `additions/structure_memory.rs` | project addition: long-standing structure was as easy to remove as yesterday's box, and an eroded wall face never came back; a cross-world memory of young cells and scars |
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
 //! | `support/votes.rs` | support: vote packing, radix sort and merge shared by the evaluators and the cells update |
 //!
-//! All parameters are in [`UpdaterParams`]: presets `paper` (§4 as written, nothing added),
-//! `authors` (the behaviour of the authors' ROS code), `mapkeeper` (`paper` plus the additions,
-//! each switchable), and the ablations `always-update`, `no-update`, `log-odds`. The updater depends only on the grid crate and plain sensor types,
+//! All parameters are in [`UpdaterParams`]: presets `paper` (§4 read fairly, nothing added),
+//! `paper-strict` (§4 at its strictest), `authors` (the behaviour of the authors' ROS code),
+//! `mapkeeper` (the project's additions, each switchable), `mapkeeper-no-registration`, and the
+//! ablations `always-update`, `no-update`, `log-odds`. The updater depends only on the grid crate and plain sensor types,
 //! so any localiser, a log file or a real robot can feed it.
 //!
 //! ```
@@ -87,8 +90,10 @@ pub mod additions {
     pub mod grazing;
     pub mod hit_index;
     pub mod log_odds_baseline;
+    pub mod registration;
     pub mod removal_gates;
     pub mod shift_check;
+    pub mod structure_memory;
 }
 
 /// Support code shared by the modules of both: the per-beam value type and the walk along a
@@ -103,6 +108,8 @@ pub mod params;
 mod updater;
 
 pub use error::UpdaterError;
+pub use additions::registration::{Refusal, Registration, RegistrationParams};
+pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
 pub use paper::cell_update::CellChange;
 pub use paper::gating::GateReason;
 pub use paper::icp::Fitness;
@@ -111,4 +118,4 @@ pub use paper::pose_updating::{PoseRecovery, RecoveryFailure};
 pub use params::{
     FlagRule, PRESET_NAMES, PoseUpdatingParams, RevertRule, UnchangedHitRule, UpdateMethod, UpdaterParams,
 };
-pub use updater::{MapUpdater, StepOutcome, StepReport, UpdaterStats};
+pub use updater::{MapUpdater, RegistrationStats, StepOutcome, StepReport, UpdaterStats};

@@ -5,7 +5,9 @@
 //! `docs/paper-vs-implementation.md` has one row per rule and one column per preset).
 
 use crate::UpdaterError;
+use crate::additions::registration::RegistrationParams;
 use crate::additions::shift_check::ShiftCheckParams;
+use crate::additions::structure_memory::MemoryParams;
 use mapkeeper_grid::mapper::MapperParams;
 use serde::{Deserialize, Serialize};
 
@@ -305,6 +307,12 @@ pub struct UpdaterParams {
     /// `shift_check` module). Default off (not written when off with its defaults).
     #[serde(skip_serializing_if = "ShiftCheckParams::is_default_off")]
     pub shift_check: ShiftCheckParams,
+    /// Registration before writing (a `mapkeeper` addition; see the `registration` module).
+    /// Default off.
+    pub registration: RegistrationParams,
+    /// The cross-world memory (a `mapkeeper` addition; see the `structure_memory` module).
+    /// Default off.
+    pub memory: MemoryParams,
     /// Log-odds baseline parameters (the grid crate's mapper; only with `method = "log-odds"`).
     pub log_odds: MapperParams,
 }
@@ -316,16 +324,47 @@ impl Default for UpdaterParams {
 }
 
 /// The names accepted by [`UpdaterParams::preset`].
-pub const PRESET_NAMES: [&str; 7] =
-    ["paper", "authors", "mapkeeper", "mapkeeper-shift", "always-update", "no-update", "log-odds"];
+pub const PRESET_NAMES: [&str; 9] = [
+    "paper",
+    "paper-strict",
+    "authors",
+    "mapkeeper",
+    "mapkeeper-no-registration",
+    "mapkeeper-shift",
+    "always-update",
+    "no-update",
+    "log-odds",
+];
 
 impl UpdaterParams {
-    /// §4 as written, nothing added: eq. 2-9 with n_e = 1, v = Δθ/2, D_th(z) of A.1, tol(z),
-    /// the final chunk m·z of eq. 9 (m = 0.02), N_b = 10, threshold 7, the 0.05 m / 20° gate,
-    /// unknown treated as occupied, border reconstruction of every unknown 8-neighbour, no
-    /// revert. Where the text gives no number (D_th, tol, m) the values are the spec's; choices
-    /// where it is silent are listed in `docs/paper-vs-implementation.md`.
+    /// §4 read fairly (`docs/paper-vs-implementation.md`, "Reading the paper"): `paper-strict`
+    /// with the reading best supported by the text, its figures and its results at each of the
+    /// five points where §4 is silent or ambiguous: the rolling buffer is a sliding window (a
+    /// cell is changed while its last N_b flags hold more than the threshold, and returns to its
+    /// `M_{i-1}` state when they no longer do); "exceeds 7" is > 7; the final chunk of eq. 9 is
+    /// m·z floored at 0.15 m for both evaluators (its stated purpose is the localisation error,
+    /// which does not shrink with range); the virtual rays fill the open interval between the
+    /// neighbouring beams that §4.1 names (n_e = 3, v = Δθ/4; Fig. 7's v = Δθ/2 is "an
+    /// example"); border reconstruction closes obstacle interiors, as Fig. 14 draws it.
     pub fn paper() -> Self {
+        Self {
+            revert: RevertRule::BelowThreshold,
+            change_threshold: 8,
+            skip_changed_min_m: 0.15,
+            skip_unchanged_min_m: 0.15,
+            virtual_rays_each_side: 3,
+            virtual_ray_spacing_beams: 0.25,
+            border_interior_only: true,
+            ..Self::paper_strict()
+        }
+    }
+
+    /// §4 at its strictest, nothing added: eq. 2-9 with n_e = 1, v = Δθ/2, D_th(z) of A.1,
+    /// tol(z), the final chunk m·z of eq. 9 (m = 0.02) with no floor, N_b = 10, "exceeds 7" read
+    /// as ≥ 7, the 0.05 m / 20° gate, unknown treated as occupied, border reconstruction of every
+    /// unknown 8-neighbour, no revert of a flip. Where the text gives no number (D_th, tol, m)
+    /// the values are the spec's. This was the `paper` preset of the first two releases.
+    pub fn paper_strict() -> Self {
         Self {
             method: UpdateMethod::Stefanini,
             gating_min_translation_m: 0.05,
@@ -371,17 +410,33 @@ impl UpdaterParams {
             border_interior_only: false,
             pose_updating: PoseUpdatingParams::default(),
             shift_check: ShiftCheckParams::default(),
+            registration: RegistrationParams::default(),
+            memory: MemoryParams::default(),
             log_odds: MapperParams::default(),
         }
     }
 
-    /// The project's recommended variant: `paper` plus the additions that helped on the tuning
-    /// seeds 1-3 (10 worlds each; `docs/paper-vs-implementation.md`, "Choosing mapkeeper"), each
-    /// switchable by its own field: hit clearance 0.2 m, grazing gate 10°, shadow, free-pass
-    /// votes, revert of flipped cells after 7 "unchanged" flags, border reconstruction of
-    /// obstacle interiors only. The ray core and the 0.15 m minimum final chunk did not help
-    /// there and are off. `tests/additions.rs` shows the failure each addition prevents.
+    /// The project's recommended variant: [`UpdaterParams::mapkeeper_no_registration`] (the
+    /// additions of the second release) plus registration before writing (each step's pose
+    /// refined against `M_{i-1}` with its own scans, nothing written when the fit is poor or
+    /// ambiguous) and the cross-world memory (established structure needs more evidence to go, a
+    /// removed wall face hit again heals). Each is switchable by its own field;
+    /// `tests/additions.rs` shows the failure each addition prevents.
     pub fn mapkeeper() -> Self {
+        Self {
+            registration: RegistrationParams { enabled: true, ..RegistrationParams::default() },
+            memory: MemoryParams { enabled: true, ..MemoryParams::default() },
+            ..Self::mapkeeper_no_registration()
+        }
+    }
+
+    /// `mapkeeper` without registration before writing and without the cross-world memory:
+    /// the additions of the second release alone, as tuned on seeds 1-3 (10 worlds each;
+    /// `docs/paper-vs-implementation.md`, "Choosing mapkeeper"): `paper-strict` plus hit
+    /// clearance 0.2 m, grazing gate 10°, shadow, free-pass votes, revert of flipped cells after
+    /// 7 "unchanged" flags, border reconstruction of obstacle interiors only (the ray core and
+    /// the 0.15 m minimum final chunk did not help there and are off).
+    pub fn mapkeeper_no_registration() -> Self {
         Self {
             removal_hit_clearance_m: 0.20,
             free_pass_votes: true,
@@ -389,7 +444,7 @@ impl UpdaterParams {
             removal_shadow: true,
             revert: RevertRule::UnchangedThreshold,
             border_interior_only: true,
-            ..Self::paper()
+            ..Self::paper_strict()
         }
     }
 
@@ -423,7 +478,7 @@ impl UpdaterParams {
             flags: FlagRule::StepEachKind,
             revert: RevertRule::BelowThreshold,
             neighbour_support: true,
-            ..Self::paper()
+            ..Self::paper_strict()
         }
     }
 
@@ -447,6 +502,8 @@ impl UpdaterParams {
     pub fn preset(name: &str) -> Result<Self, UpdaterError> {
         match name {
             "paper" => Ok(Self::paper()),
+            "paper-strict" => Ok(Self::paper_strict()),
+            "mapkeeper-no-registration" => Ok(Self::mapkeeper_no_registration()),
             "authors" => Ok(Self::authors()),
             "mapkeeper" => Ok(Self::mapkeeper()),
             "mapkeeper-shift" => Ok(Self::mapkeeper_shift()),
@@ -488,6 +545,8 @@ impl UpdaterParams {
         self.validate_evaluators_and_cells()?;
         self.pose_updating.validate()?;
         self.shift_check.validate().map_err(|e| bad("shift_check", e))?;
+        self.registration.validate().map_err(|(field, e)| bad(field, e))?;
+        self.memory.validate(self.buffer_size, self.change_threshold).map_err(|(field, e)| bad(field, e))?;
         self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
         Ok(())
     }
@@ -706,17 +765,34 @@ mod tests {
         let r = UpdaterParams::authors();
         // 0.013z + 0.15, uncapped.
         assert!((r.tol_m(100.0) - 1.45).abs() < 1e-12);
-        let p = UpdaterParams::paper();
+        let p = UpdaterParams::paper_strict();
         assert!((p.tol_m(100.0) - 0.20).abs() < 1e-12);
         assert!((p.tol_m(5.0) - 0.15).abs() < 1e-12);
         // D_th saturates at 0.30.
         assert!((p.change_distance_m(1.0) - 0.16057).abs() < 1e-12);
         assert!((p.change_distance_m(30.0) - 0.30).abs() < 1e-12);
-        // Eq. 9: the final chunk is m·z in `paper`; `mapkeeper` and `authors` floor it at 0.15 m.
+        // Eq. 9: the final chunk is m·z in `paper-strict`; `paper` and `authors` floor it at 0.15 m.
         assert!((p.skip_changed_m(2.0) - 0.04).abs() < 1e-12);
         assert!((p.skip_changed_m(10.0) - 0.20).abs() < 1e-12);
         assert!((r.skip_changed_m(2.0) - 0.15).abs() < 1e-12);
-        // `paper` has none of the additions; `mapkeeper` has them all.
+        // `paper` differs from `paper-strict` at exactly the five open points.
+        let fair = UpdaterParams::paper();
+        assert!((fair.skip_changed_m(2.0) - 0.15).abs() < 1e-12 && (fair.skip_unchanged_m(2.0) - 0.15).abs() < 1e-12);
+        assert_eq!((fair.revert, fair.change_threshold), (RevertRule::BelowThreshold, 8));
+        assert_eq!((fair.virtual_rays_each_side, fair.virtual_ray_spacing_beams), (3, 0.25));
+        assert!(fair.border_interior_only);
+        let back = UpdaterParams {
+            revert: p.revert,
+            change_threshold: p.change_threshold,
+            skip_changed_min_m: 0.0,
+            skip_unchanged_min_m: 0.0,
+            virtual_rays_each_side: 1,
+            virtual_ray_spacing_beams: 0.5,
+            border_interior_only: false,
+            ..fair
+        };
+        assert_eq!(back, p);
+        // `paper-strict` has none of the additions; `mapkeeper` has them all.
         let m = UpdaterParams::mapkeeper();
         assert!(!p.free_pass_votes && !p.removal_shadow && !p.border_interior_only);
         assert_eq!(
@@ -727,6 +803,9 @@ mod tests {
         assert!(p.removal_max_offset_cells.is_infinite() && m.removal_max_offset_cells.is_infinite());
         assert!(m.free_pass_votes && m.removal_shadow && m.border_interior_only);
         assert_eq!(UpdaterParams { skip_changed_min_m: 0.0, ..m.clone() }.removal_hit_clearance_m, 0.20);
+        assert!(m.registration.enabled && m.memory.enabled);
+        let n = UpdaterParams::mapkeeper_no_registration();
+        assert_eq!(UpdaterParams { registration: n.registration, memory: n.memory, ..m.clone() }, n);
         assert!(!UpdaterParams::always_update().localisation_check);
         assert!(!UpdaterParams::no_update().map_update);
     }
@@ -795,7 +874,7 @@ mod tests {
         let p: UpdaterParams =
             serde_json::from_str(r#"{"buffer_size": 12, "pose_updating": {"max_rmse_m": 0.1}}"#).unwrap();
         assert_eq!(p.buffer_size, 12);
-        assert_eq!(p.change_threshold, 7);
+        assert_eq!(p.change_threshold, 8);
         assert_eq!(p.pose_updating.max_rmse_m, 0.1);
         assert!(serde_json::from_str::<UpdaterParams>(r#"{"bufer_size": 12}"#).is_err());
     }

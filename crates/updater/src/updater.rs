@@ -6,6 +6,8 @@ use crate::UpdaterError;
 use crate::additions::free_pass::evaluate_free_pass;
 use crate::additions::hit_index::HitIndex;
 use crate::additions::log_odds_baseline::LogOddsBaseline;
+use crate::additions::registration::{Refusal, Registrar, Registration};
+use crate::additions::structure_memory::StructureMemory;
 use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
 use crate::paper::cell_buffers::CellBuffers;
 use crate::paper::cell_update::{CellChange, CellUpdater};
@@ -33,6 +35,9 @@ pub enum StepOutcome {
     NoValidBeams,
     /// Skipped because fewer beams than `min_valid_beams` were valid: no verdict.
     TooFewBeams,
+    /// Checked and given the verdict Update, but registration before writing refused the
+    /// step's pose (poor or ambiguous fit, or too large a correction): nothing was written.
+    Unregistered,
 }
 
 /// The result of [`MapUpdater::process`].
@@ -59,6 +64,9 @@ pub struct StepReport {
     /// On Lost (with pose updating enabled, at most once per `pose_updating.retry_interval_s`):
     /// the recovered pose or why there is none; `None` between attempts.
     pub pose_recovery: Option<PoseRecovery>,
+    /// Registration before writing (when enabled and the step had valid beams): the refined
+    /// pose or why it was refused. A refused step writes nothing.
+    pub registration: Option<Registration>,
 }
 
 impl StepReport {
@@ -73,7 +81,71 @@ impl StepReport {
             n_dc: 0,
             changed_cells: Vec::new(),
             pose_recovery: None,
+            registration: None,
         }
+    }
+}
+
+/// Registration before writing over a run: how often it refined or refused, and how far it
+/// moved the poses it accepted (histograms; bin edges in [`RegistrationStats::SHIFT_EDGES_M`] and
+/// [`RegistrationStats::TURN_EDGES_RAD`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RegistrationStats {
+    /// Steps whose refined pose was accepted.
+    pub accepted: u64,
+    /// Steps refused, by reason: too few points, poor fit, degenerate, too far.
+    pub refused: [u64; 4],
+    /// Steps with the verdict Update that wrote nothing because registration refused.
+    pub writes_withheld: u64,
+    /// Accepted position corrections: counts below each edge of `SHIFT_EDGES_M`, the last bin
+    /// above the last edge.
+    pub shift_histogram: [u64; 7],
+    /// Accepted yaw corrections (absolute): counts per bin of `TURN_EDGES_RAD`.
+    pub turn_histogram: [u64; 7],
+    /// Sum of the accepted position corrections, micrometres.
+    pub shift_sum_um: u64,
+    /// Sum of the accepted absolute yaw corrections, microradians.
+    pub turn_sum_urad: u64,
+}
+
+impl RegistrationStats {
+    /// Upper edges of the shift bins, metres: 0.5, 1, 2, 5, 10, 20 cm (and above).
+    pub const SHIFT_EDGES_M: [f64; 6] = [0.005, 0.01, 0.02, 0.05, 0.10, 0.20];
+    /// Upper edges of the yaw bins, radians: 0.05°, 0.1°, 0.25°, 0.5°, 1°, 2° (and above).
+    pub const TURN_EDGES_RAD: [f64; 6] = [
+        0.05 * std::f64::consts::PI / 180.0,
+        0.1 * std::f64::consts::PI / 180.0,
+        0.25 * std::f64::consts::PI / 180.0,
+        0.5 * std::f64::consts::PI / 180.0,
+        std::f64::consts::PI / 180.0,
+        2.0 * std::f64::consts::PI / 180.0,
+    ];
+
+    fn record(&mut self, r: &Registration) {
+        match r.refused {
+            None => {
+                self.accepted += 1;
+                let bin = |edges: &[f64; 6], v: f64| edges.iter().position(|&e| v < e).unwrap_or(6);
+                self.shift_histogram[bin(&Self::SHIFT_EDGES_M, r.shift_m)] += 1;
+                self.turn_histogram[bin(&Self::TURN_EDGES_RAD, r.turn_rad.abs())] += 1;
+                self.shift_sum_um += (r.shift_m * 1e6).round() as u64;
+                self.turn_sum_urad += (r.turn_rad.abs() * 1e6).round() as u64;
+            }
+            Some(why) => {
+                let k = match why {
+                    Refusal::TooFewPoints => 0,
+                    Refusal::PoorFit => 1,
+                    Refusal::Degenerate => 2,
+                    Refusal::TooFar => 3,
+                };
+                self.refused[k] += 1;
+            }
+        }
+    }
+
+    /// Steps refused for any reason.
+    pub fn refused_total(&self) -> u64 {
+        self.refused.iter().sum()
     }
 }
 
@@ -110,6 +182,10 @@ pub struct UpdaterStats {
     pub failed_recoveries: u64,
     /// Cell state changes applied to `M_i`.
     pub cell_changes: u64,
+    /// Registration before writing.
+    pub registration: RegistrationStats,
+    /// "Changed" votes cast by the memory's healing rule (a hit in a scarred cell).
+    pub heal_votes: u64,
 }
 
 /// The map updater. It never mutates `M_{i-1}` (given at construction) and owns `M_i`.
@@ -131,6 +207,10 @@ pub struct MapUpdater {
     pose_updater: PoseUpdater,
     /// `M_{i-1}`'s distance field, for the shift check (when on).
     shift_field: Option<mapkeeper_grid::DistanceField>,
+    /// Registration before writing (when on).
+    registrar: Option<Registrar>,
+    /// The cross-world memory of `M_{i-1}` (empty: every occupied cell established).
+    memory: StructureMemory,
     log_odds: Option<LogOddsBaseline>,
     /// (robot_in_map, robot_in_odom) at the last step that passed the localisation check.
     last_good: Option<(Pose2, Pose2)>,
@@ -140,12 +220,35 @@ pub struct MapUpdater {
 }
 
 impl MapUpdater {
-    /// An updater for `initial_map` (`M_{i-1}`); `M_i` starts as a copy of it.
+    /// An updater for `initial_map` (`M_{i-1}`); `M_i` starts as a copy of it. With the memory
+    /// on, every occupied cell of `initial_map` counts as established (a surveyed map); use
+    /// [`MapUpdater::with_memory`] to carry a memory from world to world.
     pub fn new(initial_map: OccupancyGrid, params: UpdaterParams) -> Result<Self, UpdaterError> {
+        Self::with_memory(initial_map, params, StructureMemory::default())
+    }
+
+    /// An updater for `initial_map` (`M_{i-1}`) and the memory that came with it (from
+    /// [`MapUpdater::next_memory`] of the run that made it). The memory is ignored unless
+    /// `params.memory.enabled`.
+    pub fn with_memory(
+        initial_map: OccupancyGrid,
+        params: UpdaterParams,
+        memory: StructureMemory,
+    ) -> Result<Self, UpdaterError> {
         params.validate()?;
         if initial_map.geometry().len() >= (1usize << 31) {
             return Err(UpdaterError::BadMap(format!("{} cells exceed the 2^31 limit", initial_map.geometry().len())));
         }
+        if let Some(k) = memory.max_index()
+            && k as usize >= initial_map.geometry().len()
+        {
+            return Err(UpdaterError::BadMap(format!(
+                "the memory records cell {k}, outside the map's {} cells: it belongs to another map",
+                initial_map.geometry().len()
+            )));
+        }
+        let memory = if params.memory.enabled { memory } else { StructureMemory::default() };
+        let registrar = params.registration.enabled.then(|| Registrar::new(&initial_map, &params.registration));
         let log_odds = if params.method == UpdateMethod::LogOdds {
             Some(
                 LogOddsBaseline::from_grid(&initial_map, params.log_odds)
@@ -160,6 +263,8 @@ impl MapUpdater {
             .then(|| mapkeeper_grid::DistanceField::to_occupied(&initial_map, params.shift_check.truncate_m + 0.05));
         Ok(Self {
             shift_field,
+            registrar,
+            memory,
             current: initial_map.clone(),
             base: RayCaster::new(&initial_map, true),
             params,
@@ -198,6 +303,21 @@ impl MapUpdater {
         self.stats
     }
 
+    /// The cross-world memory this run started from.
+    pub fn memory(&self) -> &StructureMemory {
+        &self.memory
+    }
+
+    /// The memory to hand to the next world together with [`MapUpdater::map`] (empty when the
+    /// memory is off).
+    pub fn next_memory(&self) -> StructureMemory {
+        if self.params.memory.enabled {
+            self.memory.next(self.base.map(), &self.current, &self.params.memory)
+        } else {
+            StructureMemory::default()
+        }
+    }
+
     /// Number of cells that hold a rolling buffer.
     pub fn buffered_cells(&self) -> usize {
         self.buffers.len()
@@ -211,7 +331,10 @@ impl MapUpdater {
     /// dense log-odds array (4 bytes per cell), counted here. Excludes the map-sized caches
     /// ([`MapUpdater::cache_bytes`]) and the per-step scratch ([`MapUpdater::scratch_bytes`]).
     pub fn change_state_bytes(&self) -> usize {
-        size_of::<Self>() + self.buffers.state_bytes() + self.log_odds.as_ref().map_or(0, |l| l.state_bytes())
+        size_of::<Self>()
+            + self.buffers.state_bytes()
+            + self.memory.state_bytes()
+            + self.log_odds.as_ref().map_or(0, |l| l.state_bytes())
     }
 
     /// The same as [`MapUpdater::change_state_bytes`] (the name the validation's
@@ -235,6 +358,7 @@ impl MapUpdater {
             + size_of_val(self.current.cells())
             + self.cell_updater.cache_bytes()
             + self.pose_updater.cache_bytes()
+            + self.registrar.as_ref().map_or(0, Registrar::cache_bytes)
     }
 
     /// Bytes of reusable per-step scratch (grows with beams per step, never with the map): beams,
@@ -248,6 +372,7 @@ impl MapUpdater {
             + self.hits.capacity_bytes()
             + self.cell_updater.scratch_bytes()
             + self.pose_updater.scratch_bytes()
+            + self.registrar.as_ref().map_or(0, Registrar::scratch_bytes)
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
@@ -265,7 +390,10 @@ impl MapUpdater {
         self.stats.steps += 1;
         let stamp_ns = scans.iter().map(|s| s.stamp_ns).max().unwrap_or(0);
         let gate = self.gate.check(robot_in_odom, stamp_ns, &self.params);
-        let counts = self.classifier.classify(&self.base, &robot_in_map, scans, &self.params);
+        let registration = self.register(robot_in_map, scans);
+        // The pose the step is classified, checked and written at: the refined one if accepted.
+        let pose = registration.filter(Registration::accepted).map_or(robot_in_map, |r| r.pose);
+        let counts = self.classifier.classify(&self.base, &pose, scans, &self.params);
         self.stats.invalid_beams += counts.n_invalid as u64;
         self.stats.invalid_scans += counts.invalid_scans as u64;
         self.stats.occluded_scans += counts.occluded_scans as u64;
@@ -275,6 +403,7 @@ impl MapUpdater {
             invalid_scans: counts.invalid_scans,
             occluded_scans: counts.occluded_scans,
             n_dc: counts.n_dc,
+            registration,
             ..StepReport::empty(StepOutcome::Processed)
         };
         if counts.n_valid == 0 {
@@ -288,17 +417,10 @@ impl MapUpdater {
             return report;
         }
         self.stats.processed += 1;
-        let mut verdict = if self.params.localisation_check {
-            localisation_check(counts.n_valid, counts.n_dc, self.params.d_eps_min, self.params.d_eps_max)
-        } else {
-            Verdict::Update
-        };
-        if let Some(field) = &self.shift_field {
-            let p = &self.params.shift_check;
-            if let Some(r) = crate::additions::shift_check::search(field, robot_in_map, scans, p) {
-                verdict = crate::additions::shift_check::combine(verdict, &r, p);
-            }
+        if let Some(r) = &registration {
+            self.stats.registration.record(r);
         }
+        let verdict = self.verdict(counts.n_valid, counts.n_dc, pose, scans);
         report.verdict = Some(verdict);
         if verdict != Verdict::Lost {
             self.last_attempt_ns = None;
@@ -306,10 +428,13 @@ impl MapUpdater {
         match verdict {
             Verdict::Update => {
                 self.stats.updates += 1;
-                self.last_good = Some((robot_in_map, robot_in_odom));
+                self.last_good = Some((pose, robot_in_odom));
                 if let Some(reason) = gate {
                     self.stats.gated += 1;
                     report.outcome = StepOutcome::Gated(reason);
+                } else if registration.is_some_and(|r| !r.accepted()) {
+                    self.stats.registration.writes_withheld += 1;
+                    report.outcome = StepOutcome::Unregistered;
                 } else {
                     self.gate.mark_processed(robot_in_odom, stamp_ns);
                     if self.params.map_update {
@@ -326,6 +451,28 @@ impl MapUpdater {
         }
         self.stats.cell_changes += report.changed_cells.len() as u64;
         report
+    }
+
+    /// Registration before writing, when on (see the `registration` module).
+    fn register(&mut self, robot_in_map: Pose2, scans: &[LaserScan]) -> Option<Registration> {
+        let registrar = self.registrar.as_mut()?;
+        Some(registrar.register(robot_in_map, scans, self.params.max_range_m, &self.params.registration))
+    }
+
+    /// The localisation check (§4.2) with the shift check when on.
+    fn verdict(&self, n_valid: usize, n_dc: usize, pose: Pose2, scans: &[LaserScan]) -> Verdict {
+        let mut verdict = if self.params.localisation_check {
+            localisation_check(n_valid, n_dc, self.params.d_eps_min, self.params.d_eps_max)
+        } else {
+            Verdict::Update
+        };
+        if let Some(field) = &self.shift_field {
+            let p = &self.params.shift_check;
+            if let Some(r) = crate::additions::shift_check::search(field, pose, scans, p) {
+                verdict = crate::additions::shift_check::combine(verdict, &r, p);
+            }
+        }
+        verdict
     }
 
     /// Pose updating (§4.6) on a Lost step, if enabled and due (the first Lost step of an
@@ -389,6 +536,9 @@ impl MapUpdater {
                 evaluate_changed_beam_cast(&self.base, &beam, &self.params, &self.hits, &mut self.votes);
             }
         }
+        if !self.memory.is_empty() {
+            self.stats.heal_votes += self.heal_votes() as u64;
+        }
         ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
         let n_changed_votes = self.votes.len();
         if !self.buffers.is_empty() {
@@ -422,9 +572,30 @@ impl MapUpdater {
             self.base.map(),
             &mut self.current,
             &mut self.buffers,
-            &self.params,
+            (&self.params, &self.memory),
             changes,
         );
+    }
+
+    /// The memory's healing rule: a beam without detected change whose hit point falls in a
+    /// scarred cell (free in `M_{i-1}`) votes it "changed" (occupied again). Returns the votes
+    /// cast.
+    fn heal_votes(&mut self) -> usize {
+        let map = self.base.map();
+        let g = map.geometry();
+        let before = self.votes.len();
+        for b in &self.classifier.beams {
+            if b.class != BeamClass::Unchanged {
+                continue;
+            }
+            if let Some(i) = g.world_to_cell(b.hit).and_then(|c| g.index(c))
+                && map.cells()[i] == mapkeeper_grid::CellState::Free
+                && self.memory.is_scar(i as u32)
+            {
+                self.votes.push(crate::support::votes::vote(i, true));
+            }
+        }
+        self.votes.len() - before
     }
 }
 

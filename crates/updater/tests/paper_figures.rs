@@ -1,6 +1,9 @@
 //! Tests that pin the paper's figures and equations on tiny hand-made grids (§4, Fig. 8-14,
 //! eq. 6-9), plus the end-to-end behaviours the spec names (added box after the threshold, a
-//! person never enters the map).
+//! person never enters the map). They use `paper-strict`, whose numbers are the text's own at
+//! every open point (threshold 7 reached at the 7th flag, the final chunk m·z without a floor,
+//! every unknown neighbour closed); `paper` differs from it only in those parameters
+//! (`params::tests::presets_validate_and_differ_as_listed`).
 
 mod common;
 
@@ -37,7 +40,7 @@ fn fig8_one_to_n_prevents_false_change_at_removed_obstacle_edge() {
     assert!(cast_ray(&base, origin, a, 10.0, true).range_m < 2.0, "central ray must clip the obstacle");
     let z = cast_ray(&world, origin, a, 10.0, true).range_m + 0.005;
     let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
-    let d_th = UpdaterParams::paper().change_distance_m(z);
+    let d_th = UpdaterParams::paper_strict().change_distance_m(z);
     let caster = mapkeeper_grid::RayCaster::new(&base, true);
     let one_to_one = ScanRays { origin, increment_rad: inc, each_side: 0, spacing_beams: 0.5, max_range_m: 30.0 };
     let one_to_n = ScanRays { each_side: 1, ..one_to_one };
@@ -73,7 +76,7 @@ fn fig10_final_chunk_is_skipped() {
         );
         decode(&votes, 60)
     };
-    let p = UpdaterParams::paper();
+    let p = UpdaterParams::paper_strict();
     // 1 cm beyond the wall's far face: the wall's centre (3.5 cm from p_i) is inside the chunk.
     let cells = flagged(2.06, &p);
     for x in 19..=21 {
@@ -107,7 +110,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
         base.set(CellCoord::new(50, iy), CellState::Occupied); // the back wall at x = 2.5 m
     }
     let origin = g.cell_center(CellCoord::new(0, 5));
-    let p = UpdaterParams::paper();
+    let p = UpdaterParams::paper_strict();
     let hit_cell_voted = |hit: Point2| {
         let mut votes = Vec::new();
         evaluate_changed_beam(
@@ -161,13 +164,13 @@ fn fig14_border_reconstruction() {
     let mut current = base.clone();
     let mut buffers = CellBuffers::new();
     let mut up = CellUpdater::new(&base);
-    let p = UpdaterParams::paper();
+    let p = UpdaterParams::paper_strict();
     let target = CellCoord::new(3, 4);
     let idx = g.index(target).unwrap();
     for step in 1..=7 {
         let mut votes = vec![vote(idx, true)];
         let mut changes = Vec::new();
-        up.apply(&mut votes, &base, &mut current, &mut buffers, &p, &mut changes);
+        up.apply(&mut votes, &base, &mut current, &mut buffers, (&p, &mapkeeper_updater::StructureMemory::default()), &mut changes);
         if step < 7 {
             assert!(changes.is_empty(), "step {step}");
         } else {
@@ -220,7 +223,7 @@ fn added_box_appears_at_the_threshold_and_not_before() {
         let base = room(6.0, 4.0, 0.05);
         let mut world = base.clone();
         fill_rect(&mut world, 4.0, 1.8, 4.4, 2.2, CellState::Occupied);
-        let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper()).unwrap();
+        let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper_strict()).unwrap();
         let reports = drive(&mut up, &|_| world.clone(), Pose2::new(1.5, 2.0, 0.0), 10, err);
         for (k, r) in reports.iter().enumerate() {
             assert_eq!(r.outcome, StepOutcome::Processed);
@@ -251,7 +254,7 @@ fn removed_box_is_cleared_and_wall_behind_untouched() {
         let world = room(6.0, 4.0, 0.05);
         let mut base = world.clone();
         fill_rect(&mut base, 4.0, 1.8, 4.4, 2.2, CellState::Occupied);
-        let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper()).unwrap();
+        let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper_strict()).unwrap();
         let reports = drive(&mut up, &|_| world.clone(), Pose2::new(1.5, 2.0, 0.0), 10, err);
         for r in &reports {
             assert_eq!(r.verdict, Some(Verdict::Update));
@@ -276,14 +279,14 @@ fn person_crossing_the_beams_never_flips_a_cell() {
         fill_rect(&mut w, 3.5, y, 3.9, y + 0.4, CellState::Occupied);
         w
     };
-    let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper()).unwrap();
+    let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper_strict()).unwrap();
     let reports = drive(&mut up, &person, Pose2::new(1.0, 2.0, 0.0), 30, Pose2::IDENTITY);
     assert!(reports.iter().any(|r| r.n_dc > 0), "the person is seen as a change");
     assert!(reports.iter().all(|r| r.changed_cells.is_empty()));
     assert_eq!(up.map(), &base);
     // A person standing still for long enough does enter the map (the threshold is the only
     // thing that keeps it out).
-    let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper()).unwrap();
+    let mut up = MapUpdater::new(base.clone(), UpdaterParams::paper_strict()).unwrap();
     let still = person(10);
     let reports = drive(&mut up, &|_| still.clone(), Pose2::new(1.0, 2.0, 0.0), 8, Pose2::IDENTITY);
     assert!(reports.iter().any(|r| !r.changed_cells.is_empty()));

@@ -108,6 +108,7 @@ impl Observer for Rows {
             StepOutcome::Gated(_) => "gated",
             StepOutcome::NoValidBeams => "no_valid_beams",
             StepOutcome::TooFewBeams => "too_few_beams",
+            StepOutcome::Unregistered => "unregistered",
         };
         let verdict = r.verdict.map_or("", |v| v.name());
         if let Some(rec) = &r.pose_recovery {

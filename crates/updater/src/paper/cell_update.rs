@@ -15,6 +15,7 @@
 //! it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
+use crate::additions::structure_memory::StructureMemory;
 use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
 use crate::params::{FlagRule, RevertRule};
 use crate::support::votes::Vote;
@@ -71,14 +72,16 @@ impl CellUpdater {
     }
 
     /// Reduces `votes` (sorted in place), pushes one flag per cell into `buffers`, applies the
-    /// flip rule to `current` (`M_i`) and appends every state change to `changes`.
+    /// flip rule to `current` (`M_i`) and appends every state change to `changes`. With the
+    /// memory on (`params.memory`), an established occupied cell of `memory` needs
+    /// `memory.established_removal_threshold` flags to become free.
     pub fn apply(
         &mut self,
         votes: &mut [Vote],
         base: &OccupancyGrid,
         current: &mut OccupancyGrid,
         buffers: &mut CellBuffers,
-        params: &UpdaterParams,
+        (params, memory): (&UpdaterParams, &StructureMemory),
         changes: &mut Vec<CellChange>,
     ) {
         votes.sort_unstable();
@@ -108,13 +111,20 @@ impl CellUpdater {
                 self.flagged.push((index, b));
             }
         }
-        let threshold = params.change_threshold;
         for &(index, buffer) in &self.flagged {
             let idx = index as usize;
             let cell = g.coord(idx);
             let base_state = base.cells()[idx];
             let target = flipped(base_state);
             let now = current.cells()[idx];
+            let threshold = if params.memory.enabled
+                && base_state == CellState::Occupied
+                && memory.is_established(index)
+            {
+                params.memory.established_removal_threshold.max(params.change_threshold)
+            } else {
+                params.change_threshold
+            };
             if now != target {
                 if self.support(buffer, cell, base, buffers, params) >= threshold {
                     current.cells_mut()[idx] = target;
@@ -134,7 +144,7 @@ impl CellUpdater {
             } else if match params.revert {
                 RevertRule::Never => false,
                 RevertRule::BelowThreshold => self.support(buffer, cell, base, buffers, params) < threshold,
-                RevertRule::UnchangedThreshold => buffer.unchanged() >= threshold,
+                RevertRule::UnchangedThreshold => buffer.unchanged() >= params.change_threshold,
             } {
                 current.cells_mut()[idx] = base_state;
                 changes.push(CellChange { cell, from: now, to: base_state });
