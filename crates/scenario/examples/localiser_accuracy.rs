@@ -16,7 +16,7 @@ fn run(world: &World, g: &mapkeeper_grid::OccupancyGrid, err: f64, yaw_deg: f64,
         ..RunnerParams::default()
     };
     let route = Route::default_warehouse();
-    let inputs = RunInputs { world, route: &route, prev_map: g, baseline_map: g };
+    let inputs = RunInputs { world, route: &route, prev_map: g, baseline_map: g, prev_memory: None };
     match run_world(&inputs, &p, seed, "accuracy", &NoClock) {
         Ok(r) => r,
         Err(e) => panic!("seed {seed}: {e}"),

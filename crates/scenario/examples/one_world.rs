@@ -41,7 +41,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             p.run_baseline = false;
         }
         let t = Instant::now();
-        let inputs = RunInputs { world: &chain.worlds[1], route: &route, prev_map: &m1.map, baseline_map: &m1.map };
+        let inputs = RunInputs {
+            world: &chain.worlds[1],
+            route: &route,
+            prev_map: &m1.map,
+            baseline_map: &m1.map,
+            prev_memory: None,
+        };
         let r = run_world(&inputs, &p, 1, "W002", &clock)?;
         let wall = t.elapsed().as_secs_f64();
         println!(

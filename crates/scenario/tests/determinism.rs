@@ -75,7 +75,7 @@ fn baseline_on_its_own_thread_gives_the_same_run() {
     let world = World::default_warehouse();
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05).unwrap());
     let route = ValidationParams::short_route(8.0);
-    let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
     let mut p = RunnerParams { record_trajectories: true, ..RunnerParams::default() };
     let a = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
     p.parallel_baseline = false;

@@ -24,7 +24,7 @@ fn tracking_from_a_small_start_error_meets_5cm_and_1deg() {
     let route = ValidationParams::short_route(25.0);
     let p = params(0.1, 3.0, 0.1, 3f64.to_radians());
     for seed in [1, 2, 3] {
-        let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g };
+        let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
         let run = run_world(&inputs, &p, seed, "accuracy", &NoClock).unwrap();
         assert!(run.route_done, "seed {seed}: route not completed");
         assert!(run.chain.updates >= 50, "seed {seed}: only {} updates", run.chain.updates);
@@ -41,7 +41,7 @@ fn converges_within_5m_from_half_and_0_7_metre_errors() {
     let route = ValidationParams::short_route(12.0);
     for (err, seed) in [(0.5, 4), (0.7, 5)] {
         let p = params(err, 5.0, err, 0.1);
-        let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g };
+        let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
         let run = run_world(&inputs, &p, seed, "convergence", &NoClock).unwrap();
         // Converged: below 0.1 m from some update within the first 5 m, and it stays there.
         let first = run.chain_errors.iter().position(|e| e.error_m < 0.1);

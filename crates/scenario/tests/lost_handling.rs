@@ -33,7 +33,7 @@ fn kidnapped_run_with(dx_m: f64, dy_m: f64, refuse: bool, ahead: bool) -> (World
     if refuse {
         p.updater.pose_updating.max_rmse_m = 1e-9;
     }
-    let inputs = RunInputs { world: &w, route: &route, prev_map: &g, baseline_map: &g };
+    let inputs = RunInputs { world: &w, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
     (run_world(&inputs, &p, 5, "lost-test", &NoClock).expect("run"), p)
 }
 

@@ -27,7 +27,7 @@ fn run(preset: &str, pauses: bool, seed: u64) -> (usize, usize) {
     let route = Route::default_warehouse();
     let updater = mapkeeper_updater::UpdaterParams::preset(preset).unwrap();
     let params = RunnerParams { run_baseline: false, updater, ..RunnerParams::default() };
-    let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
     let r = run_world(&inputs, &params, seed, "people-only", &NoClock).unwrap();
     assert!(r.route_done, "seed {seed}");
     assert_eq!(r.collisions, 0, "seed {seed}");

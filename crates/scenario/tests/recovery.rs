@@ -101,7 +101,7 @@ fn a_one_metre_kidnap_is_detected_and_recovered() {
         updater: mapkeeper_updater::UpdaterParams::mapkeeper(),
         ..RunnerParams::default()
     };
-    let inputs = RunInputs { world: &w, route: &route, prev_map: &g, baseline_map: &g };
+    let inputs = RunInputs { world: &w, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
     let run = run_world(&inputs, &p, 5, "kidnap-test", &NoClock).unwrap();
     let reference =
         run_world(&inputs, &RunnerParams { kidnap: None, ..p.clone() }, 5, "kidnap-test", &NoClock).unwrap();

@@ -36,7 +36,8 @@ fn upside_down_lidars_localise_and_map_like_upright_ones() {
         if upside_down {
             robot.apply(&mut p.sim);
         }
-        let inputs = RunInputs { world: &world, route: &route, prev_map: &prev, baseline_map: &prev };
+        let inputs =
+            RunInputs { world: &world, route: &route, prev_map: &prev, baseline_map: &prev, prev_memory: None };
         run_world(&inputs, &p, 7, "upside-down", &NoClock).unwrap()
     };
     let (up, down) = (run(false), run(true));

@@ -107,9 +107,9 @@ mod error;
 pub mod params;
 mod updater;
 
-pub use error::UpdaterError;
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
+pub use error::UpdaterError;
 pub use paper::cell_update::CellChange;
 pub use paper::gating::GateReason;
 pub use paper::icp::Fitness;

@@ -170,7 +170,14 @@ fn fig14_border_reconstruction() {
     for step in 1..=7 {
         let mut votes = vec![vote(idx, true)];
         let mut changes = Vec::new();
-        up.apply(&mut votes, &base, &mut current, &mut buffers, (&p, &mapkeeper_updater::StructureMemory::default()), &mut changes);
+        up.apply(
+            &mut votes,
+            &base,
+            &mut current,
+            &mut buffers,
+            (&p, &mapkeeper_updater::StructureMemory::default()),
+            &mut changes,
+        );
         if step < 7 {
             assert!(changes.is_empty(), "step {step}");
         } else {

@@ -202,7 +202,7 @@ fn run_traversal(caster: &RayCaster, scene: &Scene) -> (usize, f64) {
 fn run_loop(scene: &Scene, m1: &OccupancyGrid, preset: &str, seed: u64) -> anyhow::Result<(f64, f64, f64)> {
     let mut params = ValidationParams::new(2, preset)?;
     params.runner.set_localiser("amcl")?;
-    let inputs = RunInputs { world: &scene.w2, route: &scene.route, prev_map: m1, baseline_map: m1 };
+    let inputs = RunInputs { world: &scene.w2, route: &scene.route, prev_map: m1, baseline_map: m1, prev_memory: None };
     let start = Instant::now();
     let c0 = process_cpu_s();
     let run = mapkeeper_scenario::run_world(&inputs, &params.runner, seed, "bench", &NoClock)?;

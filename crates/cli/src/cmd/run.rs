@@ -34,8 +34,9 @@ pub struct Args {
     /// Route file (default: the world's route, or a planned patrol when it has none).
     #[arg(long, value_name = "FILE")]
     pub route: Option<PathBuf>,
-    /// Updater preset.
-    #[arg(long, default_value = "paper")]
+    /// Updater preset (default mapkeeper, the recommended one; `mapkeeper update --help` lists
+    /// them all).
+    #[arg(long, default_value = "mapkeeper")]
     pub preset: String,
     /// TOML file overriding any field of the updater preset (as `mapkeeper update --params`).
     #[arg(long, value_name = "FILE.toml")]
@@ -95,7 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     args.sensor.apply(&mut params.sim)?;
     let dir = super::output_dir(&args.out, args.force)?;
     let start = Instant::now();
-    let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline, prev_memory: None };
     let r = match args.mcap.as_deref() {
         Some(path) => {
             let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(path)?;

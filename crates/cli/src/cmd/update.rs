@@ -62,8 +62,10 @@ pub struct Args {
     /// With --localise: the localiser's seed (any whole number from 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Parameter preset: paper (default), authors, mapkeeper, mapkeeper-shift, always-update, no-update, log-odds.
-    #[arg(long, value_name = "NAME", default_value = "paper")]
+    /// Parameter preset: mapkeeper (default: the recommended one), paper (§4 read fairly),
+    /// paper-strict, authors, mapkeeper-no-registration, mapkeeper-shift, always-update,
+    /// no-update, log-odds (docs/updater.md).
+    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
     pub preset: String,
     /// TOML file overriding any field of the preset (same names as UpdaterParams; tables for
     /// pose_updating and log_odds).

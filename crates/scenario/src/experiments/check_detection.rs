@@ -437,7 +437,8 @@ pub fn run_check_detection(
                 dy_m: d.error_m * dir.sin(),
                 dyaw_rad: d.yaw_error_rad,
             });
-            let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+            let inputs =
+                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
             let run = run_world(&inputs, &rp, seed, &format!("check-detection-{t:05}"), &NoClock)?;
             progress();
             Ok(score_trial(d, &p.presets[k], run.pose_error.map(|r| r.began_s), &run.timeline, p))

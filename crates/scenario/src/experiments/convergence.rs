@@ -185,7 +185,7 @@ pub fn run_job(
     }
     rp.init_sigma_xy_m = rp.filter.initial_cov_xx_m2.max(rp.filter.initial_cov_yy_m2).sqrt();
     rp.init_sigma_yaw_rad = rp.filter.initial_cov_aa_rad2.sqrt();
-    let inputs = RunInputs { world: w1, route: &params.route, prev_map: map, baseline_map: map };
+    let inputs = RunInputs { world: w1, route: &params.route, prev_map: map, baseline_map: map, prev_memory: None };
     let run = run_world(&inputs, &rp, seed, "converge", &NoClock)?;
     let traj = run.trajectories.unwrap_or_default();
     let mut samples = Vec::with_capacity(traj.truth.len());

@@ -293,7 +293,7 @@ fn run_trial(
     rp.updater = updater.clone();
     rp.max_sim_time_s = d.kidnap_s + p.recovery_window_s + c.hold_s;
     rp.record_trajectories = true;
-    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
     let label = format!("kidnap-robot-{:05}", d.trial);
     let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
     let reference_scores = scores(&reference.map, g, &recovery.metrics)?;

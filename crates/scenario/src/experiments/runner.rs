@@ -24,7 +24,7 @@ pub use mapkeeper_harness::{Clock, ErrorSample, LocStats, NoClock, Trajectories}
 use mapkeeper_localiser::{FilterParams, Localiser};
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
 use mapkeeper_sim::{Route, SimParams, Simulator, World};
-use mapkeeper_updater::{MapUpdater, UpdaterParams};
+use mapkeeper_updater::{MapUpdater, StructureMemory, UpdaterParams};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
@@ -233,6 +233,79 @@ pub struct UpdaterCounts {
     /// grids, clearance field, interior mask, score grid; grows with the map, not the scans).
     #[serde(default)]
     pub cache_bytes: u64,
+    /// Registration before writing: steps refined, refused (by reason), writes withheld, and
+    /// the distributions of the corrections (zeros when registration is off).
+    #[serde(default)]
+    pub registration: RegistrationCounts,
+    /// "Changed" votes of the memory's healing rule.
+    #[serde(default)]
+    pub heal_votes: u64,
+}
+
+/// Registration before writing over a run (`mapkeeper_updater::RegistrationStats`, with the
+/// bins named).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RegistrationCounts {
+    /// Steps whose refined pose was accepted.
+    pub accepted: u64,
+    /// Steps refused: too few points near the map.
+    pub refused_too_few_points: u64,
+    /// Steps refused: poor fit.
+    pub refused_poor_fit: u64,
+    /// Steps refused: degenerate (a direction unconstrained).
+    pub refused_degenerate: u64,
+    /// Steps refused: correction too large.
+    pub refused_too_far: u64,
+    /// Steps with the verdict Update that wrote nothing because registration refused.
+    pub writes_withheld: u64,
+    /// Accepted position corrections per bin: < 0.5, 1, 2, 5, 10, 20 cm, and above.
+    pub shift_histogram: [u64; 7],
+    /// Accepted absolute yaw corrections per bin: < 0.05°, 0.1°, 0.25°, 0.5°, 1°, 2°, and above.
+    pub turn_histogram: [u64; 7],
+    /// Sum of the accepted position corrections, micrometres.
+    pub shift_sum_um: u64,
+    /// Sum of the accepted absolute yaw corrections, microradians.
+    pub turn_sum_urad: u64,
+}
+
+impl From<mapkeeper_updater::RegistrationStats> for RegistrationCounts {
+    fn from(s: mapkeeper_updater::RegistrationStats) -> Self {
+        Self {
+            accepted: s.accepted,
+            refused_too_few_points: s.refused[0],
+            refused_poor_fit: s.refused[1],
+            refused_degenerate: s.refused[2],
+            refused_too_far: s.refused[3],
+            writes_withheld: s.writes_withheld,
+            shift_histogram: s.shift_histogram,
+            turn_histogram: s.turn_histogram,
+            shift_sum_um: s.shift_sum_um,
+            turn_sum_urad: s.turn_sum_urad,
+        }
+    }
+}
+
+impl RegistrationCounts {
+    /// The sum of two runs' counts.
+    pub fn add(&mut self, o: &RegistrationCounts) {
+        self.accepted += o.accepted;
+        self.refused_too_few_points += o.refused_too_few_points;
+        self.refused_poor_fit += o.refused_poor_fit;
+        self.refused_degenerate += o.refused_degenerate;
+        self.refused_too_far += o.refused_too_far;
+        self.writes_withheld += o.writes_withheld;
+        for k in 0..7 {
+            self.shift_histogram[k] += o.shift_histogram[k];
+            self.turn_histogram[k] += o.turn_histogram[k];
+        }
+        self.shift_sum_um += o.shift_sum_um;
+        self.turn_sum_urad += o.turn_sum_urad;
+    }
+
+    /// Steps refused for any reason.
+    pub fn refused(&self) -> u64 {
+        self.refused_too_few_points + self.refused_poor_fit + self.refused_degenerate + self.refused_too_far
+    }
 }
 
 /// Everything one run produced.
@@ -275,6 +348,9 @@ pub struct WorldRun {
     pub lost_episodes: Vec<LostEpisode>,
     /// The fresh map of this run at the estimated poses ([`RunnerParams::fresh_map`]).
     pub fresh_map: Option<OccupancyGrid>,
+    /// The updater's cross-world memory to hand to the next world with [`WorldRun::map`]
+    /// (empty when the memory is off).
+    pub memory: StructureMemory,
 }
 
 /// The initial estimate: the true start displaced by `start_error_m` in a seeded direction and
@@ -306,6 +382,9 @@ pub struct RunInputs<'a> {
     pub prev_map: &'a OccupancyGrid,
     /// M_1: the baseline localiser's map.
     pub baseline_map: &'a OccupancyGrid,
+    /// The updater's cross-world memory of M_{i-1} (`None`: M_{i-1} is a surveyed map, every
+    /// occupied cell established; ignored unless the updater's memory is on).
+    pub prev_memory: Option<&'a StructureMemory>,
 }
 
 /// Runs one world. All random streams derive from `seed` and `label` (e.g. `"W007"`); the
@@ -339,6 +418,19 @@ fn baseline(
     Ok(Some(if params.parallel_baseline { Baseline::threaded(b) } else { Baseline::inline(b) }))
 }
 
+/// The run's updater on M_{i-1} with its memory, if the run has one.
+fn updater(
+    params: &RunnerParams,
+    prev_map: &OccupancyGrid,
+    prev_memory: Option<&StructureMemory>,
+) -> Result<Option<MapUpdater>, ExperimentError> {
+    if !params.run_updater {
+        return Ok(None);
+    }
+    let memory = prev_memory.cloned().unwrap_or_default();
+    Ok(Some(MapUpdater::with_memory(prev_map.clone(), params.updater.clone(), memory)?))
+}
+
 /// [`run_world`] with `extra` controls seeing every step after the run's own (an MCAP
 /// recorder, say); they must not change the run.
 pub fn run_world_with(
@@ -350,7 +442,7 @@ pub fn run_world_with(
     extra: &mut [&mut dyn Control],
 ) -> Result<WorldRun, ExperimentError> {
     params.validate()?;
-    let RunInputs { world, route, prev_map, baseline_map } = *inputs;
+    let RunInputs { world, route, prev_map, baseline_map, prev_memory } = *inputs;
     let mut sim = Simulator::new(world, params.sim.clone(), stream_seed(seed, &format!("sim/{label}")))?;
     sim.set_route(route.points());
     let start_est = perturbed_start(sim.true_pose(), params, seed, &format!("start/{label}"));
@@ -358,8 +450,7 @@ pub fn run_world_with(
     let mut chain = Localiser::new(prev_map, params.filter, stream_seed(seed, &format!("chain/{label}")))?;
     chain.init_pose(start_est, cov)?;
     let baseline = baseline(params, baseline_map, seed, label, start_est, cov)?;
-    let updater =
-        if params.run_updater { Some(MapUpdater::new(prev_map.clone(), params.updater.clone())?) } else { None };
+    let updater = updater(params, prev_map, prev_memory)?;
     let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
     let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), params.simulate_ahead);
     let mut score = LocScore::new(params.record_trajectories);
@@ -401,9 +492,9 @@ pub fn run_world_with(
     let source = source.finish().map_err(mapkeeper_harness::HarnessError::from)?;
     result?;
     let baseline_stats = if params.run_baseline { score.score_baseline(&out.baseline) } else { LocStats::default() };
-    let (map, updater) = match &out.updater {
-        Some(u) => (u.map().clone(), UpdaterCounts::from_run(u, &work)),
-        None => (prev_map.clone(), UpdaterCounts::default()),
+    let (map, updater, memory) = match &out.updater {
+        Some(u) => (u.map().clone(), UpdaterCounts::from_run(u, &work), u.next_memory()),
+        None => (prev_map.clone(), UpdaterCounts::default(), prev_memory.cloned().unwrap_or_default()),
     };
     let cells_changed = map.cells().iter().zip(prev_map.cells()).filter(|(a, b)| a != b).count() as u64;
     let (lost_counts, lost_episodes) = lost.finish();
@@ -426,6 +517,7 @@ pub fn run_world_with(
         lost: lost_counts,
         lost_episodes,
         fresh_map: fresh.map(|f| f.mapper.to_grid()),
+        memory,
     })
 }
 
@@ -445,6 +537,8 @@ impl UpdaterCounts {
             cell_changes: s.cell_changes,
             max_state_bytes: work.max_state_bytes,
             cache_bytes: updater.cache_bytes() as u64,
+            registration: s.registration.into(),
+            heal_votes: s.heal_votes,
         }
     }
 }

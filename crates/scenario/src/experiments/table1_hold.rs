@@ -408,7 +408,8 @@ pub fn run_table1_hold(
             run_p.updater = variant_params(&presets[k], VARIANTS[v]);
             let cond = &conditions[c];
             set_condition(&mut run_p, p, recovery, &d, start.yaw, c);
-            let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+            let inputs =
+                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
             let run = run_world(&inputs, &run_p, d.seed, &format!("table1-hold-{t:04}"), &NoClock)?;
             let (wrong, changed) = wrong_flips(&run.map, map, g);
             progress();

@@ -617,6 +617,27 @@ impl<'a> Judge<'a> {
     }
 }
 
+/// One world of the chain, recorded as an MCAP bag when `params.mcap_worlds` asks for it.
+fn run_chain_world(
+    inputs: &RunInputs<'_>,
+    rp: &RunnerParams,
+    params: &ValidationParams,
+    seed: u64,
+    i: usize,
+    clock: &dyn Clock,
+) -> Result<crate::experiments::runner::WorldRun, ExperimentError> {
+    match &params.mcap_dir {
+        Some(dir) if params.mcap_worlds.contains(&i) => {
+            let path = dir.join(mcap_name(&params.preset, seed, i));
+            let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(&path)?;
+            let run = run_world_with(inputs, rp, seed, &format!("W{i:03}"), clock, &mut [&mut rec])?;
+            rec.finish(Some(&run.map))?;
+            Ok(run)
+        }
+        _ => run_world(inputs, rp, seed, &format!("W{i:03}"), clock),
+    }
+}
+
 /// [`run_seed`] from a given W_1.
 pub fn run_seed_in(
     w1: &World,
@@ -636,28 +657,22 @@ pub fn run_seed_in(
     let mut saved = Vec::new();
     let mut all_times = Vec::new();
     let mut prev = m1.map.clone();
+    // The updater's cross-world memory: M_1 is a surveyed map (empty memory: all established).
+    let mut memory = mapkeeper_updater::StructureMemory::default();
     for (k, world) in chain.worlds.iter().enumerate().skip(1) {
         let i = k + 1;
         let keep = params.saved_worlds.contains(&i);
         let mut rp = params.runner.clone();
         rp.record_trajectories = keep;
         rp.run_updater = rp.run_updater && (i - 2).is_multiple_of(params.update_every);
-        let inputs = RunInputs { world, route: &chain.routes[k], prev_map: &prev, baseline_map: &m1.map };
-        let mcap = match &params.mcap_dir {
-            Some(dir) if params.mcap_worlds.contains(&i) => {
-                let path = dir.join(mcap_name(&params.preset, seed, i));
-                Some(mapkeeper_harness::mcap_out::McapRecorder::create(&path)?)
-            }
-            _ => None,
+        let inputs = RunInputs {
+            world,
+            route: &chain.routes[k],
+            prev_map: &prev,
+            baseline_map: &m1.map,
+            prev_memory: Some(&memory),
         };
-        let run = match mcap {
-            Some(mut rec) => {
-                let run = run_world_with(&inputs, &rp, seed, &format!("W{i:03}"), clock, &mut [&mut rec])?;
-                rec.finish(Some(&run.map))?;
-                run
-            }
-            None => run_world(&inputs, &rp, seed, &format!("W{i:03}"), clock)?,
-        };
+        let run = run_chain_world(&inputs, &rp, params, seed, i, clock)?;
         // Validated: runner.fresh_map is set, so every run returns its fresh map.
         let fresh = run.fresh_map.as_ref().unwrap_or(&run.map);
         let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map, fresh)?;
@@ -693,6 +708,7 @@ pub fn run_seed_in(
             });
         }
         prev = run.map;
+        memory = run.memory;
         progress(i);
     }
     Ok(SeedRun {

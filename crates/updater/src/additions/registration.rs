@@ -119,7 +119,10 @@ impl RegistrationParams {
             ));
         }
         if !(0.0..=1.0).contains(&self.min_inlier_share) {
-            return Err(("registration.min_inlier_share", format!("must lie in [0, 1], got {}", self.min_inlier_share)));
+            return Err((
+                "registration.min_inlier_share",
+                format!("must lie in [0, 1], got {}", self.min_inlier_share),
+            ));
         }
         if !(1..=100_000).contains(&self.max_points) || self.min_points > self.max_points {
             return Err((
@@ -262,9 +265,8 @@ impl Registrar {
     /// below `max_range_m`).
     fn collect(&mut self, scans: &[LaserScan], max_range_m: f64, max_points: usize) {
         self.points.clear();
-        let valid = |s: &LaserScan, i: usize| {
-            s.validity(i) == BeamValidity::Valid && f64::from(s.ranges_m[i]) < max_range_m
-        };
+        let valid =
+            |s: &LaserScan, i: usize| s.validity(i) == BeamValidity::Valid && f64::from(s.ranges_m[i]) < max_range_m;
         let total: usize =
             scans.iter().filter(|s| s.validate().is_ok()).map(|s| (0..s.len()).filter(|&i| valid(s, i)).count()).sum();
         if total == 0 {
@@ -373,9 +375,9 @@ impl Registrar {
         let mut r = self.judge(pose, p);
         r.shift_m = pose.position().distance(given.position());
         r.turn_rad = wrap_angle(pose.yaw - given.yaw);
-        r.refused = r.refused.or_else(|| {
-            (r.shift_m > p.max_shift_m || r.turn_rad.abs() > p.max_turn_rad).then_some(Refusal::TooFar)
-        });
+        r.refused = r
+            .refused
+            .or_else(|| (r.shift_m > p.max_shift_m || r.turn_rad.abs() > p.max_turn_rad).then_some(Refusal::TooFar));
         if r.refused.is_some() {
             r.pose = given;
         }
@@ -413,9 +415,11 @@ impl Registrar {
         // Yaw scaled by the inliers' RMS range, so that all three directions are in metres.
         let rho = if inliers > 0 { (range_sq / inliers as f64).sqrt().max(1e-3) } else { 1.0 };
         let mut scaled = info;
-        for k in 0..3 {
-            scaled[2][k] /= rho;
-            scaled[k][2] /= rho;
+        for row in scaled.iter_mut() {
+            row[2] /= rho;
+        }
+        for v in scaled[2].iter_mut() {
+            *v /= rho;
         }
         let constraint = if inliers > 0 { min_eigenvalue_sym3(&scaled) / inliers as f64 } else { 0.0 };
         // Var(yaw) ≈ σ² (H⁻¹)_θθ with σ the per-point noise (at least a uniform cell's spread).
@@ -603,7 +607,9 @@ mod tests {
         assert!((min_eigenvalue_sym3(&m) - 0.5).abs() < 1e-9);
         let m = [[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 5.0]];
         assert!((min_eigenvalue_sym3(&m) - 1.0).abs() < 1e-9);
-        assert!((inverse_diag3(&[[2.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, 8.0]], 2).unwrap() - 0.125).abs() < 1e-12);
+        assert!(
+            (inverse_diag3(&[[2.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, 8.0]], 2).unwrap() - 0.125).abs() < 1e-12
+        );
     }
 
     #[test]

@@ -117,14 +117,12 @@ impl CellUpdater {
             let base_state = base.cells()[idx];
             let target = flipped(base_state);
             let now = current.cells()[idx];
-            let threshold = if params.memory.enabled
-                && base_state == CellState::Occupied
-                && memory.is_established(index)
-            {
-                params.memory.established_removal_threshold.max(params.change_threshold)
-            } else {
-                params.change_threshold
-            };
+            let threshold =
+                if params.memory.enabled && base_state == CellState::Occupied && memory.is_established(index) {
+                    params.memory.established_removal_threshold.max(params.change_threshold)
+                } else {
+                    params.change_threshold
+                };
             if now != target {
                 if self.support(buffer, cell, base, buffers, params) >= threshold {
                     current.cells_mut()[idx] = target;

@@ -176,9 +176,6 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
 /// the memory are off (their fields then hold their defaults and are left out), so that the
 /// digests of the presets that did not change stay those pinned then.
 fn legacy(debug: String) -> String {
-    let unused = format!(
-        ", registration: {:?}, heal_votes: 0",
-        mapkeeper_updater::RegistrationStats::default()
-    );
+    let unused = format!(", registration: {:?}, heal_votes: 0", mapkeeper_updater::RegistrationStats::default());
     debug.replace(", registration: None", "").replace(&unused, "")
 }

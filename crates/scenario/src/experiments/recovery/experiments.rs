@@ -120,7 +120,7 @@ pub fn run_demo(
         sigma_xy_m: d.init_sigma_xy_m,
         sigma_yaw_rad: d.init_sigma_yaw_rad,
     });
-    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
     let run = run_world(&inputs, &rp, seed, "demo", &NoClock)?;
     let tl = run.timeline;
     let first = |v: Verdict| tl.iter().find(|s| s.verdict == v);
@@ -249,7 +249,8 @@ pub fn run_table1(
             rp.updater = presets[k].clone();
             rp.kidnap = Some(kid);
             rp.record_timeline = true;
-            let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+            let inputs =
+                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
             run_world(&inputs, &rp, seed, &label, &NoClock).map(|run| (dir, run))
         })
         .collect::<Result<_, _>>()?;
@@ -385,7 +386,8 @@ pub fn run_lost_robot(
                     rp.updater = UpdaterParams::always_update();
                 }
             }
-            let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+            let inputs =
+                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
             run_world(&inputs, &rp, seed, &label, &NoClock).map(|run| (dir, run))
         })
         .collect::<Result<_, _>>()?;

@@ -236,7 +236,7 @@ pub fn run_kidnap_trial(
     let world = with_start(world, start);
     let mut rp = params.runner.clone();
     rp.max_sim_time_s = draw.kidnap_s + k.recovery_window_s + c.hold_s;
-    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map };
+    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
     let label = format!("kidnap-{trial:04}");
     let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
     rp.kidnap = Some(Kidnap {
