@@ -1,8 +1,9 @@
 //! The paper's claim about dynamic obstacles (§4.5): people walking about, in a world that did
 //! not change, leave the map as it was. The runs use the world's own ground truth G as M_{i-1}
 //! (so every change is a spurious one), the default route, and people only (the other robot
-//! removed). The claim holds for `mapkeeper` (a few dozen cells change), not for `paper` as
-//! written: on seed 1 it changes thousands of cells (pinned below as a negative result).
+//! removed). The claim holds for `mapkeeper` (a few dozen cells change), not for the paper's
+//! method: on seed 1 `paper-strict` changes thousands of cells and `paper` nearly a thousand
+//! (pinned below as a negative result).
 #![allow(clippy::unwrap_used)]
 
 use mapkeeper_grid::CellState;
@@ -62,13 +63,19 @@ fn people_standing_still_in_view_can_enter_the_map() {
     assert!(changed <= 90, "{changed}");
 }
 
-/// A negative result, pinned: `paper` as written (no removal gates, no free-pass votes, border
+/// A negative result, pinned: `paper-strict` (no removal gates, no free-pass votes, border
 /// reconstruction into every unknown neighbour, no revert) changes the map of an unchanged world
 /// in thousands of cells: rays grazing walls at a few centimetres of pose error erode them, and
-/// each freed cell turns its never-observed unknown neighbours occupied.
+/// each freed cell turns its never-observed unknown neighbours occupied. `paper` (the fair
+/// reading: sliding window, > 7, chunk floor, wider virtual rays, interior borders) does less
+/// damage but still several hundred cells: the erosion by grazing rays is in the method, not in
+/// the reading.
 #[test]
 fn paper_as_written_damages_an_unchanged_world() {
-    let (changed, new_occupied) = run("paper", false, 1);
-    eprintln!("paper, seed 1, no pauses: {changed} cells changed, {new_occupied} free -> occupied");
-    assert!(changed > 1000, "{changed}");
+    let (strict, _) = run("paper-strict", false, 1);
+    eprintln!("paper-strict, seed 1, no pauses: {strict} cells changed");
+    assert!(strict > 1000, "{strict}");
+    let (fair, new_occupied) = run("paper", false, 1);
+    eprintln!("paper, seed 1, no pauses: {fair} cells changed, {new_occupied} free -> occupied");
+    assert!(fair > 500 && fair < strict, "{fair} (paper-strict {strict})");
 }

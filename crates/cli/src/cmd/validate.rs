@@ -44,7 +44,8 @@ pub struct Args {
     /// intervals of a useful width: t(0.975, 1) = 12.7).
     #[arg(long, value_name = "K", default_value_t = 3, value_parser = super::count_in(1, super::MAX_SEEDS), allow_hyphen_values = true)]
     pub seeds: usize,
-    /// One updater preset: paper, authors, mapkeeper, mapkeeper-shift, always-update, no-update, log-odds (results
+    /// One updater preset: paper, paper-strict, authors, mapkeeper, mapkeeper-no-registration, mapkeeper-shift,
+    /// always-update, no-update, log-odds (results
     /// in OUT itself). Without --preset or --presets: the sweep paper,mapkeeper.
     #[arg(long)]
     pub preset: Option<String>,
