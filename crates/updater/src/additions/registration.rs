@@ -186,7 +186,9 @@ pub struct Registrar {
     /// Cell-centre distance to the nearest occupied cell, in cells, capped.
     dist_cells: Vec<f32>,
     cap_cells: f32,
-    /// End points of the step in the robot frame, and their squared ranges from the robot.
+    /// sin and cos of the grid origin's yaw (grid gradients to the map frame).
+    origin_sin_cos: (f64, f64),
+    /// End points of the step in the robot frame.
     points: Vec<Point2>,
 }
 
@@ -209,7 +211,13 @@ impl Registrar {
         let cap_m = p.truncate_m + 2.0 * r;
         let field = DistanceField::from_sites(&g, cap_m, |i| base.cells()[i] == CellState::Occupied);
         let dist_cells = field.distances_m().iter().map(|&d| d / r as f32).collect();
-        Self { geometry: g, dist_cells, cap_cells: (cap_m / r) as f32, points: Vec::new() }
+        Self {
+            geometry: g,
+            dist_cells,
+            cap_cells: (cap_m / r) as f32,
+            origin_sin_cos: g.origin().yaw.sin_cos(),
+            points: Vec::new(),
+        }
     }
 
     /// Heap bytes of the distance field (one `f32` per cell of `M_{i-1}`).
@@ -232,26 +240,42 @@ impl Registrar {
         f64::from(self.dist_cells[(y * w + x) as usize])
     }
 
-    /// Bilinear sample at a map-frame point.
+    /// The four cell-centre distances around a map-frame point and the point's offsets from
+    /// the lower-left one; `None` for a non-finite or absurdly far point.
     #[inline]
-    fn sample(&self, p: Point2) -> Sample {
-        let g = &self.geometry;
-        let r = g.resolution_m();
-        let (u, v) = g.world_to_grid(p);
+    fn corners(&self, p: Point2) -> Option<([f64; 4], f64, f64)> {
+        let (u, v) = self.geometry.world_to_grid(p);
         // Cell centres sit at integer + 0.5.
         let (fu, fv) = (u - 0.5, v - 0.5);
         if !(fu.is_finite() && fv.is_finite()) || fu.abs() > 1e9 || fv.abs() > 1e9 {
-            return Sample { d_m: f64::INFINITY, gx: 0.0, gy: 0.0, nx: 0.0, ny: 0.0 };
+            return None;
         }
         let (x0, y0) = (fu.floor(), fv.floor());
         let (a, b) = (fu - x0, fv - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let (d00, d10, d01, d11) = (self.at(x0, y0), self.at(x0 + 1, y0), self.at(x0, y0 + 1), self.at(x0 + 1, y0 + 1));
+        Some(([self.at(x0, y0), self.at(x0 + 1, y0), self.at(x0, y0 + 1), self.at(x0 + 1, y0 + 1)], a, b))
+    }
+
+    /// The boundary distance alone (what [`Registrar::sample`] gives as `d_m`), metres.
+    #[inline]
+    fn distance_m(&self, p: Point2) -> f64 {
+        let Some(([d00, d10, d01, d11], a, b)) = self.corners(p) else { return f64::INFINITY };
+        let d = d00 * (1.0 - a) * (1.0 - b) + d10 * a * (1.0 - b) + d01 * (1.0 - a) * b + d11 * a * b;
+        (d - 0.5).max(0.0) * self.geometry.resolution_m()
+    }
+
+    /// Bilinear sample at a map-frame point.
+    #[inline]
+    fn sample(&self, p: Point2) -> Sample {
+        let r = self.geometry.resolution_m();
+        let Some(([d00, d10, d01, d11], a, b)) = self.corners(p) else {
+            return Sample { d_m: f64::INFINITY, gx: 0.0, gy: 0.0, nx: 0.0, ny: 0.0 };
+        };
         let d = d00 * (1.0 - a) * (1.0 - b) + d10 * a * (1.0 - b) + d01 * (1.0 - a) * b + d11 * a * b;
         // Gradient in grid units (cells per cell), then rotated into the map frame.
         let du = (d10 - d00) * (1.0 - b) + (d11 - d01) * b;
         let dv = (d01 - d00) * (1.0 - a) + (d11 - d10) * a;
-        let (sin, cos) = g.origin().yaw.sin_cos();
+        let (sin, cos) = self.origin_sin_cos;
         let (wx, wy) = (cos * du - sin * dv, sin * du + cos * dv);
         let norm = wx.hypot(wy);
         let (nx, ny) = if norm > 1e-9 { (wx / norm, wy / norm) } else { (0.0, 0.0) };
@@ -291,7 +315,7 @@ impl Registrar {
     /// Truncated squared cost of the points at `pose`.
     fn cost(&self, pose: Pose2, truncate_m: f64) -> f64 {
         let c2 = truncate_m * truncate_m;
-        self.points.iter().map(|e| self.sample(pose.transform_point(*e)).d_m.powi(2).min(c2)).sum()
+        self.points.iter().map(|e| self.distance_m(pose.transform_point(*e)).powi(2).min(c2)).sum()
     }
 
     /// The best yaw of the 1-D search at the given position (ties: the smallest offset).
