@@ -863,6 +863,12 @@ pub struct UpdaterSummary {
     pub recovered: u64,
     /// Cell state changes applied.
     pub cell_changes: u64,
+    /// Registration before writing over all worlds and seeds (zeros when it is off).
+    #[serde(default)]
+    pub registration: crate::experiments::runner::RegistrationCounts,
+    /// "Changed" votes of the memory's healing rule over all worlds and seeds.
+    #[serde(default)]
+    pub heal_votes: u64,
 }
 
 /// `summary.json`.
@@ -1048,6 +1054,11 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
             lost: sum_u(|u| u.lost),
             recovered: sum_u(|u| u.recovered),
             cell_changes: sum_u(|u| u.cell_changes),
+            registration: rows().fold(Default::default(), |mut a, w| {
+                a.add(&w.updater.registration);
+                a
+            }),
+            heal_votes: sum_u(|u| u.heal_votes),
         },
         collisions: rows().map(|w| w.collisions).sum(),
         routes_completed: rows().filter(|w| w.route_done).count(),

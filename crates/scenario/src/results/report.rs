@@ -640,6 +640,9 @@ impl Summary {
             self.routes_completed,
             self.rows
         );
+        if let Some(line) = registration_line(&u.registration, u.heal_votes) {
+            let _ = writeln!(t, "{line}");
+        }
         let l = &self.lost_handling;
         let _ = writeln!(
             t,
@@ -653,4 +656,36 @@ impl Summary {
         );
         t
     }
+}
+
+/// One line on registration before writing and the memory's healing votes; `None` when
+/// registration never ran.
+pub fn registration_line(r: &crate::experiments::runner::RegistrationCounts, heal_votes: u64) -> Option<String> {
+    let tried = r.accepted + r.refused();
+    if tried == 0 {
+        return None;
+    }
+    let share = |n: u64| 100.0 * n as f64 / tried as f64;
+    let (shift_cm, turn_deg) = if r.accepted > 0 {
+        (
+            r.shift_sum_um as f64 / r.accepted as f64 / 1e4,
+            (r.turn_sum_urad as f64 / r.accepted as f64 / 1e6).to_degrees(),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    Some(format!(
+        "registration: {} of {tried} steps refined ({:.1} %), refused: few points {}, poor fit {}, degenerate {}, too far {}; \
+         writes withheld {}; mean correction {shift_cm:.2} cm, {turn_deg:.3}°; |Δxy| per bin (<0.5/1/2/5/10/20 cm/more) {:?}; \
+         |Δyaw| per bin (<0.05/0.1/0.25/0.5/1/2°/more) {:?}; memory heal votes {heal_votes}",
+        r.accepted,
+        share(r.accepted),
+        r.refused_too_few_points,
+        r.refused_poor_fit,
+        r.refused_degenerate,
+        r.refused_too_far,
+        r.writes_withheld,
+        r.shift_histogram,
+        r.turn_histogram,
+    ))
 }
