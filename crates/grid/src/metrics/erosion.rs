@@ -9,15 +9,19 @@
 //! - **structure** S_i ([`StructureMask`]): the cells occupied in M_1 and in every ground truth
 //!   G_1 … G_i so far — the fixed structure M_1 got right;
 //! - **retention** of a map M ([`retention`]) = |{c ∈ S_i : M(c) occupied}| / |S_i|;
-//! - **change classes** ([`ChangeCells`]): of the counted cells (e.g. those a route observes),
-//!   *added* = free in M_1 and occupied in G_i, *removed* = occupied in M_1 and free in G_i,
-//!   *moved* = either of those inside the footprint of an item that moved (a mask the caller
-//!   gives). A map gets a cell right when it has G_i's state there.
+//! - **change classes** ([`ChangeCells`]): the counted cells (e.g. those a route observes)
+//!   where M_1 and G_i disagree, one free and the other occupied, by what explains them
+//!   ([`ChangeClass::of`], given the footprints of the items the world's edits added, removed
+//!   and moved, [`EditFootprints`]): *added* (free in M_1, occupied in G_i, on an added item),
+//!   *removed* (occupied in M_1, free in G_i, where a removed item stood), *moved* (either, on
+//!   a moved item's old or new footprint) and *initial errors* (no edit explains them: M_1's
+//!   own disagreements with the truth). Without footprints, added and removed go by the
+//!   states alone. A map gets a cell right when it has G_i's state there.
 //!
 //! Shares are [`CellShare`]s (`right` of `cells`); an empty set has no percentage.
 //!
 //! ```
-//! use mapkeeper_grid::metrics::erosion::{ChangeCells, StructureMask};
+//! use mapkeeper_grid::metrics::erosion::{ChangeCells, EditFootprints, StructureMask};
 //! use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
 //! let g = GridGeometry::new(4, 1, 1.0, Pose2::IDENTITY).unwrap();
 //! let mut m1 = OccupancyGrid::filled(g, CellState::Free);
@@ -38,6 +42,15 @@
 //! assert_eq!((s.added.right, s.added.cells), (1, 1));
 //! assert_eq!((s.removed.right, s.removed.cells), (0, 1));
 //! assert_eq!(s.moved.percent(), None);
+//! // Told where the edits added and removed items, the same cells; had no edit removed the
+//! // box of cell 1, that cell would be an initial error of M_1.
+//! let edits = EditFootprints {
+//!     added: vec![false, false, false, true],
+//!     removed: vec![false, true, false, false],
+//!     moved: vec![false; 4],
+//! };
+//! let s = ChangeCells::new(&m1, &truth, &[true; 4], Some(&edits)).unwrap().score(&m).unwrap();
+//! assert_eq!((s.added.cells, s.removed.cells, s.initial_errors.cells), (1, 1, 0));
 //! ```
 
 use super::MetricsError;
@@ -156,33 +169,60 @@ impl StructureMask {
 /// The class of a cell whose state differs between the initial map and the truth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum ChangeClass {
-    /// Free in the initial map, occupied in the truth (an item put down).
+    /// Free in the initial map, occupied in the truth: an item put down.
     Added,
-    /// Occupied in the initial map, free in the truth (an item taken away).
+    /// Occupied in the initial map, free in the truth: an item taken away.
     Removed,
-    /// Added or removed, inside the footprint of an item that moved (or turned).
+    /// Either, on an item that moved (or turned).
     Moved,
+    /// Either, where no edit explains it: the initial map's own disagreement with the truth.
+    InitialError,
+}
+
+/// Which edits' footprints cover a cell ([`EditFootprints::at`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EditsAt {
+    /// An item added since the initial map covers it (where it is now).
+    pub added: bool,
+    /// An item removed since covered it (where it was).
+    pub removed: bool,
+    /// An item moved or turned since covers it (where it was or where it is now).
+    pub moved: bool,
 }
 
 impl ChangeClass {
-    /// The class of a cell in state `initial` in M_1 and `truth` in G_i, `in_moved` if it lies
-    /// in a moved item's footprint; `None` when it is in no class (the states agree, or either
-    /// is unknown: the truth has no claim there, or M_1 made none).
+    /// The class of a cell in state `initial` in M_1 and `truth` in G_i, given the edits whose
+    /// footprints cover it; `None` when it is in no class (the states agree, or either is
+    /// unknown: the truth has no claim there, or M_1 made none). Without `edits` (no item
+    /// information) a cell is added or removed by its states alone, as if every change were an
+    /// edit's. With them: moved if a moved item covers it; added if free → occupied on an
+    /// added item; removed if occupied → free where a removed item stood; else an initial
+    /// error.
     ///
     /// ```
     /// use mapkeeper_grid::CellState::{Free, Occupied, Unknown};
-    /// use mapkeeper_grid::metrics::erosion::ChangeClass;
-    /// assert_eq!(ChangeClass::of(Free, Occupied, false), Some(ChangeClass::Added));
-    /// assert_eq!(ChangeClass::of(Occupied, Free, true), Some(ChangeClass::Moved));
-    /// assert_eq!(ChangeClass::of(Unknown, Occupied, false), None);
+    /// use mapkeeper_grid::metrics::erosion::{ChangeClass, EditsAt};
+    /// assert_eq!(ChangeClass::of(Free, Occupied, None), Some(ChangeClass::Added));
+    /// let moved = EditsAt { moved: true, ..EditsAt::default() };
+    /// assert_eq!(ChangeClass::of(Occupied, Free, Some(moved)), Some(ChangeClass::Moved));
+    /// let nothing = EditsAt::default();
+    /// assert_eq!(ChangeClass::of(Occupied, Free, Some(nothing)), Some(ChangeClass::InitialError));
+    /// assert_eq!(ChangeClass::of(Unknown, Occupied, None), None);
     /// ```
-    pub fn of(initial: CellState, truth: CellState, in_moved: bool) -> Option<ChangeClass> {
-        let class = match (initial, truth) {
-            (CellState::Free, CellState::Occupied) => ChangeClass::Added,
-            (CellState::Occupied, CellState::Free) => ChangeClass::Removed,
+    pub fn of(initial: CellState, truth: CellState, edits: Option<EditsAt>) -> Option<ChangeClass> {
+        let put_down = match (initial, truth) {
+            (CellState::Free, CellState::Occupied) => true,
+            (CellState::Occupied, CellState::Free) => false,
             _ => return None,
         };
-        Some(if in_moved { ChangeClass::Moved } else { class })
+        Some(match edits {
+            None if put_down => ChangeClass::Added,
+            None => ChangeClass::Removed,
+            Some(e) if e.moved => ChangeClass::Moved,
+            Some(e) if put_down && e.added => ChangeClass::Added,
+            Some(e) if !put_down && e.removed => ChangeClass::Removed,
+            Some(_) => ChangeClass::InitialError,
+        })
     }
 
     fn slot(self) -> usize {
@@ -190,7 +230,33 @@ impl ChangeClass {
             ChangeClass::Added => 0,
             ChangeClass::Removed => 1,
             ChangeClass::Moved => 2,
+            ChangeClass::InitialError => 3,
         }
+    }
+}
+
+/// The footprints of the world's edits since the initial map, one entry per cell each,
+/// row-major (e.g. the items' rasterised outlines and insides, grown by a cell with
+/// [`grow_by_one_cell`] to take in the initial map's one-cell scatter).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EditFootprints {
+    /// Items added since: where they are now.
+    pub added: Vec<bool>,
+    /// Items removed since: where they were.
+    pub removed: Vec<bool>,
+    /// Items moved or turned since: where they were and where they are now.
+    pub moved: Vec<bool>,
+}
+
+impl EditFootprints {
+    /// The edits covering cell `i` (none beyond the masks' ends).
+    pub fn at(&self, i: usize) -> EditsAt {
+        let get = |m: &[bool]| m.get(i).copied().unwrap_or(false);
+        EditsAt { added: get(&self.added), removed: get(&self.removed), moved: get(&self.moved) }
+    }
+
+    fn fits(&self, cells: usize) -> bool {
+        [&self.added, &self.removed, &self.moved].iter().all(|m| m.len() == cells)
     }
 }
 
@@ -203,6 +269,8 @@ pub struct ClassShares {
     pub removed: CellShare,
     /// Moved cells the map has in the truth's state.
     pub moved: CellShare,
+    /// Initial errors the map has in the truth's state (fixed).
+    pub initial_errors: CellShare,
 }
 
 /// The changed cells of one world, by class: computed once from M_1 and G_i, then used to
@@ -211,14 +279,13 @@ pub struct ClassShares {
 pub struct ChangeCells {
     geometry: GridGeometry,
     /// Per class (in [`ChangeClass`] order), each cell's index and its state in the truth.
-    classes: [Vec<(usize, CellState)>; 3],
+    classes: [Vec<(usize, CellState)>; 4],
 }
 
 impl ChangeCells {
     /// The changed cells of `initial` (M_1) against `truth` (G_i) among the cells where
-    /// `counted` is true, classed by [`ChangeClass::of`] with `moved` the footprints of moved
-    /// items (`None`: no item moved, or moves are not told apart). Masks have one entry per
-    /// cell, row-major.
+    /// `counted` is true, classed by [`ChangeClass::of`] with the footprints of the edits
+    /// (`None`: no item information). Masks have one entry per cell, row-major.
     ///
     /// Errors: [`GridError::GeometryMismatch`] (wrapped) if the maps' geometries differ or a
     /// mask does not have one entry per cell.
@@ -226,21 +293,20 @@ impl ChangeCells {
         initial: &OccupancyGrid,
         truth: &OccupancyGrid,
         counted: &[bool],
-        moved: Option<&[bool]>,
+        edits: Option<&EditFootprints>,
     ) -> Result<Self, MetricsError> {
         check_same(initial, truth)?;
         check_mask(initial, counted)?;
-        if let Some(m) = moved {
-            check_mask(initial, m)?;
+        if edits.is_some_and(|e| !e.fits(counted.len())) {
+            return Err(GridError::GeometryMismatch.into());
         }
-        let mut classes: [Vec<(usize, CellState)>; 3] = Default::default();
+        let mut classes: [Vec<(usize, CellState)>; 4] = Default::default();
         let pairs = initial.cells().iter().zip(truth.cells()).zip(counted).enumerate();
         for (i, ((&a, &t), &count)) in pairs {
             if !count {
                 continue;
             }
-            let in_moved = moved.is_some_and(|m| m[i]);
-            if let Some(class) = ChangeClass::of(a, t, in_moved) {
+            if let Some(class) = ChangeClass::of(a, t, edits.map(|e| e.at(i))) {
                 classes[class.slot()].push((i, t));
             }
         }
@@ -269,6 +335,7 @@ impl ChangeCells {
             added: share(ChangeClass::Added),
             removed: share(ChangeClass::Removed),
             moved: share(ChangeClass::Moved),
+            initial_errors: share(ChangeClass::InitialError),
         })
     }
 }
@@ -359,7 +426,7 @@ mod tests {
     }
 
     #[test]
-    fn classes_count_only_the_counted_cells_and_moved_takes_precedence() {
+    fn classes_count_only_the_counted_cells() {
         let m1 = grid(&[&[O, O, F, F], &[F, U, O, F]]);
         let truth = grid(&[&[F, O, O, O], &[O, O, F, U]]);
         // Changed: (0,1) removed, (2,1) added, (3,1) added, (0,0) added, (2,0) removed;
@@ -370,27 +437,53 @@ mod tests {
             (c.cells(ChangeClass::Added), c.cells(ChangeClass::Removed), c.cells(ChangeClass::Moved)),
             (3, 2, 0)
         );
+        assert_eq!(c.cells(ChangeClass::InitialError), 0, "without footprints every change is an edit's");
         // The route sees only the top row.
         let top = mask(&[&[1, 1, 1, 1], &[0, 0, 0, 0]]);
         let c = ChangeCells::new(&m1, &truth, &top, None).expect("same geometry");
         assert_eq!((c.cells(ChangeClass::Added), c.cells(ChangeClass::Removed)), (2, 1));
-        // An item moved from the top-left cell to the top-right pair.
-        let moved = mask(&[&[1, 0, 0, 1], &[0, 0, 0, 0]]);
-        let c = ChangeCells::new(&m1, &truth, &all, Some(&moved)).expect("same geometry");
-        assert_eq!(
-            (c.cells(ChangeClass::Added), c.cells(ChangeClass::Removed), c.cells(ChangeClass::Moved)),
-            (2, 1, 2)
-        );
-        // The truth itself gets every class right; M_1 none.
-        let s = c.score(&truth).expect("same geometry");
-        assert_eq!(s.added, CellShare { right: 2, cells: 2 });
-        assert_eq!(s.removed, CellShare { right: 1, cells: 1 });
-        assert_eq!(s.moved, CellShare { right: 2, cells: 2 });
-        let s = c.score(&m1).expect("same geometry");
-        assert_eq!((s.added.right, s.removed.right, s.moved.right), (0, 0, 0));
         // Unknown is never right: the map must say occupied (added) or free (removed).
         let unsure = grid(&[&[U, U, U, U], &[U, U, U, U]]);
-        assert_eq!(c.score(&unsure).expect("same geometry").moved.right, 0);
+        let s = c.score(&unsure).expect("same geometry");
+        assert_eq!((s.added.right, s.removed.right), (0, 0));
+    }
+
+    #[test]
+    fn footprints_class_the_changes_by_edit_and_leave_the_rest_to_m1() {
+        let m1 = grid(&[&[O, O, F, F], &[F, U, O, F]]);
+        let truth = grid(&[&[F, O, O, O], &[O, O, F, U]]);
+        // An item moved from (0,1) to (3,1); one was put down on (2,1) and (3,1) (the move
+        // wins there); one was taken away from (2,0) and (0,0). (0,0) turned occupied on the
+        // removed item's spot: no edit explains it, an initial error.
+        let edits = EditFootprints {
+            added: mask(&[&[0, 0, 1, 1], &[0, 0, 0, 0]]),
+            removed: mask(&[&[0, 0, 0, 0], &[1, 0, 1, 0]]),
+            moved: mask(&[&[1, 0, 0, 1], &[0, 0, 0, 0]]),
+        };
+        let c = ChangeCells::new(&m1, &truth, &[true; 8], Some(&edits)).expect("same geometry");
+        let counts = |c: &ChangeCells| {
+            [ChangeClass::Added, ChangeClass::Removed, ChangeClass::Moved, ChangeClass::InitialError]
+                .map(|k| c.cells(k))
+        };
+        assert_eq!(counts(&c), [1, 1, 2, 1]);
+        // The truth itself gets every class right; M_1 none.
+        let s = c.score(&truth).expect("same geometry");
+        let one = CellShare { right: 1, cells: 1 };
+        assert_eq!(
+            s,
+            ClassShares { added: one, removed: one, moved: CellShare { right: 2, cells: 2 }, initial_errors: one }
+        );
+        let s = c.score(&m1).expect("same geometry");
+        assert_eq!((s.added.right, s.removed.right, s.moved.right, s.initial_errors.right), (0, 0, 0, 0));
+        // A map that fixed the initial error and saw the move's new place only.
+        let m = grid(&[&[O, O, F, O], &[O, U, O, F]]);
+        let s = c.score(&m).expect("same geometry");
+        assert_eq!((s.added.right, s.removed.right, s.moved.right, s.initial_errors.right), (0, 0, 1, 1));
+        assert_eq!(s.moved.percent(), Some(50.0));
+        // Footprints of another size are refused.
+        let short = EditFootprints { added: vec![false; 7], ..edits };
+        assert!(ChangeCells::new(&m1, &truth, &[true; 8], Some(&short)).is_err());
+        assert_eq!(short.at(7), EditsAt { added: false, removed: false, moved: true }, "nothing beyond the end");
     }
 
     #[test]
@@ -400,7 +493,8 @@ mod tests {
         assert!(StructureMask::new(&a, &b).is_err());
         assert!(retention(&a, &[true]).is_err());
         assert!(ChangeCells::new(&a, &a, &[true], None).is_err());
-        assert!(ChangeCells::new(&a, &a, &[true, true], Some(&[true])).is_err());
+        let one = EditFootprints { added: vec![true], removed: vec![true], moved: vec![true] };
+        assert!(ChangeCells::new(&a, &a, &[true, true], Some(&one)).is_err());
         let s = StructureMask::new(&a, &a).expect("same geometry");
         assert!(s.retention(&b).is_err());
         let mut s2 = s.clone();
