@@ -9,6 +9,7 @@
 //! between W_1 and W_i (by id: the edits' net effect), and their footprints. Definitions and
 //! choices: `docs/metrics.md`, "Structure retention and change classes".
 
+use crate::experiments::ExperimentError;
 use crate::experiments::validation::SeedRecord;
 use crate::stats::mean;
 use mapkeeper_grid::metrics::MetricsError;
@@ -79,14 +80,14 @@ pub(crate) struct ErosionJudge {
     structure: StructureMask,
     /// W_1's movable items by id.
     items_w1: BTreeMap<String, MovableItem>,
-    /// W_1 stripped of everything (no walls, interior, items or agents): moved items'
+    /// W_1 stripped of everything (no walls, interior, items or agents): the edited items'
     /// footprints are rasterised in it.
     blank: World,
 }
 
 impl ErosionJudge {
     /// S_1 from M_1 and the exact G_1 of `w1`.
-    pub(crate) fn new(w1: &World, m1: &OccupancyGrid, g1: &OccupancyGrid) -> Result<Self, MetricsError> {
+    pub(crate) fn new(w1: &World, m1: &OccupancyGrid, g1: &OccupancyGrid) -> Result<Self, ExperimentError> {
         let mut blank = w1.clone();
         blank.interior = None;
         blank.walls.clear();
@@ -96,6 +97,10 @@ impl ErosionJudge {
         blank.agents.clear();
         blank.storage_areas.clear();
         blank.route = None;
+        if !blank.obstacles().is_empty() {
+            // A kind of obstacle this code does not know would be rasterised into every footprint.
+            return Err(ExperimentError::Invalid("erosion: W_1 stripped of its obstacles still has some".into()));
+        }
         Ok(ErosionJudge {
             structure: StructureMask::new(m1, g1)?,
             items_w1: w1.movable.iter().map(|m| (m.id.clone(), m.clone())).collect(),
