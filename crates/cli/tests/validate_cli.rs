@@ -140,6 +140,18 @@ fn validate_writes_every_figure_as_svg_and_png_and_the_report_shows_them() {
         assert!(report.contains(&format!("](plots/{stem}.svg)")), "report.md does not show {stem}.svg");
         assert!(report.contains(&format!("](plots/{stem}.png)")), "report.md does not link {stem}.png");
     }
+    // Structure retention and change classes: in the report, the summary and every csv row.
+    assert!(report.contains("## Structure retention and change classes") && report.contains("initial-error"));
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["retention"]["rows"], 4, "2 seeds × W_2, W_3");
+    assert_eq!(summary["retention"]["best_mean"], 100.0, "M*_i keeps all structure");
+    assert!(summary["change_classes"]["initial_errors"]["rows"].as_u64().unwrap() > 0);
+    let csv = std::fs::read_to_string(dir.join("worlds.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header.iter().position(|c| *c == "retention_best").unwrap();
+    for line in csv.lines().skip(1) {
+        assert_eq!(line.split(',').nth(col), Some("100.000000"), "{line}");
+    }
     let names: Vec<String> = files(dir).into_keys().collect();
     for f in ["runs.json", "summary.json", "worlds.csv", "edits.json", "report.md", "seed-2/maps/M_003.pgm"] {
         assert!(names.iter().any(|n| n == f), "{f} missing in {names:?}");
@@ -460,13 +472,19 @@ fn check_comparison(all: &Path) {
             assert_eq!(r["verdicts"][v], s["updater"][v], "{v}");
         }
         assert_eq!(r["lost_handling"], s["lost_handling"]);
+        assert_eq!(r["retention"], s["retention"]);
+        assert_eq!(r["change_classes"], s["change_classes"]);
         assert_eq!(r["worlds"], 2, "2 seeds × W_2");
     }
-    // no-update never updates its map: M_i is M_1 in every world.
+    // no-update never updates its map: M_i is M_1 in every world, which keeps all of S_i.
     let nu = &rows[3]["map_quality"]["cc"];
     assert_eq!(nu["static_mean"], nu["updated_mean"]);
+    assert_eq!(rows[3]["retention"]["updated_mean"], 100.0);
+    assert_eq!(rows[3]["retention"]["target_met"], true);
     let report = std::fs::read_to_string(all.join("report.md")).unwrap();
-    assert_eq!(report.lines().filter(|l| l.starts_with("| paper |") || l.starts_with("| no-update |")).count(), 6);
+    // Six rows in the table of map quality and localisation, six in that of retention.
+    assert_eq!(report.lines().filter(|l| l.starts_with("| paper |") || l.starts_with("| no-update |")).count(), 12);
+    assert!(report.contains("## Structure retention and change classes"), "{report}");
     assert!(report.contains("Lost episodes") && report.contains("err on M_1"), "{report}");
     check_intervals(all);
 }

@@ -2,10 +2,10 @@
 //!
 //! The occupancy grid and everything that works on it without physics: coordinates (paper
 //! eq. 1), grid traversal (Amanatides–Woo) and ray casting, the exact Euclidean distance
-//! transform, ROS map_server I/O, the map-quality metrics (CC, MS, OPDF), a log-odds occupancy
-//! mapper, and rendering; plus small shared pieces of plane geometry: points sorted into square
-//! buckets ([`buckets::PointBuckets`]) and the even-odd point-in-polygon test
-//! ([`geometry::polygon_contains`]).
+//! transform, ROS map_server I/O, the map-quality metrics (CC, MS, OPDF; structure retention
+//! and change-class scores), a log-odds occupancy mapper, and rendering; plus small shared
+//! pieces of plane geometry: points sorted into square buckets ([`buckets::PointBuckets`]) and
+//! the even-odd point-in-polygon test ([`geometry::polygon_contains`]).
 //!
 //! This crate never depends on the simulator, rapier or parry (checked by `.ci/run`).
 //!

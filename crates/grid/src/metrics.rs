@@ -21,6 +21,10 @@
 //!
 //! Manhattan distances come from an exact two-pass L1 distance transform (O(ν), no search).
 //!
+//! Beside them, [`erosion`] counts cells where these averages hide losses: the share of fixed
+//! structure a map keeps (structure retention) and the share of each class of changed cells
+//! (added, removed, moved) it got right.
+//!
 //! ```
 //! use mapkeeper_grid::metrics::{map_metrics, MetricParams};
 //! use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
@@ -36,6 +40,8 @@
 use crate::GridError;
 use crate::grid::{CellState, GridGeometry, OccupancyGrid};
 use serde::{Deserialize, Serialize};
+
+pub mod erosion;
 
 /// Errors of the metrics.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]

@@ -15,8 +15,10 @@ use mapkeeper_grid::{hidden_sibling, write_atomic};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// Version of the checkpoint files; other versions are refused.
-const FORMAT: u32 = 1;
+/// Version of the checkpoint files; other versions are refused. 2: world rows carry structure
+/// retention and change classes; a version-1 checkpoint would resume without them, and the
+/// resumed outputs would differ from an uninterrupted run's.
+const FORMAT: u32 = 2;
 
 /// What computed a job: compared field for field before a checkpoint is used.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

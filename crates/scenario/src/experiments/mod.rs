@@ -1,12 +1,13 @@
 //! The experiments: the closed loop of one world through the harness ([`runner`], with the
 //! simulator as a source, [`crate::sim_source`], and the experiments' controls and observers,
-//! [`run_events`]), the hundred-world validation ([`validation`]) and the robustness
-//! experiments and kidnap suite ([`recovery`]), and the localisers' convergence from a start
-//! error ([`convergence`]).
+//! [`run_events`]), the hundred-world validation ([`validation`]) with its structure retention
+//! and change-class scores ([`erosion`]), the robustness experiments and kidnap suite
+//! ([`recovery`]), and the localisers' convergence from a start error ([`convergence`]).
 
 pub mod check_detection;
 pub mod checkpoint;
 pub mod convergence;
+pub mod erosion;
 pub mod kidnap_robot;
 pub mod real_data;
 pub mod recovery;

@@ -3,10 +3,15 @@
 //! For a seed: generate W_1 … W_N; build M_1 in W_1 (exploration run) and report M_1/G_1; then
 //! for i = 2 … N run the closed loop in W_i with the chain localiser and the updater on M_{i-1}
 //! and the baseline localiser on M_1, and score M_1/G_i (static) and M_i/G_i (updated) with
-//! CC, MS and OPDF. The chain of worlds is sequential; seeds are independent, so the caller may
-//! run them in parallel and merge them in seed order ([`summarise`]).
+//! CC, MS and OPDF, and M_i, M*_i and F_i by structure retention and change class
+//! ([`crate::experiments::erosion`]). The chain of worlds is sequential; seeds are independent,
+//! so the caller may run them in parallel and merge them in seed order ([`summarise`]).
 
 use crate::experiments::ExperimentError;
+use crate::experiments::erosion::{
+    ChangeClassSummary, ChangeClasses, ErosionJudge, Retention, RetentionSummary, change_class_summary,
+    retention_summary,
+};
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{
     Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world, run_world_with,
@@ -316,6 +321,14 @@ pub struct WorldRow {
     /// The reaction to Lost (episodes, attempts, recoveries, give-ups, time stopped).
     #[serde(default)]
     pub lost: LostCounts,
+    /// Structure retention of M_i, M*_i and F_i against the exact G_i, whatever the run's
+    /// ground truth (`None` in records written before it was measured; not written then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retention: Option<Retention>,
+    /// The cells that changed between M_1 and the exact G_i where the route looks, by class,
+    /// and the share M_i, M*_i and F_i got right (`None` as for `retention`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub change_classes: Option<ChangeClasses>,
 }
 
 /// Maps and trajectories of a saved world.
@@ -535,8 +548,22 @@ pub fn mcap_name(preset: &str, seed: u64, i: usize) -> String {
     format!("{preset}-s{seed}-W{i:03}.mcap")
 }
 
-/// Scores maps against both ground truth variants of each world and keeps the best achievable
-/// map M*_i of the chain.
+/// What [`Judge::world`] makes of one world.
+struct Judged {
+    /// M_1, M_i, M*_i and F_i against the run's ground truth.
+    chosen: GroundTruthScores,
+    /// The same against the other variant.
+    other: GroundTruthScores,
+    /// G_i of the run's variant.
+    gi: OccupancyGrid,
+    /// Structure retention against the exact G_i.
+    retention: Retention,
+    /// Change classes against the exact G_i.
+    change_classes: ChangeClasses,
+}
+
+/// Scores maps against both ground truth variants of each world, keeps the best achievable
+/// map M*_i of the chain, and scores structure retention and change classes.
 struct Judge<'a> {
     params: &'a ValidationParams,
     /// Inside the outer walls of W_1 (they never move: one interior for every world).
@@ -549,18 +576,26 @@ struct Judge<'a> {
     best: OccupancyGrid,
     /// The exact G_1.
     g1: OccupancyGrid,
+    /// The running structure mask S_i and W_1's movable items.
+    erosion: ErosionJudge,
 }
 
 impl<'a> Judge<'a> {
-    fn new(params: &'a ValidationParams, m1: &OccupancyGrid, g1: OccupancyGrid) -> Self {
-        Judge {
+    fn new(
+        params: &'a ValidationParams,
+        w1: &World,
+        m1: &OccupancyGrid,
+        g1: OccupancyGrid,
+    ) -> Result<Self, ExperimentError> {
+        Ok(Judge {
             params,
             interior: interior_mask(&g1),
             exploration: route_poses(&params.exploration_route, OBSERVATION_STEP_M),
             route: route_poses(&params.route, OBSERVATION_STEP_M),
             best: m1.clone(),
+            erosion: ErosionJudge::new(w1, m1, &g1)?,
             g1,
-        }
+        })
     }
 
     fn observed(&self, exact: &OccupancyGrid) -> OccupancyGrid {
@@ -580,21 +615,23 @@ impl<'a> Judge<'a> {
         })
     }
 
-    /// Advances M*_{i-1} to M*_i with the exact G_i `gi`, and scores M_1, M_i and M*_i: (against
-    /// the run's ground truth, against the other variant, G_i of the run's variant).
+    /// Advances M*_{i-1} to M*_i and S_{i-1} to S_i with W_i `wi` and its exact G_i `gi`, and
+    /// scores M_1, M_i, M*_i and F_i.
     fn world(
         &mut self,
+        wi: &World,
         gi: OccupancyGrid,
         m1: &OccupancyGrid,
         mi: &OccupancyGrid,
         fresh: &OccupancyGrid,
-    ) -> Result<(GroundTruthScores, GroundTruthScores, OccupancyGrid), ExperimentError> {
+    ) -> Result<Judged, ExperimentError> {
         let seen = visible_cells(&gi, &self.route, &self.params.runner.sim.lidars);
-        for ((cell, &truth), seen) in self.best.cells_mut().iter_mut().zip(gi.cells()).zip(seen) {
+        for ((cell, &truth), &seen) in self.best.cells_mut().iter_mut().zip(gi.cells()).zip(&seen) {
             if seen {
                 *cell = truth;
             }
         }
+        let (retention, change_classes) = self.erosion.world(wi, &gi, &seen, m1, [mi, &self.best, fresh])?;
         let metrics = &self.params.metrics;
         let exact = GroundTruthScores {
             static_map: Scores::from(map_metrics(m1, &gi, metrics)?),
@@ -610,10 +647,11 @@ impl<'a> Judge<'a> {
             best_map: inside(&self.best)?,
             fresh_map: inside(fresh)?,
         };
-        Ok(match self.params.ground_truth {
+        let (chosen, other, gi) = match self.params.ground_truth {
             GroundTruth::Exact => (exact, observed, gi),
             GroundTruth::Observed => (observed, exact, observed_gi),
-        })
+        };
+        Ok(Judged { chosen, other, gi, retention, change_classes })
     }
 }
 
@@ -650,7 +688,7 @@ pub fn run_seed_in(
     let geometry: GridGeometry = w1.default_map_geometry(params.resolution_m)?;
     let chain = generate_worlds(w1, &params.route, params.worlds, seed, &params.generator)?;
     let m1 = build_initial_map(w1, &params.exploration_route, &geometry, &params.runner.sim, &params.mapping, seed)?;
-    let mut judge = Judge::new(params, &m1.map, ground_truth_map(w1, &geometry));
+    let mut judge = Judge::new(params, w1, &m1.map, ground_truth_map(w1, &geometry))?;
     let (g1, initial_scores) = judge.initial(&m1.map)?;
     progress(1);
     let mut rows = Vec::with_capacity(params.worlds - 1);
@@ -675,7 +713,8 @@ pub fn run_seed_in(
         let run = run_chain_world(&inputs, &rp, params, seed, i, clock)?;
         // Validated: runner.fresh_map is set, so every run returns its fresh map.
         let fresh = run.fresh_map.as_ref().unwrap_or(&run.map);
-        let (chosen, other, gi) = judge.world(ground_truth_map(world, &geometry), &m1.map, &run.map, fresh)?;
+        let Judged { chosen, other, gi, retention, change_classes } =
+            judge.world(world, ground_truth_map(world, &geometry), &m1.map, &run.map, fresh)?;
         let median_scan_us = median(run.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
         all_times.extend_from_slice(&run.scan_times_us);
         rows.push(WorldRow {
@@ -698,6 +737,8 @@ pub fn run_seed_in(
             route_done: run.route_done,
             median_scan_us,
             lost: run.lost,
+            retention: Some(retention),
+            change_classes: Some(change_classes),
         });
         if keep {
             saved.push(SavedWorld {
@@ -913,6 +954,15 @@ pub struct Summary {
     /// The check under heavy change (only with `params.update_every` > 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heavy_change: Option<HeavyChange>,
+    /// Structure retention of M_i, M*_i and F_i against the exact G_i: at W_2, at W_N, the
+    /// mean, and the target at W_N. Absent when no row has it (records written before it was
+    /// measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retention: Option<RetentionSummary>,
+    /// The shares of added, removed and moved cells that M_i, M*_i and F_i got right (absent as
+    /// `retention`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub change_classes: Option<ChangeClassSummary>,
     /// The parameters.
     pub params: ValidationParams,
 }
@@ -1066,6 +1116,8 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         sim_time_s: rows().map(|w| w.sim_time_s).sum(),
         lost_handling: rows().fold(LostCounts::default(), |a, w| a.add(&w.lost)),
         heavy_change: (params.update_every > 1).then(|| heavy_change(params.update_every, runs)),
+        retention: retention_summary(runs),
+        change_classes: change_class_summary(runs),
         params: params.clone(),
     }
 }

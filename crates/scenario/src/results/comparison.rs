@@ -4,6 +4,7 @@
 //! Everything is recomputed from the presets' records, so the comparison of merged shards is
 //! that of the unsharded sweep.
 
+use crate::experiments::erosion::{ChangeClassSummary, RetentionSummary};
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
@@ -60,6 +61,13 @@ pub struct ComparisonRow {
     pub verdicts: VerdictCounts,
     /// The reaction to Lost.
     pub lost_handling: LostCounts,
+    /// Structure retention of M_i (exactly the preset summary's; absent for records written
+    /// before it was measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retention: Option<RetentionSummary>,
+    /// The change classes M_i got right (likewise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub change_classes: Option<ChangeClassSummary>,
 }
 
 /// A mean difference over seeds with its paired 95 % interval (`null` with one seed).
@@ -157,6 +165,8 @@ fn row(preset: &str, seed: Option<u64>, record: &ValidationRecord, seeds: &[Seed
         localisation_better_fraction: s.localisation.updated_better_fraction,
         verdicts: VerdictCounts { update: s.updater.update, suspend: s.updater.suspend, lost: s.updater.lost },
         lost_handling: s.lost_handling,
+        retention: s.retention,
+        change_classes: s.change_classes,
     }
 }
 
@@ -254,6 +264,7 @@ impl Comparison {
                 l.stopped_s()
             );
         }
+        self.erosion_md(&mut s);
         if !self.preset_diffs.is_empty() {
             let _ = writeln!(
                 s,
@@ -279,6 +290,48 @@ impl Comparison {
             }
         }
         s
+    }
+}
+
+impl Comparison {
+    /// The structure retention and change-class table of `report_md` (rows that have them).
+    fn erosion_md(&self, s: &mut String) {
+        let rows: Vec<&ComparisonRow> = self.rows.iter().filter(|r| r.retention.is_some()).collect();
+        if rows.is_empty() {
+            return;
+        }
+        let _ = writeln!(
+            s,
+            "\n## Structure retention and change classes\n\nAgainst the exact G_i (`docs/metrics.md`): the share of the \
+             fixed structure of M_1 that M_i keeps, at W_2, at W_N and on average (target at W_N ≥ 99 %), and the \
+             shares of the cells the route observes where M_1 and G_i disagree that M_i got right, by class: added, \
+             removed and moved items, and M_1's initial errors (mean over the worlds where the class has cells; — \
+             for none).\n"
+        );
+        let _ = writeln!(
+            s,
+            "| preset | seed | retention W_2 | retention W_N | retention mean | target | added right | removed right | \
+             moved right | initial errors fixed |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+        let pct = |v: Option<f64>| v.map_or_else(|| "—".to_owned(), |v| format!("{v:.2}"));
+        for r in rows {
+            let (Some(t), c) = (&r.retention, r.change_classes.unwrap_or_default()) else { continue };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {} | {} | {} |",
+                r.preset,
+                r.seed.map_or_else(|| "all".to_owned(), |x| x.to_string()),
+                t.updated_w2,
+                t.updated_last,
+                t.updated_mean,
+                if t.target_met { "met" } else { "not met" },
+                pct(c.added.updated_mean),
+                pct(c.removed.updated_mean),
+                pct(c.moved.updated_mean),
+                pct(c.initial_errors.updated_mean)
+            );
+        }
     }
 }
 

@@ -83,7 +83,47 @@ pub const WORLDS_CSV_COLUMNS: &[&str] = &[
     "lost_cleared",
     "lost_give_ups",
     "lost_stopped_s",
+    "structure_cells",
+    "retention_updated",
+    "retention_best",
+    "retention_fresh",
+    "added_cells",
+    "added_updated",
+    "added_best",
+    "added_fresh",
+    "removed_cells",
+    "removed_updated",
+    "removed_best",
+    "removed_fresh",
+    "moved_cells",
+    "moved_updated",
+    "moved_best",
+    "moved_fresh",
+    "initial_errors_cells",
+    "initial_errors_updated",
+    "initial_errors_best",
+    "initial_errors_fresh",
 ];
+
+/// The structure retention and change-class columns of a row (empty in rows of records
+/// written before they were measured, and where a class has no cell).
+fn erosion_columns(w: &WorldRow) -> Vec<String> {
+    let f = |v: f64| format!("{v:.6}");
+    let opt = |v: Option<f64>| v.map_or_else(String::new, f);
+    let mut cols = match &w.retention {
+        Some(r) => vec![r.structure_cells.to_string(), f(r.updated_map), f(r.best_map), f(r.fresh_map)],
+        None => vec![String::new(); 4],
+    };
+    match &w.change_classes {
+        Some(c) => {
+            for k in [&c.added, &c.removed, &c.moved, &c.initial_errors] {
+                cols.extend([k.cells.to_string(), opt(k.updated_map), opt(k.best_map), opt(k.fresh_map)]);
+            }
+        }
+        None => cols.extend(vec![String::new(); 16]),
+    }
+    cols
+}
 
 fn csv_row(w: &WorldRow) -> String {
     let f = |v: f64| format!("{v:.6}");
@@ -139,6 +179,7 @@ fn csv_row(w: &WorldRow) -> String {
         w.lost.give_ups.to_string(),
         format!("{:.3}", w.lost.stopped_s()),
     ]);
+    cols.extend(erosion_columns(w));
     cols.join(",")
 }
 
@@ -270,6 +311,7 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
     );
     figure_lines(&mut s, figures, &["fig24a_cc", "fig24b_ms", "fig24c_opdf"]);
     ground_truth_section(&mut s, summary);
+    erosion_section(&mut s, summary);
     localisation_section(&mut s, summary, figures);
     updater_section(&mut s, summary, figures);
     s.push_str(&crate::results::claims::claims_md(&crate::results::claims::validation_claims(summary)));
@@ -322,6 +364,70 @@ fn ground_truth_section(s: &mut String, summary: &Summary) {
         }
     }
     let _ = writeln!(s);
+}
+
+/// A percentage with two decimals, or a dash for none.
+fn pct_or_dash(v: Option<f64>) -> String {
+    v.map_or_else(|| "—".to_owned(), |v| format!("{v:.2}"))
+}
+
+/// Structure retention and the change classes (against the exact G_i).
+fn erosion_section(s: &mut String, summary: &Summary) {
+    let _ = writeln!(
+        s,
+        "## Structure retention and change classes
+"
+    );
+    let (Some(r), Some(c)) = (&summary.retention, &summary.change_classes) else {
+        let _ = writeln!(s, "Not in these records (written before structure retention was measured).\n");
+        return;
+    };
+    let _ = writeln!(
+        s,
+        "Against the exact G_i, whatever the ground truth above (`docs/metrics.md`). **Structure retention**: of \
+         the cells occupied in M_1 and in every G_1 … G_i (S_i, the fixed structure M_1 got right: {:.0} cells on \
+         average), the share a map still has occupied; M_1 keeps 100 % by definition. **Change classes**: the \
+         cells the route observes in W_i where M_1 and G_i disagree (one free, the other occupied), by what \
+         explains them: *added* (free → occupied on an item put down since W_1), *removed* (occupied → free where \
+         an item taken away stood), *moved* (either, on an item moved or turned since W_1; within a cell of its \
+         footprints) and *initial errors* (no edit explains them: M_1's own disagreements with the exact \
+         raster); the share a map has in G_i's state. M*_i has 100 % of both by construction. Means over world \
+         rows (class shares over the rows where the class has cells){}.\n",
+        r.structure_cells_mean,
+        if r.rows < summary.rows {
+            format!("; {} of the {} world rows have the figures (older records have none)", r.rows, summary.rows)
+        } else {
+            String::new()
+        }
+    );
+    let _ = writeln!(s, "| figure (%) | M_i | M*_i | F_i | M_2 at W_2 | M_N at W_N |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "| structure retention | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} (lowest seed {:.2}) |",
+        r.updated_mean, r.best_mean, r.fresh_mean, r.updated_w2, r.updated_last, r.updated_last_min
+    );
+    for (name, k) in
+        [("added", &c.added), ("removed", &c.removed), ("moved", &c.moved), ("initial-error", &c.initial_errors)]
+    {
+        let _ = writeln!(
+            s,
+            "| {name} cells right ({:.1} per world; in {} worlds) | {} | {} | {} | — | {} |",
+            k.cells_mean,
+            k.rows,
+            pct_or_dash(k.updated_mean),
+            pct_or_dash(k.best_mean),
+            pct_or_dash(k.fresh_mean),
+            pct_or_dash(k.updated_last)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nTarget (the project's; the paper states none): retention of M_N ≥ {:.0} %: **{}** ({:.2} %).\n",
+        r.target_last,
+        if r.target_met { "met" } else { "not met" },
+        r.updated_last
+    );
 }
 
 fn localisation_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
@@ -642,6 +748,22 @@ impl Summary {
         );
         if let Some(line) = registration_line(&u.registration, u.heal_votes) {
             let _ = writeln!(t, "{line}");
+        }
+        if let (Some(r), Some(c)) = (&self.retention, &self.change_classes) {
+            let _ = writeln!(
+                t,
+                "retention of M_i: W_2 {:.2} %, W_N {:.2} % (target ≥ {:.0} %: {}), mean {:.2} %; M_i right: added {}, \
+                 removed {}, moved {}, initial errors {} %",
+                r.updated_w2,
+                r.updated_last,
+                r.target_last,
+                if r.target_met { "met" } else { "not met" },
+                r.updated_mean,
+                pct_or_dash(c.added.updated_mean),
+                pct_or_dash(c.removed.updated_mean),
+                pct_or_dash(c.moved.updated_mean),
+                pct_or_dash(c.initial_errors.updated_mean)
+            );
         }
         let l = &self.lost_handling;
         let _ = writeln!(
