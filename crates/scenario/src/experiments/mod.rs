@@ -1,13 +1,14 @@
 //! The experiments: the closed loop of one world through the harness ([`runner`], with the
 //! simulator as a source, [`crate::sim_source`], and the experiments' controls and observers,
 //! [`run_events`]), the hundred-world validation ([`validation`]) and the robustness
-//! experiments and kidnap suite ([`recovery`]), and the localisers' convergence from a start
-//! error ([`convergence`]).
+//! experiments and kidnap suite ([`recovery`]), the localisers' convergence from a start
+//! error ([`convergence`]), and the pose source of the updater ([`pose_oracle`]).
 
 pub mod check_detection;
 pub mod checkpoint;
 pub mod convergence;
 pub mod kidnap_robot;
+pub mod pose_oracle;
 pub mod real_data;
 pub mod recovery;
 pub mod run_events;
