@@ -7,6 +7,7 @@
 //! run them in parallel and merge them in seed order ([`summarise`]).
 
 use crate::experiments::ExperimentError;
+use crate::experiments::pose_oracle::GivenPoseStats;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{
     Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world, run_world_with,
@@ -316,6 +317,11 @@ pub struct WorldRow {
     /// The reaction to Lost (episodes, attempts, recoveries, give-ups, time stopped).
     #[serde(default)]
     pub lost: LostCounts,
+    /// The error of the poses the updater was given, with a pose source other than the chain
+    /// localiser (`runner.updater_poses`; absent with the localiser, whose error is
+    /// `loc_updated`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub updater_pose_error: Option<GivenPoseStats>,
 }
 
 /// Maps and trajectories of a saved world.
@@ -698,6 +704,7 @@ pub fn run_seed_in(
             route_done: run.route_done,
             median_scan_us,
             lost: run.lost,
+            updater_pose_error: run.given_pose,
         });
         if keep {
             saved.push(SavedWorld {
@@ -907,6 +914,10 @@ pub struct Summary {
     /// The check under heavy change (only with `params.update_every` > 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heavy_change: Option<HeavyChange>,
+    /// The error of the poses the updater was given, pooled over all worlds and seeds (only
+    /// with a pose source other than the chain localiser, `params.runner.updater_poses`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub updater_pose_error: Option<GivenPoseStats>,
     /// The parameters.
     pub params: ValidationParams,
 }
@@ -1055,6 +1066,8 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         sim_time_s: rows().map(|w| w.sim_time_s).sum(),
         lost_handling: rows().fold(LostCounts::default(), |a, w| a.add(&w.lost)),
         heavy_change: (params.update_every > 1).then(|| heavy_change(params.update_every, runs)),
+        updater_pose_error: (!params.runner.updater_poses.is_localiser())
+            .then(|| GivenPoseStats::pool(rows().filter_map(|w| w.updater_pose_error.as_ref()))),
         params: params.clone(),
     }
 }

@@ -4,6 +4,7 @@
 //! Everything is recomputed from the presets' records, so the comparison of merged shards is
 //! that of the unsharded sweep.
 
+use crate::experiments::pose_oracle::UpdaterPoses;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
@@ -140,6 +141,9 @@ pub struct Comparison {
     /// their common seeds: e.g. `paper` − `always-update` is what the localisation check adds.
     #[serde(default)]
     pub preset_diffs: Vec<PresetDiff>,
+    /// Where the updater's pose came from (every preset alike), when not the chain localiser.
+    #[serde(default, skip_serializing_if = "UpdaterPoses::is_localiser")]
+    pub updater_poses: UpdaterPoses,
 }
 
 fn row(preset: &str, seed: Option<u64>, record: &ValidationRecord, seeds: &[SeedRecord]) -> ComparisonRow {
@@ -187,6 +191,7 @@ impl Comparison {
             presets: presets.to_vec(),
             rows,
             preset_diffs,
+            updater_poses: records.first().map(|r| r.params.runner.updater_poses).unwrap_or_default(),
         }
     }
 
@@ -213,6 +218,9 @@ impl Comparison {
             self.worlds,
             self.presets.iter().map(|p| format!("`{p}`")).collect::<Vec<_>>().join(", ")
         );
+        if !self.updater_poses.is_localiser() {
+            let _ = writeln!(s, "Pose source of the updater: {}.\n", self.updater_poses.describe());
+        }
         let _ = writeln!(
             s,
             "| preset | seed | worlds | CC M_1 → M_i (M_N) | CC better | MS M_1 → M_i (M_N) | MS better | OPDF M_1 → M_i (M_N) | \
@@ -385,6 +393,7 @@ mod tests {
                 presets: vec![name.into()],
                 rows: Vec::new(),
                 preset_diffs: Vec::new(),
+                updater_poses: UpdaterPoses::Localiser,
             };
             std::fs::write(dir.join("summary.json"), c.json().unwrap()).unwrap();
             let got = read_comparison(&dir);
