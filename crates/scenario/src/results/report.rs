@@ -286,8 +286,8 @@ fn pose_source_lines(s: &mut String, summary: &Summary) {
     }
     let _ = write!(
         s,
-        "Pose source of the updater: {}. The chain localiser still ran on M_{{i-1}} (its error below is its own, \
-         and pose updating's recovered poses re-initialised it), the baseline on M_1; the fresh maps F_i were made \
+        "Pose source of the updater: {}. The chain localiser still ran on M_{{i-1}} (its error below is its own; \
+         a pose recovered by pose updating re-initialised it as ever), the baseline on M_1; the fresh maps F_i were made \
          at the poses the updater was given.",
         poses.describe()
     );
