@@ -130,6 +130,10 @@ pub struct Args {
     /// defaults).
     #[command(flatten)]
     pub sensor: super::sensor::SensorArgs,
+    /// The updater's pose source (recorded in summary.json's parameters and in report.md when
+    /// not the chain localiser).
+    #[command(flatten)]
+    pub poses: super::poses::PoseArgs,
 }
 
 /// First seed of the default run (after the tuning seeds 1-3 of the algorithms issue).
@@ -196,7 +200,9 @@ fn simulate_ahead_if_cores_free(
 
 /// The flags that override fields of every preset's parameters.
 fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Result<()> {
+    let poses = args.poses.updater_poses()?;
     for p in &mut plan.params {
+        p.runner.updater_poses = poses;
         if let Some(k) = args.update_every {
             p.update_every = k;
         }
