@@ -20,7 +20,8 @@ pub struct PoseArgs {
     /// true pose plus white Gaussian noise in x, y and yaw and a slow yaw bias, a first-order
     /// Gauss–Markov process; --pose-noise-xy-m, --pose-noise-yaw-deg, --pose-bias-yaw-deg,
     /// --pose-bias-tau-s). The chain localiser and the baseline run, and are scored, either way;
-    /// the source is recorded in the parameters and the reports.
+    /// the source is recorded in the parameters and the reports (docs/evaluation.md, "The
+    /// updater's pose source").
     #[arg(long, value_name = "localiser|true|true+noise", default_value = "localiser", value_parser = str::parse::<UpdaterPoses>)]
     pub poses: UpdaterPoses,
     /// With --poses true+noise: standard deviation of the white noise in x and in y, metres,
@@ -84,5 +85,54 @@ impl PoseArgs {
             .validate()
             .context("--pose-noise-xy-m / --pose-noise-yaw-deg / --pose-bias-yaw-deg / --pose-bias-tau-s")?;
         Ok(poses)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Args as _;
+    use mapkeeper_scenario::PoseNoise;
+
+    /// The defaults the help states are the noise model's own.
+    #[test]
+    fn the_help_states_the_noise_models_defaults() {
+        let cmd = PoseArgs::augment_args(clap::Command::new("t"));
+        let help = |id: &str| {
+            let arg = cmd.get_arguments().find(|a| a.get_id() == id).unwrap();
+            arg.get_help().unwrap().to_string()
+        };
+        let d = PoseNoise::default();
+        for (id, value) in [
+            ("pose_noise_xy_m", d.sigma_xy_m),
+            ("pose_noise_yaw_deg", d.sigma_yaw_rad.to_degrees()),
+            ("pose_bias_yaw_deg", d.yaw_bias_sigma_rad.to_degrees()),
+            ("pose_bias_tau_s", d.yaw_bias_tau_s),
+        ] {
+            let stated = format!("[default: {}]", (value * 1e9).round() / 1e9);
+            assert!(help(id).ends_with(&stated), "{id}: {} does not end with {stated}", help(id));
+        }
+    }
+
+    #[test]
+    fn noise_flags_need_true_noise_and_set_the_model() {
+        let args = PoseArgs {
+            poses: "true+noise".parse().unwrap(),
+            pose_noise_xy_m: Some(0.1),
+            pose_noise_yaw_deg: Some(2.0),
+            pose_bias_yaw_deg: None,
+            pose_bias_tau_s: Some(5.0),
+        };
+        let want = PoseNoise {
+            sigma_xy_m: 0.1,
+            sigma_yaw_rad: 2f64.to_radians(),
+            yaw_bias_tau_s: 5.0,
+            ..PoseNoise::default()
+        };
+        assert_eq!(args.updater_poses().unwrap(), UpdaterPoses::TrueNoise(want));
+        let plain = PoseArgs { poses: UpdaterPoses::True, ..args };
+        assert!(
+            plain.updater_poses().unwrap_err().to_string().starts_with("--pose-noise-xy-m needs --poses true+noise")
+        );
     }
 }
