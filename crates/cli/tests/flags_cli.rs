@@ -262,6 +262,16 @@ const FLAGS: &[Flag] = &[
     other("experiment sensor-realism", "--params", Path),
     other("experiment sensor-realism", "--out", Path),
     num("experiment sensor-realism", "--jobs", Count),
+    other("validate", "--poses", Name),
+    ok("validate", "--pose-noise-xy-m", Real, &["0"], "σ 0 m: no position noise"),
+    ok("validate", "--pose-noise-yaw-deg", Real, &["0"], "σ 0°: no white yaw noise"),
+    ok("validate", "--pose-bias-yaw-deg", Real, &["0"], "σ 0°: no yaw bias"),
+    num("validate", "--pose-bias-tau-s", Real),
+    other("run", "--poses", Name),
+    ok("run", "--pose-noise-xy-m", Real, &["0"], "σ 0 m: no position noise"),
+    ok("run", "--pose-noise-yaw-deg", Real, &["0"], "σ 0°: no white yaw noise"),
+    ok("run", "--pose-bias-yaw-deg", Real, &["0"], "σ 0°: no yaw bias"),
+    num("run", "--pose-bias-tau-s", Real),
 ];
 
 /// The bad values every scalar numeric flag gets (list flags accept "1,2").

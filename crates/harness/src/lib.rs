@@ -6,7 +6,8 @@
 //! an optional baseline localiser) and processes one frame at a time; it never sees the truth.
 //! [`Observer`]s (statistics, trajectories, timelines) read the step, truth included, and the
 //! session's report; [`Control`]s are what an experiment does: bias the estimate, stop, resume
-//! or move the robot, hand a recovered pose back. [`run`] drives them all.
+//! or move the robot, hand a recovered pose back, or feed the updater a pose of its own (an
+//! oracle's, [`Session::set_updater_pose_override`]). [`run`] drives them all.
 //!
 //! This crate depends on no simulator: the replay path builds without rapier.
 //!

@@ -1,6 +1,8 @@
 //! The estimators of one run, stepped together: a pose source (the chain localiser, or a
 //! recorded trajectory), the map updater fed with that pose, and an optional baseline
-//! localiser on another map. A [`Session`] sees only [`SensorFrame`]s; truth never reaches it.
+//! localiser on another map. A [`Session`] sees only [`SensorFrame`]s; truth never reaches it,
+//! except as a pose an experiment's control hands the updater explicitly
+//! ([`Session::set_updater_pose_override`]).
 
 use crate::HarnessError;
 use crate::clock::Clock;
@@ -37,8 +39,9 @@ pub enum Skip {
 pub struct StepReport {
     /// The frame's stamp, nanoseconds.
     pub stamp_ns: u64,
-    /// The robot pose the updater was given (the localiser's estimate after this frame, or the
-    /// recorded pose); `None` if the step was skipped or the session has no pose source.
+    /// The robot pose the updater was given (the localiser's estimate after this frame, the
+    /// recorded pose, or an experiment's override, moved by the pose bias if one is in force);
+    /// `None` if the step was skipped or the session has no pose source and no override.
     pub pose_in_map: Option<Pose2>,
     /// The chain localiser's report (with [`PoseSource::Localiser`]).
     pub localiser: Option<UpdateReport>,
@@ -151,6 +154,9 @@ pub struct Session<'c> {
     clock: &'c dyn Clock,
     /// An offset added to the pose source's pose before the updater sees it ([`Session::set_pose_bias`]).
     bias: Option<PoseBias>,
+    /// The pose the updater is given on the next step instead of the pose source's
+    /// ([`Session::set_updater_pose_override`]).
+    updater_pose: Option<Pose2>,
 }
 
 /// An offset of the pose the updater is given (an experiment holding the estimate wrong while
@@ -187,7 +193,7 @@ impl<'c> Session<'c> {
         baseline: Option<Baseline>,
         clock: &'c dyn Clock,
     ) -> Self {
-        Self { pose, updater, baseline, clock, bias: None }
+        Self { pose, updater, baseline, clock, bias: None, updater_pose: None }
     }
 
     /// From the next step on, the pose the updater is given (and [`StepReport::pose_in_map`])
@@ -202,10 +208,27 @@ impl<'c> Session<'c> {
         self.bias
     }
 
+    /// An experiment's oracle: on the next step (the next [`Session::process`], which consumes
+    /// it) the updater is given `pose_in_map` instead of the pose source's pose, and
+    /// [`StepReport::pose_in_map`] is that pose (moved by the pose bias, if one is in force).
+    /// The pose source is stepped as usual: the chain localiser runs on untouched, and a step
+    /// it skips (no odometry) discards the override. With [`PoseSource::None`] the updater is
+    /// given the override. Only an experiment control that sees the truth sets it (e.g. an
+    /// updater fed true poses); `None` withdraws an override not yet used.
+    pub fn set_updater_pose_override(&mut self, pose_in_map: Option<Pose2>) {
+        self.updater_pose = pose_in_map;
+    }
+
+    /// The override waiting for the next step, if any.
+    pub fn updater_pose_override(&self) -> Option<Pose2> {
+        self.updater_pose
+    }
+
     /// Steps every estimator with one frame: the pose source first, then the updater with
-    /// that pose (and the frame's odometry, or the pose where there is none), then the
-    /// baseline.
+    /// that pose (or the override, [`Session::set_updater_pose_override`]; and the frame's
+    /// odometry, or the pose where there is none), then the baseline.
     pub fn process(&mut self, frame: &SensorFrame) -> StepReport {
+        let oracle = self.updater_pose.take();
         let (pose, localiser) = match &mut self.pose {
             PoseSource::Localiser(loc) => {
                 let Some(odometry) = frame.odometry else {
@@ -220,6 +243,7 @@ impl<'c> Session<'c> {
             },
             PoseSource::None => (None, None),
         };
+        let pose = oracle.or(pose);
         let pose = match (pose, self.bias) {
             (Some(p), Some(b)) => Some(b.apply(p)),
             _ => pose,
@@ -298,5 +322,98 @@ impl<'c> Session<'c> {
             None => Vec::new(),
         };
         Ok(SessionOutput { updater: self.updater, baseline })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::NoClock;
+    use mapkeeper_grid::{CellState, GridGeometry};
+    use mapkeeper_localiser::FilterParams;
+    use mapkeeper_sensor::LaserScan;
+    use mapkeeper_updater::UpdaterParams;
+
+    /// A 10 m × 10 m room, free inside an occupied border, 0.1 m cells, origin at (-5, -5).
+    fn room() -> OccupancyGrid {
+        let g = GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for i in 0..100 {
+            for (x, y) in [(i, 0), (i, 99), (0, i), (99, i)] {
+                m.cells_mut()[y * 100 + x] = CellState::Occupied;
+            }
+        }
+        m
+    }
+
+    /// Step k: the robot 0.3 m further along x, one scan.
+    fn frame(k: u64) -> SensorFrame {
+        let stamp_ns = 100_000_000 * (k + 1);
+        let scan = LaserScan {
+            stamp_ns,
+            lidar_id: 0,
+            lidar_in_robot: Pose2::IDENTITY,
+            angle_min_rad: -1.5,
+            angle_increment_rad: 0.01,
+            range_min_m: 0.05,
+            range_max_m: 20.0,
+            ranges_m: vec![3.0; 301],
+        };
+        SensorFrame { stamp_ns, odometry: Some(Pose2::new(0.3 * k as f64, 0.0, 0.0)), scans: vec![scan] }
+    }
+
+    /// The oracle's pose at step k: off the localiser's estimate by a metre.
+    fn oracle(k: u64) -> Pose2 {
+        Pose2::new(0.3 * k as f64 - 1.0, 0.5, 0.1)
+    }
+
+    fn session(pose: PoseSource) -> Session<'static> {
+        let updater = MapUpdater::new(room(), UpdaterParams::paper()).unwrap();
+        Session::new(pose, Some(updater), None, &NoClock)
+    }
+
+    fn localiser() -> PoseSource {
+        let mut loc = Localiser::new(&room(), FilterParams::default(), 5).unwrap();
+        loc.init_pose(Pose2::IDENTITY, [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]]).unwrap();
+        PoseSource::Localiser(Box::new(loc))
+    }
+
+    #[test]
+    fn an_override_reaches_the_updater_and_not_the_localiser() {
+        let mut with = session(localiser());
+        let mut without = session(localiser());
+        let track = (0..8).map(|k| StampedPose { stamp_ns: frame(k).stamp_ns, pose: oracle(k) }).collect();
+        let mut fed = session(PoseSource::Track(track));
+        let mut processed = 0;
+        for k in 0..8 {
+            let f = frame(k);
+            with.set_updater_pose_override(Some(oracle(k)));
+            assert_eq!(with.updater_pose_override(), Some(oracle(k)));
+            let (a, b, c) = (with.process(&f), without.process(&f), fed.process(&f));
+            assert_eq!(with.updater_pose_override(), None, "consumed by the step");
+            // The localiser runs on as if there were no override, bit for bit.
+            assert_eq!(a.localiser, b.localiser);
+            assert_ne!(a.pose_in_map, b.pose_in_map);
+            // The updater does exactly what it does when the pose source is the oracle's pose.
+            assert_eq!(a.pose_in_map, Some(oracle(k)));
+            assert_eq!(a.updater, c.updater);
+            processed += usize::from(a.updater.as_ref().is_some_and(|u| u.outcome == StepOutcome::Processed));
+        }
+        assert!(processed > 0, "the updater processed steps");
+        let (w, f) = (with.finish().unwrap(), fed.finish().unwrap());
+        assert_eq!(w.updater.map(|u| u.map().clone()), f.updater.map(|u| u.map().clone()));
+    }
+
+    #[test]
+    fn the_bias_moves_the_override_and_a_skipped_step_discards_it() {
+        let mut s = session(localiser());
+        let bias = PoseBias { dx_m: 0.5, dy_m: 0.0, dyaw_rad: 0.0 };
+        s.set_pose_bias(Some(bias));
+        s.set_updater_pose_override(Some(oracle(0)));
+        assert_eq!(s.process(&frame(0)).pose_in_map, Some(bias.apply(oracle(0))));
+        s.set_updater_pose_override(Some(oracle(1)));
+        let report = s.process(&SensorFrame { odometry: None, ..frame(1) });
+        assert_eq!(report.skipped, Some(Skip::NoOdometry));
+        assert_eq!(s.updater_pose_override(), None);
     }
 }

@@ -25,6 +25,7 @@ pub mod worlds;
 
 pub use error::ScenarioError;
 pub use experiments::ExperimentError;
+pub use experiments::pose_oracle::{PoseNoise, UpdaterPoses};
 pub use experiments::recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
 pub use experiments::run_events::{
     Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEnd, LostEpisode, LostPolicy, TimelineRecorder,

@@ -11,6 +11,7 @@ pub mod log_input;
 pub mod map;
 pub mod merge;
 pub mod metrics;
+pub mod poses;
 pub mod real_data;
 pub mod realism;
 pub mod recover;

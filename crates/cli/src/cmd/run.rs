@@ -64,6 +64,10 @@ pub struct Args {
     /// Robot file and sensor realism (with --world).
     #[command(flatten)]
     pub sensor: super::sensor::SensorArgs,
+    /// The updater's pose source (with --world; recorded in run.json when not the chain
+    /// localiser).
+    #[command(flatten)]
+    pub poses: super::poses::PoseArgs,
 }
 
 /// Runs the subcommand.
@@ -73,6 +77,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (Some(w), _) => w.clone(),
         (None, Some(_)) if args.sensor.is_set() => {
             anyhow::bail!("--robot, --sensor-profile and --sensor-effects need --world (a log brings its own scans)")
+        }
+        (None, Some(_)) if args.poses.is_set() => {
+            anyhow::bail!("--poses and the pose noise flags need --world (on a log: `mapkeeper update --true-poses`)")
         }
         (None, Some(log)) => return run_log(&args, log),
         (None, None) => anyhow::bail!("--world or --log is required"),
@@ -93,6 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..RunnerParams::default()
     };
     params.set_localiser(&args.localiser).context("--localiser")?;
+    params.updater_poses = args.poses.updater_poses()?;
     args.sensor.apply(&mut params.sim)?;
     let dir = super::output_dir(&args.out, args.force)?;
     let start = Instant::now();
@@ -113,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = dir.finish()?;
     outln!(
         "run: {:.1} s simulated in {wall:.1} s; chain error mean {:.3} m max {:.3} m; baseline mean {:.3} m; \
-         Update {} Suspend {} Lost {}; {} cells changed; {} collisions; wrote {}",
+         Update {} Suspend {} Lost {}; {} cells changed; {} collisions{}; wrote {}",
         r.sim_time_s,
         r.chain.mean_error_m,
         r.chain.max_error_m,
@@ -123,6 +131,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         r.updater.lost,
         r.cells_changed,
         r.collisions,
+        r.given_pose.map_or(String::new(), |e| format!(
+            "; updater poses {}, error RMSE {:.3} m",
+            params.updater_poses.name(),
+            e.rmse_m
+        )),
         out.display()
     );
     Ok(())
@@ -143,7 +156,7 @@ fn write_outputs(
         dir.write("baseline.tum", format_tum(&t.baseline).as_bytes())?;
     }
     let median = median(r.scan_times_us.iter().map(|&t| f64::from(t)).collect()).unwrap_or(0.0);
-    let json = serde_json::json!({
+    let mut json = serde_json::json!({
         "seed": args.seed,
         "preset": args.preset,
         "localiser": params.localiser,
@@ -161,6 +174,10 @@ fn write_outputs(
         "route_done": r.route_done,
         "wall_time_s": wall,
     });
+    if let Some(e) = &r.given_pose {
+        json["updater_poses"] = serde_json::to_value(params.updater_poses)?;
+        json["updater_pose_error"] = serde_json::to_value(e)?;
+    }
     dir.write("run.json", format!("{}\n", serde_json::to_string_pretty(&json)?).as_bytes())?;
     Ok(())
 }

@@ -16,8 +16,8 @@ use std::time::Instant;
 mapkeeper side by side (a sweep, below), the amcl localiser, seeds 11, 12, 13, a hundred worlds each \
 (72 min measured on two cores shared with a CI run). --preset P runs one preset into OUT itself.\n\n\
 For each seed: generate W_1 … W_N; build M_1 in W_1 with the log-odds mapper; in each \
-W_i (i ≥ 2) drive the route with a chain localiser on M_{i-1} (feeding the updater, which makes M_i) and a \
-baseline localiser on M_1; score M_1/G_i and M_i/G_i with CC, MS, OPDF.\n\n\
+W_i (i ≥ 2) drive the route with a chain localiser on M_{i-1} (feeding the updater, which makes M_i; \
+--poses true or true+noise feeds it the true pose instead, with or without noise) and a baseline localiser on M_1; score M_1/G_i and M_i/G_i with CC, MS, OPDF.\n\n\
 Output in OUT (default results/validate-s<SEED>-<N>w-<counter>): runs.json, summary.json, worlds.csv, \
 report.md, edits.json, plots/ (Fig. 24-27, SVG and PNG), seed-S/maps (M_i, G_i of W_1, W_2, W_50, W_100, \
 W_N), seed-S/trajectories (TUM: true, chain, baseline). Results are identical whatever --jobs; only \
@@ -130,6 +130,10 @@ pub struct Args {
     /// defaults).
     #[command(flatten)]
     pub sensor: super::sensor::SensorArgs,
+    /// The updater's pose source (recorded in summary.json's parameters and in report.md when
+    /// not the chain localiser).
+    #[command(flatten)]
+    pub poses: super::poses::PoseArgs,
 }
 
 /// First seed of the default run (after the tuning seeds 1-3 of the algorithms issue).
@@ -196,7 +200,9 @@ fn simulate_ahead_if_cores_free(
 
 /// The flags that override fields of every preset's parameters.
 fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Result<()> {
+    let poses = args.poses.updater_poses()?;
     for p in &mut plan.params {
+        p.runner.updater_poses = poses;
         if let Some(k) = args.update_every {
             p.update_every = k;
         }

@@ -2,13 +2,15 @@
 //! simulator as a source, [`crate::sim_source`], and the experiments' controls and observers,
 //! [`run_events`]), the hundred-world validation ([`validation`]) with its structure retention
 //! and change-class scores ([`erosion`]), the robustness experiments and kidnap suite
-//! ([`recovery`]), and the localisers' convergence from a start error ([`convergence`]).
+//! ([`recovery`]), the localisers' convergence from a start error ([`convergence`]), and the
+//! pose source of the updater ([`pose_oracle`]).
 
 pub mod check_detection;
 pub mod checkpoint;
 pub mod convergence;
 pub mod erosion;
 pub mod kidnap_robot;
+pub mod pose_oracle;
 pub mod real_data;
 pub mod recovery;
 pub mod run_events;

@@ -1,6 +1,7 @@
 //! The closed loop in one world W_i: the simulator drives the route; a chain localiser on
 //! M_{i-1} and a baseline localiser on M_1 run on the same scans and odometry; the updater,
-//! fed with the chain localiser's pose, turns M_{i-1} into M_i. When the updater says Lost the
+//! fed with the chain localiser's pose (or, in an experiment, the true pose with or without
+//! noise: [`RunnerParams::updater_poses`]), turns M_{i-1} into M_i. When the updater says Lost the
 //! robot stops at once and stays stopped while the updater retries pose updating on the scans it
 //! keeps receiving; on a recovered pose the chain localiser is re-initialised there and the
 //! robot resumes, and after `lost_wait_s` without one it resumes anyway ([`LostPolicy`]).
@@ -12,6 +13,7 @@
 //! otherwise it is reported as 0 and the work counters (processed scans, beams) stand in for it.
 
 use crate::experiments::ExperimentError;
+use crate::experiments::pose_oracle::{GivenPoseError, GivenPoseStats, PoseOracle, UpdaterPoses};
 use crate::experiments::run_events::{
     Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEpisode, LostPolicy, PoseErrorControl, PoseErrorHold,
     PoseErrorRecord, RobotKidnap, TimelineRecorder, TimelineSample,
@@ -96,6 +98,12 @@ pub struct RunnerParams {
     /// Not with `kidnap`. Default none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robot_kidnap: Option<RobotKidnap>,
+    /// Where the pose the updater is given comes from ([`UpdaterPoses`]): the chain localiser's
+    /// estimate (the default, not written then), the true pose, or the true pose plus noise
+    /// (an experiment control, [`PoseOracle`], hands it to the session; the chain localiser and
+    /// the baseline run and are scored as ever).
+    #[serde(default, skip_serializing_if = "UpdaterPoses::is_localiser")]
+    pub updater_poses: UpdaterPoses,
 }
 
 /// How the fresh map of a run is made ([`RunnerParams::fresh_map`]).
@@ -132,6 +140,7 @@ impl Default for RunnerParams {
             fresh_map: None,
             pose_error: None,
             robot_kidnap: None,
+            updater_poses: UpdaterPoses::Localiser,
         }
     }
 }
@@ -203,7 +212,7 @@ impl RunnerParams {
             }
             r.validate()?;
         }
-        Ok(())
+        self.updater_poses.validate()
     }
 }
 
@@ -351,6 +360,10 @@ pub struct WorldRun {
     /// The updater's cross-world memory to hand to the next world with [`WorldRun::map`]
     /// (empty when the memory is off).
     pub memory: StructureMemory,
+    /// The error of the poses the updater was given, with a pose source other than the chain
+    /// localiser ([`RunnerParams::updater_poses`]; `None` with the localiser, whose error is
+    /// `chain`).
+    pub given_pose: Option<GivenPoseStats>,
 }
 
 /// The initial estimate: the true start displaced by `start_error_m` in a seeded direction and
@@ -431,6 +444,17 @@ fn updater(
     Ok(Some(MapUpdater::with_memory(prev_map.clone(), params.updater.clone(), memory)?))
 }
 
+/// The mapper of the run's fresh map on M_{i-1}'s grid, if the run makes one.
+fn fresh_mapper(params: &RunnerParams, prev_map: &OccupancyGrid) -> Result<Option<EstimateMapper>, ExperimentError> {
+    params
+        .fresh_map
+        .map(|f| {
+            EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
+                .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })
+        })
+        .transpose()
+}
+
 /// [`run_world`] with `extra` controls seeing every step after the run's own (an MCAP
 /// recorder, say); they must not change the run.
 pub fn run_world_with(
@@ -459,13 +483,9 @@ pub fn run_world_with(
     let mut kidnap = params.kidnap.map(KidnapControl::new).or(params.robot_kidnap.map(KidnapControl::robot));
     let mut pose_error = params.pose_error.map(PoseErrorControl::new);
     let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
-    let mut fresh = match params.fresh_map {
-        Some(f) => Some(
-            EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
-                .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })?,
-        ),
-        None => None,
-    };
+    let mut oracle = PoseOracle::new(&params.updater_poses, seed, label);
+    let mut given = GivenPoseError::default();
+    let mut fresh = fresh_mapper(params, prev_map)?;
     let result = {
         let mut observers: Vec<&mut dyn Observer> = vec![&mut score, &mut work];
         if let Some(f) = fresh.as_mut() {
@@ -475,6 +495,10 @@ pub fn run_world_with(
             observers.push(&mut timeline);
         }
         let mut controls: Vec<&mut dyn Control> = Vec::new();
+        if let Some(o) = oracle.as_mut() {
+            controls.push(o);
+            observers.push(&mut given);
+        }
         if let Some(k) = kidnap.as_mut() {
             controls.push(k);
         }
@@ -518,6 +542,7 @@ pub fn run_world_with(
         lost_episodes,
         fresh_map: fresh.map(|f| f.mapper.to_grid()),
         memory,
+        given_pose: oracle.map(|_| given.stats()),
     })
 }
 

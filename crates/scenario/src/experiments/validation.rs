@@ -12,6 +12,7 @@ use crate::experiments::erosion::{
     ChangeClassSummary, ChangeClasses, ErosionJudge, Retention, RetentionSummary, change_class_summary,
     retention_summary,
 };
+use crate::experiments::pose_oracle::GivenPoseStats;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{
     Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world, run_world_with,
@@ -329,6 +330,11 @@ pub struct WorldRow {
     /// and the share M_i, M*_i and F_i got right (`None` as for `retention`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub change_classes: Option<ChangeClasses>,
+    /// The error of the poses the updater was given, with a pose source other than the chain
+    /// localiser (`runner.updater_poses`; absent with the localiser, whose error is
+    /// `loc_updated`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub updater_pose_error: Option<GivenPoseStats>,
 }
 
 /// Maps and trajectories of a saved world.
@@ -739,6 +745,7 @@ pub fn run_seed_in(
             lost: run.lost,
             retention: Some(retention),
             change_classes: Some(change_classes),
+            updater_pose_error: run.given_pose,
         });
         if keep {
             saved.push(SavedWorld {
@@ -963,6 +970,10 @@ pub struct Summary {
     /// `retention`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub change_classes: Option<ChangeClassSummary>,
+    /// The error of the poses the updater was given, pooled over all worlds and seeds (only
+    /// with a pose source other than the chain localiser, `params.runner.updater_poses`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub updater_pose_error: Option<GivenPoseStats>,
     /// The parameters.
     pub params: ValidationParams,
 }
@@ -1118,6 +1129,8 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         heavy_change: (params.update_every > 1).then(|| heavy_change(params.update_every, runs)),
         retention: retention_summary(runs),
         change_classes: change_class_summary(runs),
+        updater_pose_error: (!params.runner.updater_poses.is_localiser())
+            .then(|| GivenPoseStats::pool(rows().filter_map(|w| w.updater_pose_error.as_ref()))),
         params: params.clone(),
     }
 }

@@ -5,6 +5,7 @@
 //! that of the unsharded sweep.
 
 use crate::experiments::erosion::{ChangeClassSummary, RetentionSummary};
+use crate::experiments::pose_oracle::UpdaterPoses;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
@@ -148,6 +149,9 @@ pub struct Comparison {
     /// their common seeds: e.g. `paper` − `always-update` is what the localisation check adds.
     #[serde(default)]
     pub preset_diffs: Vec<PresetDiff>,
+    /// Where the updater's pose came from (every preset alike), when not the chain localiser.
+    #[serde(default, skip_serializing_if = "UpdaterPoses::is_localiser")]
+    pub updater_poses: UpdaterPoses,
 }
 
 fn row(preset: &str, seed: Option<u64>, record: &ValidationRecord, seeds: &[SeedRecord]) -> ComparisonRow {
@@ -197,6 +201,7 @@ impl Comparison {
             presets: presets.to_vec(),
             rows,
             preset_diffs,
+            updater_poses: records.first().map(|r| r.params.runner.updater_poses).unwrap_or_default(),
         }
     }
 
@@ -223,6 +228,9 @@ impl Comparison {
             self.worlds,
             self.presets.iter().map(|p| format!("`{p}`")).collect::<Vec<_>>().join(", ")
         );
+        if !self.updater_poses.is_localiser() {
+            let _ = writeln!(s, "Pose source of the updater: {}.\n", self.updater_poses.describe());
+        }
         let _ = writeln!(
             s,
             "| preset | seed | worlds | CC M_1 → M_i (M_N) | CC better | MS M_1 → M_i (M_N) | MS better | OPDF M_1 → M_i (M_N) | \
@@ -438,6 +446,7 @@ mod tests {
                 presets: vec![name.into()],
                 rows: Vec::new(),
                 preset_diffs: Vec::new(),
+                updater_poses: UpdaterPoses::Localiser,
             };
             std::fs::write(dir.join("summary.json"), c.json().unwrap()).unwrap();
             let got = read_comparison(&dir);
