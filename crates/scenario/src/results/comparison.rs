@@ -273,13 +273,21 @@ impl Comparison {
             );
         }
         self.erosion_md(&mut s);
+        self.preset_diffs_md(&mut s);
+        s
+    }
+}
+
+impl Comparison {
+    /// The presets-against-each-other table of `report_md` (none with one preset).
+    fn preset_diffs_md(&self, s: &mut String) {
         if !self.preset_diffs.is_empty() {
             let _ = writeln!(
                 s,
                 "\n## Presets against each other\n\nPer seed, the mean over worlds of preset a's M_i/G_i minus preset b's \
-                 (points; positive: a's maps are better) and of the chain localiser's mean error (m; negative: a \
-                 localises better), averaged over the seeds both ran, with the paired 95 % Student-t interval over \
-                 those seeds (none with one seed).\n"
+             (points; positive: a's maps are better) and of the chain localiser's mean error (m; negative: a \
+             localises better), averaged over the seeds both ran, with the paired 95 % Student-t interval over \
+             those seeds (none with one seed).\n"
             );
             let _ = writeln!(s, "| a − b | seeds | CC | MS | OPDF | error on M_i-1 (m) |");
             let _ = writeln!(s, "|---|---|---|---|---|---|");
@@ -297,11 +305,8 @@ impl Comparison {
                 );
             }
         }
-        s
     }
-}
 
-impl Comparison {
     /// The structure retention and change-class table of `report_md` (rows that have them).
     fn erosion_md(&self, s: &mut String) {
         let rows: Vec<&ComparisonRow> = self.rows.iter().filter(|r| r.retention.is_some()).collect();
