@@ -1,6 +1,6 @@
 //! Metrics that see erosion in the validation: **structure retention** and **per-change-class
 //! scores** of M_i, M*_i and F_i, per world ([`Retention`], [`ChangeClasses`], scored by
-//! [`ErosionJudge`]) and over worlds and seeds ([`RetentionSummary`], [`ChangeClassSummary`]).
+//! `ErosionJudge`) and over worlds and seeds ([`RetentionSummary`], [`ChangeClassSummary`]).
 //!
 //! Both are taken against the **exact** G_i whatever `--ground-truth` says (the observed G_i is
 //! unknown wherever the exploration route does not look, which would hide exactly the faces an
