@@ -516,8 +516,9 @@ mod tests {
     const O: CellState = CellState::Occupied;
     const U: CellState = CellState::Unknown;
 
-    /// A grid from rows written top row first (as drawn), at 1 m per cell.
-    fn grid(rows_top_first: &[&[CellState]]) -> OccupancyGrid {
+    /// A grid from rows written top row first (as drawn), at 1 m per cell (also the `erosion`
+    /// module's tests).
+    pub(super) fn grid(rows_top_first: &[&[CellState]]) -> OccupancyGrid {
         grid_res(rows_top_first, 1.0)
     }
 

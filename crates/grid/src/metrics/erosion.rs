@@ -381,14 +381,7 @@ mod tests {
     const O: CellState = CellState::Occupied;
     const U: CellState = CellState::Unknown;
 
-    /// A grid from rows written top row first (as drawn), at 1 m per cell.
-    fn grid(rows_top_first: &[&[CellState]]) -> OccupancyGrid {
-        let h = rows_top_first.len();
-        let w = rows_top_first[0].len();
-        let g = GridGeometry::new(w, h, 1.0, Pose2::IDENTITY).expect("geometry");
-        let cells = rows_top_first.iter().rev().flat_map(|r| r.iter().copied()).collect();
-        OccupancyGrid::from_cells(g, cells).expect("cells")
-    }
+    use super::super::tests::grid;
 
     /// A mask from rows written top row first, `1` set.
     fn mask(rows_top_first: &[&[u8]]) -> Vec<bool> {
