@@ -10,7 +10,7 @@ use crate::source::SensorFrame;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_localiser::{Covariance3, Estimate, Localiser, UpdateReport};
 use mapkeeper_sensor::{StampedPose, interpolate};
-use mapkeeper_updater::{MapUpdater, StepOutcome, StepReport as UpdaterStep};
+use mapkeeper_updater::{MapUpdater, PoseSigma, StepOutcome, StepReport as UpdaterStep};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
@@ -249,8 +249,14 @@ impl<'c> Session<'c> {
             _ => pose,
         };
         let (mut updater_ns, mut updater_state_bytes) = (None, 0);
+        // The localiser's own uncertainty goes with its pose (not with an oracle's).
+        let sigma = match (&localiser, oracle) {
+            (Some(r), None) => PoseSigma::from_covariance(&r.estimate.covariance),
+            _ => None,
+        };
         let updater = match (self.updater.as_mut(), pose) {
             (Some(u), Some(p)) => {
+                u.set_pose_sigma(sigma);
                 let t0 = self.clock.now_ns();
                 let step = u.process(p, frame.odometry.unwrap_or(p), &frame.scans);
                 let t1 = self.clock.now_ns();

@@ -90,6 +90,7 @@ pub mod additions {
     pub mod grazing;
     pub mod hit_index;
     pub mod log_odds_baseline;
+    pub mod pose_tolerance;
     pub mod registration;
     pub mod removal_gates;
     pub mod shift_check;
@@ -107,6 +108,7 @@ mod error;
 pub mod params;
 mod updater;
 
+pub use additions::pose_tolerance::{PoseSigma, StepTolerance, ToleranceParams};
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
 pub use error::UpdaterError;

@@ -5,6 +5,7 @@
 //! `docs/paper-vs-implementation.md` has one row per rule and one column per preset).
 
 use crate::UpdaterError;
+use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
 use crate::additions::shift_check::ShiftCheckParams;
 use crate::additions::structure_memory::MemoryParams;
@@ -313,6 +314,9 @@ pub struct UpdaterParams {
     /// The cross-world memory (a `mapkeeper` addition; see the `structure_memory` module).
     /// Default off.
     pub memory: MemoryParams,
+    /// Tolerances that follow the step's pose uncertainty (a `mapkeeper` addition; see the
+    /// `pose_tolerance` module). Default off.
+    pub tolerance: ToleranceParams,
     /// Log-odds baseline parameters (the grid crate's mapper; only with `method = "log-odds"`).
     pub log_odds: MapperParams,
 }
@@ -412,6 +416,7 @@ impl UpdaterParams {
             shift_check: ShiftCheckParams::default(),
             registration: RegistrationParams::default(),
             memory: MemoryParams::default(),
+            tolerance: ToleranceParams::default(),
             log_odds: MapperParams::default(),
         }
     }
@@ -547,6 +552,7 @@ impl UpdaterParams {
         self.shift_check.validate().map_err(|e| bad("shift_check", e))?;
         self.registration.validate().map_err(|(field, e)| bad(field, e))?;
         self.memory.validate(self.buffer_size, self.change_threshold).map_err(|(field, e)| bad(field, e))?;
+        self.tolerance.validate().map_err(|(field, e)| bad(field, e))?;
         self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
         Ok(())
     }

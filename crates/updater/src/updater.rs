@@ -6,6 +6,7 @@ use crate::UpdaterError;
 use crate::additions::free_pass::evaluate_free_pass;
 use crate::additions::hit_index::HitIndex;
 use crate::additions::log_odds_baseline::LogOddsBaseline;
+use crate::additions::pose_tolerance::{PoseSigma, StepTolerance};
 use crate::additions::registration::{Refusal, Registrar, Registration};
 use crate::additions::structure_memory::StructureMemory;
 use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
@@ -88,13 +89,20 @@ impl StepReport {
 
 /// Registration before writing over a run: how often it refined or refused, and how far it
 /// moved the poses it accepted (histograms; bin edges in [`RegistrationStats::SHIFT_EDGES_M`] and
-/// [`RegistrationStats::TURN_EDGES_RAD`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// [`RegistrationStats::TURN_EDGES_RAD`]). Serialised with these names in run records.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct RegistrationStats {
     /// Steps whose refined pose was accepted.
     pub accepted: u64,
-    /// Steps refused, by reason: too few points, poor fit, degenerate, too far.
-    pub refused: [u64; 4],
+    /// Steps refused: too few points near the map.
+    pub refused_too_few_points: u64,
+    /// Steps refused: poor fit.
+    pub refused_poor_fit: u64,
+    /// Steps refused: degenerate (a direction unconstrained).
+    pub refused_degenerate: u64,
+    /// Steps refused: correction too large.
+    pub refused_too_far: u64,
     /// Steps with the verdict Update that wrote nothing because registration refused.
     pub writes_withheld: u64,
     /// Accepted position corrections: counts below each edge of `SHIFT_EDGES_M`, the last bin
@@ -131,21 +139,32 @@ impl RegistrationStats {
                 self.shift_sum_um += (r.shift_m * 1e6).round() as u64;
                 self.turn_sum_urad += (r.turn_rad.abs() * 1e6).round() as u64;
             }
-            Some(why) => {
-                let k = match why {
-                    Refusal::TooFewPoints => 0,
-                    Refusal::PoorFit => 1,
-                    Refusal::Degenerate => 2,
-                    Refusal::TooFar => 3,
-                };
-                self.refused[k] += 1;
-            }
+            Some(Refusal::TooFewPoints) => self.refused_too_few_points += 1,
+            Some(Refusal::PoorFit) => self.refused_poor_fit += 1,
+            Some(Refusal::Degenerate) => self.refused_degenerate += 1,
+            Some(Refusal::TooFar) => self.refused_too_far += 1,
         }
     }
 
     /// Steps refused for any reason.
     pub fn refused_total(&self) -> u64 {
-        self.refused.iter().sum()
+        self.refused_too_few_points + self.refused_poor_fit + self.refused_degenerate + self.refused_too_far
+    }
+
+    /// Adds another run's counts (totals over runs).
+    pub fn add(&mut self, o: &RegistrationStats) {
+        self.accepted += o.accepted;
+        self.refused_too_few_points += o.refused_too_few_points;
+        self.refused_poor_fit += o.refused_poor_fit;
+        self.refused_degenerate += o.refused_degenerate;
+        self.refused_too_far += o.refused_too_far;
+        self.writes_withheld += o.writes_withheld;
+        for k in 0..7 {
+            self.shift_histogram[k] += o.shift_histogram[k];
+            self.turn_histogram[k] += o.turn_histogram[k];
+        }
+        self.shift_sum_um += o.shift_sum_um;
+        self.turn_sum_urad += o.turn_sum_urad;
     }
 }
 
@@ -211,6 +230,10 @@ pub struct MapUpdater {
     registrar: Option<Registrar>,
     /// The cross-world memory of `M_{i-1}` (empty: every occupied cell established).
     memory: StructureMemory,
+    /// The pose uncertainty the caller handed over for the next step (the localiser's).
+    pose_sigma: Option<PoseSigma>,
+    /// The margins of the step being processed.
+    step_tol: StepTolerance,
     log_odds: Option<LogOddsBaseline>,
     /// (robot_in_map, robot_in_odom) at the last step that passed the localisation check.
     last_good: Option<(Pose2, Pose2)>,
@@ -265,6 +288,8 @@ impl MapUpdater {
             shift_field,
             registrar,
             memory,
+            pose_sigma: None,
+            step_tol: StepTolerance::NONE,
             current: initial_map.clone(),
             base: RayCaster::new(&initial_map, true),
             params,
@@ -393,7 +418,8 @@ impl MapUpdater {
         let registration = self.register(robot_in_map, scans);
         // The pose the step is classified, checked and written at: the refined one if accepted.
         let pose = registration.filter(Registration::accepted).map_or(robot_in_map, |r| r.pose);
-        let counts = self.classifier.classify(&self.base, &pose, scans, &self.params);
+        self.step_tol = StepTolerance::new(self.step_sigma(registration.as_ref()), &self.params.tolerance);
+        let counts = self.classifier.classify(&self.base, &pose, scans, &self.params, &self.step_tol);
         self.stats.invalid_beams += counts.n_invalid as u64;
         self.stats.invalid_scans += counts.invalid_scans as u64;
         self.stats.occluded_scans += counts.occluded_scans as u64;
@@ -451,6 +477,29 @@ impl MapUpdater {
         }
         self.stats.cell_changes += report.changed_cells.len() as u64;
         report
+    }
+
+    /// Hands over the uncertainty of the pose of the next [`MapUpdater::process`] call (e.g.
+    /// the localiser's covariance, [`PoseSigma::from_covariance`]); `None`: unknown. Used by
+    /// the tolerances that follow the pose uncertainty (`params.tolerance`) when registration
+    /// is off or refused the step; kept until changed.
+    pub fn set_pose_sigma(&mut self, sigma: Option<PoseSigma>) {
+        self.pose_sigma = sigma;
+    }
+
+    /// The margins of the last step processed ([`StepTolerance::NONE`] when the tolerances are
+    /// off).
+    pub fn step_tolerance(&self) -> StepTolerance {
+        self.step_tol
+    }
+
+    /// The pose uncertainty of a step: registration's fit when it accepted, else what the
+    /// caller handed over.
+    fn step_sigma(&self, registration: Option<&Registration>) -> Option<PoseSigma> {
+        match registration {
+            Some(r) if r.accepted() => Some(PoseSigma { xy_m: r.xy_sigma_m, yaw_rad: r.yaw_sigma_rad }),
+            _ => self.pose_sigma,
+        }
     }
 
     /// Registration before writing, when on (see the `registration` module).
@@ -533,7 +582,8 @@ impl MapUpdater {
             if b.class == BeamClass::Changed {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
                 let beam = BeamGeometry::new(origin, b.hit, b.range_m);
-                evaluate_changed_beam_cast(&self.base, &beam, &self.params, &self.hits, &mut self.votes);
+                let how = (&self.params, &self.step_tol);
+                evaluate_changed_beam_cast(&self.base, &beam, how, &self.hits, &mut self.votes);
             }
         }
         if !self.memory.is_empty() {

@@ -127,6 +127,7 @@ fn added_box_face_is_not_smeared_towards_the_robot() {
 #[test]
 fn a_withheld_vote_shadows_the_obstacle_behind_it() {
     use mapkeeper_grid::{GridGeometry, Point2};
+    use mapkeeper_updater::StepTolerance;
     use mapkeeper_updater::additions::hit_index::HitIndex;
     use mapkeeper_updater::paper::changed_cells::evaluate_changed_beam;
     use mapkeeper_updater::support::beam_walk::BeamGeometry;
@@ -152,7 +153,13 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         let hit = Point2::new(1.02, 3.9);
         let z = origin.distance(hit);
         let mut votes = Vec::new();
-        evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &mapkeeper(), &HitIndex::new(), &mut votes);
+        evaluate_changed_beam(
+            &base,
+            &BeamGeometry::new(origin, hit, z),
+            (&mapkeeper(), &StepTolerance::NONE),
+            &HitIndex::new(),
+            &mut votes,
+        );
         let voted: Vec<CellCoord> = votes.iter().map(|v| g.coord((v >> 1) as usize)).collect();
         assert!(!voted.iter().any(|c| (20..=35).contains(&c.iy)), "gap {gap}: box A voted: {voted:?}");
         let in_b = voted.iter().any(|c| (b0..=b0 + 15).contains(&c.iy));
@@ -163,7 +170,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         evaluate_changed_beam(
             &base,
             &BeamGeometry::new(origin, hit, z),
-            &UpdaterParams { removal_shadow: false, ..mapkeeper() },
+            (&UpdaterParams { removal_shadow: false, ..mapkeeper() }, &StepTolerance::NONE),
             &HitIndex::new(),
             &mut votes,
         );
@@ -173,7 +180,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         evaluate_changed_beam(
             &base,
             &BeamGeometry::new(origin, hit, z),
-            &without_additions(),
+            (&without_additions(), &StepTolerance::NONE),
             &HitIndex::new(),
             &mut votes,
         );

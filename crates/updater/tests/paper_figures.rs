@@ -9,6 +9,7 @@ mod common;
 
 use common::{fill_rect, room, scan360};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, cast_ray};
+use mapkeeper_updater::StepTolerance;
 use mapkeeper_updater::additions::hit_index::HitIndex;
 use mapkeeper_updater::paper::beam_classifier::{ScanRays, detects_change};
 use mapkeeper_updater::paper::cell_buffers::CellBuffers;
@@ -70,7 +71,7 @@ fn fig10_final_chunk_is_skipped() {
         evaluate_changed_beam(
             &base,
             &BeamGeometry::new(origin, hit, hit.x - origin.x),
-            p,
+            (p, &StepTolerance::NONE),
             &HitIndex::new(),
             &mut votes,
         );
@@ -95,7 +96,13 @@ fn fig10_final_chunk_is_skipped() {
     p0.skip_changed_min_m = 0.0;
     p0.skip_changed_slope = 0.0;
     let mut votes = Vec::new();
-    evaluate_changed_beam(&base, &BeamGeometry::new(origin, hit, z), &p0, &HitIndex::new(), &mut votes);
+    evaluate_changed_beam(
+        &base,
+        &BeamGeometry::new(origin, hit, z),
+        (&p0, &StepTolerance::NONE),
+        &HitIndex::new(),
+        &mut votes,
+    );
     assert!(decode(&votes, 60).contains(&(CellCoord::new(40, 5), true)));
 }
 
@@ -116,7 +123,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
         evaluate_changed_beam(
             &base,
             &BeamGeometry::new(origin, hit, hit.x - origin.x),
-            &p,
+            (&p, &StepTolerance::NONE),
             &HitIndex::new(),
             &mut votes,
         );
@@ -142,7 +149,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
     evaluate_changed_beam(
         &base,
         &BeamGeometry::new(origin, hit, hit.x - origin.x),
-        &p_direct,
+        (&p_direct, &StepTolerance::NONE),
         &HitIndex::new(),
         &mut votes,
     );

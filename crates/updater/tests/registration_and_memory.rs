@@ -162,3 +162,47 @@ fn a_scarred_wall_face_hit_again_comes_back() {
     let next = with.next_memory();
     assert!(face.iter().filter(|c| next.is_scar(with.map().geometry().index(**c).unwrap() as u32)).count() <= 2);
 }
+
+/// Issue 27 item 3: the tolerances follow the uncertainty handed over with the pose. The robot
+/// drives the hall with a 2° yaw error (AMCL's p90 on a stale map) and no registration, in a
+/// world where one box of the prior map has been taken away. With the fixed tolerances the walls
+/// erode; told that its pose is uncertain by σ = 1° (k = 2: a 2° window), the updater leaves the fixed structure
+/// alone and still removes the box. Told nothing (the floors only), it erodes as before: the
+/// margins come from the uncertainty, not from a wider constant.
+#[test]
+fn tolerances_follow_the_pose_uncertainty_handed_over() {
+    use mapkeeper_updater::PoseSigma;
+    let world = hall();
+    let mut prior = world.clone();
+    fill_rect(&mut prior, 6.0, 1.8, 6.6, 2.3, CellState::Occupied);
+    let box_cells: Vec<usize> = (0..prior.cells().len()).filter(|&i| prior.cells()[i] != world.cells()[i]).collect();
+    let run = |tolerance: bool, sigma: Option<PoseSigma>| {
+        let mut p = UpdaterParams::mapkeeper_no_registration();
+        p.tolerance.enabled = tolerance;
+        let mut up = MapUpdater::new(prior.clone(), p).unwrap();
+        up.set_pose_sigma(sigma);
+        drive(&mut up, &world, 2.0, 140);
+        let m = up.map().clone();
+        let eroded = (0..m.cells().len())
+            .filter(|&i| world.cells()[i] == CellState::Occupied && m.cells()[i] != CellState::Occupied)
+            .count();
+        let removed = box_cells.iter().filter(|&&i| m.cells()[i] == CellState::Free).count();
+        let added = (0..m.cells().len())
+            .filter(|&i| world.cells()[i] == CellState::Free && prior.cells()[i] == CellState::Free)
+            .filter(|&i| m.cells()[i] == CellState::Occupied)
+            .count();
+        (eroded, removed, added)
+    };
+    let one_degree = Some(PoseSigma { xy_m: 0.01, yaw_rad: 1f64.to_radians() });
+    let fixed = run(false, one_degree);
+    let floors = run(true, None);
+    let told = run(true, one_degree);
+    println!(
+        "(eroded, box cells removed, added) fixed {fixed:?}, floors only {floors:?}, told 1° {told:?} of {} box cells",
+        box_cells.len()
+    );
+    assert!(fixed.0 + fixed.2 >= 10, "the scene must damage the map with fixed tolerances: {fixed:?}");
+    assert!(floors.0 + floors.2 >= 10, "the floors alone must not hide a 2° error: {floors:?}");
+    assert!(told.0 + told.2 <= (fixed.0 + fixed.2) / 5, "told 1°, the fixed structure stays: {told:?} vs {fixed:?}");
+    assert!(told.1 * 10 >= box_cells.len() * 7, "the removed box is still removed: {told:?} of {}", box_cells.len());
+}

@@ -245,76 +245,10 @@ pub struct UpdaterCounts {
     /// Registration before writing: steps refined, refused (by reason), writes withheld, and
     /// the distributions of the corrections (zeros when registration is off).
     #[serde(default)]
-    pub registration: RegistrationCounts,
+    pub registration: mapkeeper_updater::RegistrationStats,
     /// "Changed" votes of the memory's healing rule.
     #[serde(default)]
     pub heal_votes: u64,
-}
-
-/// Registration before writing over a run (`mapkeeper_updater::RegistrationStats`, with the
-/// bins named).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct RegistrationCounts {
-    /// Steps whose refined pose was accepted.
-    pub accepted: u64,
-    /// Steps refused: too few points near the map.
-    pub refused_too_few_points: u64,
-    /// Steps refused: poor fit.
-    pub refused_poor_fit: u64,
-    /// Steps refused: degenerate (a direction unconstrained).
-    pub refused_degenerate: u64,
-    /// Steps refused: correction too large.
-    pub refused_too_far: u64,
-    /// Steps with the verdict Update that wrote nothing because registration refused.
-    pub writes_withheld: u64,
-    /// Accepted position corrections per bin: < 0.5, 1, 2, 5, 10, 20 cm, and above.
-    pub shift_histogram: [u64; 7],
-    /// Accepted absolute yaw corrections per bin: < 0.05°, 0.1°, 0.25°, 0.5°, 1°, 2°, and above.
-    pub turn_histogram: [u64; 7],
-    /// Sum of the accepted position corrections, micrometres.
-    pub shift_sum_um: u64,
-    /// Sum of the accepted absolute yaw corrections, microradians.
-    pub turn_sum_urad: u64,
-}
-
-impl From<mapkeeper_updater::RegistrationStats> for RegistrationCounts {
-    fn from(s: mapkeeper_updater::RegistrationStats) -> Self {
-        Self {
-            accepted: s.accepted,
-            refused_too_few_points: s.refused[0],
-            refused_poor_fit: s.refused[1],
-            refused_degenerate: s.refused[2],
-            refused_too_far: s.refused[3],
-            writes_withheld: s.writes_withheld,
-            shift_histogram: s.shift_histogram,
-            turn_histogram: s.turn_histogram,
-            shift_sum_um: s.shift_sum_um,
-            turn_sum_urad: s.turn_sum_urad,
-        }
-    }
-}
-
-impl RegistrationCounts {
-    /// The sum of two runs' counts.
-    pub fn add(&mut self, o: &RegistrationCounts) {
-        self.accepted += o.accepted;
-        self.refused_too_few_points += o.refused_too_few_points;
-        self.refused_poor_fit += o.refused_poor_fit;
-        self.refused_degenerate += o.refused_degenerate;
-        self.refused_too_far += o.refused_too_far;
-        self.writes_withheld += o.writes_withheld;
-        for k in 0..7 {
-            self.shift_histogram[k] += o.shift_histogram[k];
-            self.turn_histogram[k] += o.turn_histogram[k];
-        }
-        self.shift_sum_um += o.shift_sum_um;
-        self.turn_sum_urad += o.turn_sum_urad;
-    }
-
-    /// Steps refused for any reason.
-    pub fn refused(&self) -> u64 {
-        self.refused_too_few_points + self.refused_poor_fit + self.refused_degenerate + self.refused_too_far
-    }
 }
 
 /// Everything one run produced.
@@ -562,7 +496,7 @@ impl UpdaterCounts {
             cell_changes: s.cell_changes,
             max_state_bytes: work.max_state_bytes,
             cache_bytes: updater.cache_bytes() as u64,
-            registration: s.registration.into(),
+            registration: s.registration,
             heal_votes: s.heal_votes,
         }
     }

@@ -913,7 +913,7 @@ pub struct UpdaterSummary {
     pub cell_changes: u64,
     /// Registration before writing over all worlds and seeds (zeros when it is off).
     #[serde(default)]
-    pub registration: crate::experiments::runner::RegistrationCounts,
+    pub registration: mapkeeper_updater::RegistrationStats,
     /// "Changed" votes of the memory's healing rule over all worlds and seeds.
     #[serde(default)]
     pub heal_votes: u64,

@@ -822,8 +822,8 @@ impl Summary {
 
 /// One line on registration before writing and the memory's healing votes; `None` when
 /// registration never ran.
-pub fn registration_line(r: &crate::experiments::runner::RegistrationCounts, heal_votes: u64) -> Option<String> {
-    let tried = r.accepted + r.refused();
+pub fn registration_line(r: &mapkeeper_updater::RegistrationStats, heal_votes: u64) -> Option<String> {
+    let tried = r.accepted + r.refused_total();
     if tried == 0 {
         return None;
     }

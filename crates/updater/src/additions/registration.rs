@@ -170,6 +170,8 @@ pub struct Registration {
     pub constraint: f64,
     /// One-sigma yaw uncertainty of the fit, radians (from the inliers' normals and RMSE).
     pub yaw_sigma_rad: f64,
+    /// One-sigma position uncertainty of the fit, metres (the larger of x and y).
+    pub xy_sigma_m: f64,
 }
 
 impl Registration {
@@ -387,6 +389,7 @@ impl Registrar {
             rmse_m: 0.0,
             constraint: 0.0,
             yaw_sigma_rad: f64::INFINITY,
+            xy_sigma_m: f64::INFINITY,
         };
         if !given.is_finite() {
             return refused(Refusal::TooFewPoints);
@@ -448,7 +451,8 @@ impl Registrar {
         let constraint = if inliers > 0 { min_eigenvalue_sym3(&scaled) / inliers as f64 } else { 0.0 };
         // Var(yaw) ≈ σ² (H⁻¹)_θθ with σ the per-point noise (at least a uniform cell's spread).
         let sigma = rmse_m.max(self.geometry.resolution_m() / 12f64.sqrt());
-        let yaw_sigma_rad = inverse_diag3(&info, 2).map_or(f64::INFINITY, |v| sigma * v.max(0.0).sqrt());
+        let sd = |k| inverse_diag3(&info, k).map_or(f64::INFINITY, |v: f64| sigma * v.max(0.0).sqrt());
+        let (yaw_sigma_rad, xy_sigma_m) = (sd(2), sd(0).max(sd(1)));
         let refused = if used < p.min_points as usize {
             Some(Refusal::TooFewPoints)
         } else if inlier_share < p.min_inlier_share || rmse_m > p.max_inlier_rmse_m {
@@ -458,7 +462,17 @@ impl Registrar {
         } else {
             None
         };
-        Registration { pose, refused, shift_m: 0.0, turn_rad: 0.0, inlier_share, rmse_m, constraint, yaw_sigma_rad }
+        Registration {
+            pose,
+            refused,
+            shift_m: 0.0,
+            turn_rad: 0.0,
+            inlier_share,
+            rmse_m,
+            constraint,
+            yaw_sigma_rad,
+            xy_sigma_m,
+        }
     }
 }
 

@@ -16,6 +16,7 @@
 //! next beam of the scan ([`ScanHints`]).
 
 use crate::UpdaterParams;
+use crate::additions::pose_tolerance::StepTolerance;
 use mapkeeper_grid::{CellCoord, CellState, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
@@ -138,6 +139,21 @@ impl ScanRays {
     pub fn new(origin: Point2, increment_rad: f64, range_max_m: f64, params: &UpdaterParams) -> Self {
         let (each_side, spacing_beams) = virtual_rays(params, increment_rad);
         Self { origin, increment_rad, each_side, spacing_beams, max_range_m: params.max_range_m.min(range_max_m) }
+    }
+
+    /// The angular half-window these rays cover, radians.
+    pub fn window_rad(&self) -> f64 {
+        self.each_side as f64 * self.spacing_beams * self.increment_rad.abs()
+    }
+
+    /// The same rays widened to cover at least `window_rad` each side (same spacing).
+    pub fn widened(&self, window_rad: f64) -> Self {
+        let step = self.spacing_beams * self.increment_rad.abs();
+        if step.is_nan() || step <= 0.0 || window_rad <= self.window_rad() {
+            return *self;
+        }
+        let n = (window_rad / step - 1e-9).ceil().clamp(0.0, 1024.0) as i32;
+        Self { each_side: n.max(self.each_side), ..*self }
     }
 }
 
@@ -267,13 +283,15 @@ impl BeamClassifier {
     }
 
     /// Classifies every beam of `scans` (all lidars of one step) against `base` = `M_{i-1}` with
-    /// the robot at `robot_in_map`.
+    /// the robot at `robot_in_map`, allowing for the step's pose uncertainty `tol`
+    /// ([`StepTolerance::NONE`]: the preset's fixed window and D_th).
     pub fn classify(
         &mut self,
         base: &RayCaster,
         robot_in_map: &Pose2,
         scans: &[LaserScan],
         params: &UpdaterParams,
+        tol: &StepTolerance,
     ) -> ClassCounts {
         self.beams.clear();
         self.lidars.clear();
@@ -323,8 +341,14 @@ impl BeamClassifier {
                 let dir = base.direction(angle_rad);
                 let (s, c) = (dir.sin(), dir.cos());
                 let hit = Point2::new(origin.x + z * c, origin.y + z * s);
-                let beam = BeamToClassify { dir, hit, range_m: z, d_th_m: params.change_distance_m(z) };
-                let changed = detects_change_dir(base, &rays, &beam, &mut self.hints);
+                let d_th_m = params.change_distance_m(z) + tol.change_distance_margin_m();
+                let beam = BeamToClassify { dir, hit, range_m: z, d_th_m };
+                let changed = if tol.is_none() {
+                    detects_change_dir(base, &rays, &beam, &mut self.hints)
+                } else {
+                    let wide = rays.widened(tol.window_rad(z, rays.window_rad()));
+                    detects_change_dir(base, &wide, &beam, &mut self.hints)
+                };
                 let class = if changed { BeamClass::Changed } else { BeamClass::Unchanged };
                 self.beams.push(Beam {
                     lidar,

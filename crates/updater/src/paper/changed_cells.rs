@@ -16,6 +16,7 @@
 
 use crate::UpdaterParams;
 use crate::additions::hit_index::HitIndex;
+use crate::additions::pose_tolerance::StepTolerance;
 use crate::additions::removal_gates::RemovalGates;
 use crate::support::beam_walk::BeamGeometry;
 use crate::support::votes::{Vote, vote};
@@ -66,11 +67,12 @@ pub fn all_free_within(grid: &OccupancyGrid, p: Point2, radius_m: f64) -> bool {
 /// Appends the changed evaluator's votes for one detected-change `beam` to `votes`. The caller
 /// makes sure every voted cell has a buffer before the unchanged evaluator runs
 /// ([`crate::support::votes::ensure_buffers`]). `hits` holds the step's measured hit points for the hit clearance
-/// (`UpdaterParams::removal_hit_clearance_m`; an empty index disables it).
+/// (`UpdaterParams::removal_hit_clearance_m`; an empty index disables it). `tol`: the step's
+/// pose uncertainty ([`StepTolerance::NONE`]: the paper's fixed tolerances).
 pub fn evaluate_changed_beam(
     base: &OccupancyGrid,
     beam: &BeamGeometry,
-    params: &UpdaterParams,
+    (params, tol): (&UpdaterParams, &StepTolerance),
     hits: &HitIndex,
     votes: &mut Vec<Vote>,
 ) {
@@ -89,7 +91,7 @@ pub fn evaluate_changed_beam(
             }
         }
     };
-    changed_votes(base, beam, params, hits, votes, non_free_on, all_free);
+    changed_votes(base, beam, (params, tol), hits, votes, non_free_on, all_free);
 }
 
 /// [`evaluate_changed_beam`] with `M_{i-1}` behind a caster whose unknown cells block: the
@@ -98,12 +100,12 @@ pub fn evaluate_changed_beam(
 pub fn evaluate_changed_beam_cast(
     base: &RayCaster,
     beam: &BeamGeometry,
-    params: &UpdaterParams,
+    (params, tol): (&UpdaterParams, &StepTolerance),
     hits: &HitIndex,
     votes: &mut Vec<Vote>,
 ) {
     if !base.unknown_blocks() {
-        return evaluate_changed_beam(base.map(), beam, params, hits, votes);
+        return evaluate_changed_beam(base.map(), beam, (params, tol), hits, votes);
     }
     let all_free = |p, radius| {
         // Exact shortcuts: p's own cell blocks (it is always among the cells looked at), or
@@ -121,7 +123,7 @@ pub fn evaluate_changed_beam_cast(
     changed_votes(
         base.map(),
         beam,
-        params,
+        (params, tol),
         hits,
         votes,
         |from, to, visit| base.visit_blocking(from, to, visit),
@@ -134,7 +136,7 @@ pub fn evaluate_changed_beam_cast(
 fn changed_votes(
     base: &OccupancyGrid,
     beam: &BeamGeometry,
-    params: &UpdaterParams,
+    (params, tol): (&UpdaterParams, &StepTolerance),
     hits: &HitIndex,
     votes: &mut Vec<Vote>,
     non_free_on: impl FnOnce(Point2, Point2, &mut dyn FnMut(CellCoord, usize)),
@@ -147,20 +149,27 @@ fn changed_votes(
     if let Some(p_th) = beam.threshold_point(skip) {
         let skip_sq = skip * skip;
         let mut gates = RemovalGates::new(base, params, hits, beam);
+        let inv_z = 1.0 / z.max(1e-12);
+        let dir = ((hit.x - beam.origin.x) * inv_z, (hit.y - beam.origin.y) * inv_z);
         non_free_on(beam.origin, p_th, &mut |c, i| {
             if gates.in_shadow(c) {
                 return;
             }
             let centre = g.cell_center(c);
-            if centre.distance_sq(hit) > skip_sq && gates.near_core(centre) && !gates.withholds(c, centre) {
+            if centre.distance_sq(hit) > skip_sq
+                && gates.near_core(centre)
+                && !gates.withholds(c, centre)
+                && tol.band_is_non_free(base, beam.origin, dir, centre)
+            {
                 votes.push(vote(i, true));
             }
         });
     }
-    // §4.3.2: added obstacle, c(p_i) if everything within tol(z) of p_i is free.
+    // §4.3.2: added obstacle, c(p_i) if everything within tol(z) of p_i is free (plus where the
+    // pose's uncertainty may have put p_i).
     if let Some(c) = g.world_to_cell(hit)
         && let Some(i) = g.index(c)
-        && all_free(hit, params.tol_m(z))
+        && all_free(hit, params.tol_m(z) + tol.lateral_m(z))
     {
         votes.push(vote(i, true));
     }
@@ -212,8 +221,9 @@ mod tests {
             let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
             let (mut want, mut got) = (Vec::new(), Vec::new());
             let beam = BeamGeometry::new(origin, hit, z);
-            evaluate_changed_beam(&m, &beam, &params, &hits, &mut want);
-            evaluate_changed_beam_cast(&caster, &beam, &params, &hits, &mut got);
+            let tol = StepTolerance::NONE;
+            evaluate_changed_beam(&m, &beam, (&params, &tol), &hits, &mut want);
+            evaluate_changed_beam_cast(&caster, &beam, (&params, &tol), &hits, &mut got);
             assert_eq!(got, want, "ray {k}");
             n_votes += want.len();
         }

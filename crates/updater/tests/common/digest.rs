@@ -152,7 +152,7 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
     for (k, (truth, scans)) in steps.iter().enumerate() {
         let odom = s.map_origin.inverse().compose(truth);
         let est = estimate(s, k, *truth);
-        let counts = classifier.classify(&caster, &est, scans, &params);
+        let counts = classifier.classify(&caster, &est, scans, &params, &mapkeeper_updater::StepTolerance::NONE);
         h.bytes(format!("{counts:?}").as_bytes());
         for b in &classifier.beams {
             h.bytes(&[b.class as u8]);
@@ -174,8 +174,23 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
 
 /// A report or the running totals as the second release printed them when registration and
 /// the memory are off (their fields then hold their defaults and are left out), so that the
-/// digests of the presets that did not change stay those pinned then.
+/// digests of the presets that did not change stay those pinned then. The fit's position sigma
+/// (`xy_sigma_m`, reported since the tolerances that follow the pose uncertainty) is left out
+/// too: it is a new figure of the same fit, not a change of what the updater does.
 fn legacy(debug: String) -> String {
+    const FIELD: &str = ", xy_sigma_m: ";
     let unused = format!(", registration: {:?}, heal_votes: 0", mapkeeper_updater::RegistrationStats::default());
-    debug.replace(", registration: None", "").replace(&unused, "")
+    let mut out = debug.replace(", registration: None", "").replace(&unused, "");
+    // Refusals were counted in an array then: `refused: [a, b, c, d]`.
+    if let Some(at) = out.find("refused_too_few_points: ") {
+        let end = out[at..].find(", writes_withheld").map_or(out.len(), |k| at + k);
+        let counts: Vec<&str> = out[at..end].split(", ").filter_map(|f| f.split(": ").nth(1)).collect();
+        out.replace_range(at..end, &format!("refused: [{}]", counts.join(", ")));
+    }
+    while let Some(at) = out.find(FIELD) {
+        let value = at + FIELD.len();
+        let end = out[value..].find([',', ' ', '}']).map_or(out.len(), |k| value + k);
+        out.replace_range(at..end, "");
+    }
+    out
 }
