@@ -1,20 +1,24 @@
-//! The particle filter: odometry-driven prediction, likelihood-field weighting, KLD-sampling
-//! systematic resampling with optional augmented-MCL recovery, and the clustered estimate.
+//! The particle filter: odometry-driven prediction, likelihood-field weighting (all lidars at
+//! once, or one sensor update per lidar as AMCL), KLD-sampling resampling (complete systematic
+//! rounds, or AMCL's sequential multinomial draws) with optional augmented-MCL recovery, and the
+//! clustered estimate.
 
 use crate::LocaliserError;
 use crate::cluster::{ClusterScratch, best_cluster};
 use crate::kld::{BinKey, Bins, count_bins, kld_bound};
 use crate::likelihood_field::{BeamSet, LikelihoodField};
 use crate::motion_model::{OdometryDelta, sample_motion};
-use crate::params::FilterParams;
-use crate::resample::systematic_resample;
+use crate::params::{EstimateFrom, FilterParams, LidarUpdates, Resampler, UpdateGate};
+use crate::resample::{multinomial_draw, systematic_resample};
 use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2, wrap_angle};
 use mapkeeper_sensor::LaserScan;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
+use std::collections::HashSet;
 use std::f64::consts::PI;
+use std::hash::{BuildHasherDefault, DefaultHasher};
 
 /// A 3×3 covariance of (x m, y m, yaw rad), row-major.
 pub type Covariance3 = [[f64; 3]; 3];
@@ -112,6 +116,18 @@ pub struct UpdateReport {
     pub random_injection_prob: f64,
 }
 
+/// What one sensor update did (one per lidar with [`LidarUpdates::PerLidar`]).
+struct Correction {
+    outcome: UpdateOutcome,
+    beams: usize,
+    resampled: bool,
+    inject: f64,
+}
+
+/// The bins filled while drawing (only their count is read, so the order of a hash set does not
+/// matter; the hasher is fixed).
+type FilledBins = HashSet<BinKey, BuildHasherDefault<DefaultHasher>>;
+
 /// The particle-filter localiser. Owns its map model, its particles and its `ChaCha8Rng`.
 #[derive(Debug)]
 pub struct Localiser {
@@ -137,6 +153,8 @@ pub struct Localiser {
     next: Vec<Pose2>,
     indices: Vec<usize>,
     keys: Vec<BinKey>,
+    cumulative: Vec<f64>,
+    filled: FilledBins,
     cluster: ClusterScratch,
 }
 
@@ -210,6 +228,8 @@ impl Localiser {
             next: Vec::new(),
             indices: Vec::new(),
             keys: Vec::new(),
+            cumulative: Vec::new(),
+            filled: FilledBins::default(),
             cluster: ClusterScratch::default(),
         };
         l.init_global()?;
@@ -370,12 +390,66 @@ impl Localiser {
         self.last_odom = Some(robot_in_odom);
         let reference = self.odom_at_filter.unwrap_or(robot_in_odom);
         let delta = OdometryDelta::between(&reference, &robot_in_odom);
-        let moved = delta.trans_m >= self.params.update_min_d_m || delta.rot_rad.abs() >= self.params.update_min_a_rad;
-        if !(moved || self.force_update || self.odom_at_filter.is_none()) {
+        if !(self.gate_open(&reference, &robot_in_odom, &delta) || self.force_update || self.odom_at_filter.is_none()) {
             return self.report(UpdateOutcome::Gated, 0, 0, false, 0.0);
         }
 
         // Beams of every lidar, in the robot frame.
+        let skipped = self.collect_beams(scans.iter());
+        if self.beams.is_empty() {
+            return self.report(UpdateOutcome::NoUsableBeams, 0, skipped, false, 0.0);
+        }
+
+        // Prediction.
+        let (kin, alphas) = (self.params.kinematics, self.params.motion);
+        for p in &mut self.particles {
+            *p = sample_motion(kin, &delta, &alphas, p, &mut self.rng);
+        }
+        self.odom_at_filter = Some(robot_in_odom);
+        self.force_update = false;
+
+        match self.params.lidar_updates {
+            LidarUpdates::Joint => {
+                let c = self.correct();
+                self.report(c.outcome, c.beams, skipped, c.resampled, c.inject)
+            }
+            LidarUpdates::PerLidar => {
+                // One sensor update (and resampling) per scan, in order, as AMCL does for each
+                // laser message; scans without usable beams are passed over.
+                let mut total = Correction { outcome: UpdateOutcome::Updated, beams: 0, resampled: false, inject: 0.0 };
+                for scan in scans {
+                    self.collect_beams(std::iter::once(scan));
+                    if self.beams.is_empty() {
+                        continue;
+                    }
+                    let c = self.correct();
+                    total.beams += c.beams;
+                    total.resampled |= c.resampled;
+                    total.inject = total.inject.max(c.inject);
+                    if matches!(c.outcome, UpdateOutcome::Degenerate { .. }) {
+                        total.outcome = c.outcome;
+                    }
+                }
+                self.report(total.outcome, total.beams, skipped, total.resampled, total.inject)
+            }
+        }
+    }
+
+    /// Whether the odometry has moved enough since the last filter update (`update_gate`).
+    fn gate_open(&self, reference: &Pose2, now: &Pose2, delta: &OdometryDelta) -> bool {
+        let (d, a) = (self.params.update_min_d_m, self.params.update_min_a_rad);
+        match self.params.update_gate {
+            UpdateGate::Distance => delta.trans_m >= d || delta.rot_rad.abs() >= a,
+            UpdateGate::AmclPerAxis => {
+                (now.x - reference.x).abs() > d
+                    || (now.y - reference.y).abs() > d
+                    || wrap_angle(now.yaw - reference.yaw).abs() > a
+            }
+        }
+    }
+
+    /// Fills `self.beams` with the usable beams of `scans`; returns how many scans gave none.
+    fn collect_beams<'a>(&mut self, scans: impl Iterator<Item = &'a LaserScan>) -> usize {
         self.beams.clear();
         let mut skipped = 0;
         for scan in scans {
@@ -389,18 +463,12 @@ impl Localiser {
                 skipped += 1;
             }
         }
-        if self.beams.is_empty() {
-            return self.report(UpdateOutcome::NoUsableBeams, 0, skipped, false, 0.0);
-        }
+        skipped
+    }
 
-        // Prediction.
-        let (kin, alphas) = (self.params.kinematics, self.params.motion);
-        for p in &mut self.particles {
-            *p = sample_motion(kin, &delta, &alphas, p, &mut self.rng);
-        }
-        self.odom_at_filter = Some(robot_in_odom);
-        self.force_update = false;
-
+    /// One sensor update with the beams in `self.beams` (non-empty), then the resampling when
+    /// `resample_interval` says so.
+    fn correct(&mut self) -> Correction {
         // Correction, in the log domain: ln wᵢ ← ln wᵢ + e·Σ ln p(z | xᵢ) (product) or
         // + Σ_lidars ln(1 + Σ p³) (AMCL cube sum).
         self.log_w.clear();
@@ -418,7 +486,7 @@ impl Localiser {
                 self.ess = n as f64;
                 self.refresh_estimate();
                 let outcome = UpdateOutcome::Degenerate { kind, recovery: Recovery::UniformWeights };
-                return self.report(outcome, beams, skipped, false, 0.0);
+                return Correction { outcome, beams, resampled: false, inject: 0.0 };
             }
         };
         self.ess = ess;
@@ -443,10 +511,52 @@ impl Localiser {
         self.sensor_updates_since_resample += 1;
         let resample = self.sensor_updates_since_resample >= self.params.resample_interval;
         if resample {
-            self.resample_kld(inject);
+            match self.params.resampler {
+                Resampler::SystematicKld => self.resample_kld(inject),
+                Resampler::MultinomialKld => self.resample_multinomial_kld(inject),
+            }
             self.sensor_updates_since_resample = 0;
+            if self.params.estimate_from == EstimateFrom::ResampledSet {
+                self.refresh_estimate();
+            }
         }
-        self.report(UpdateOutcome::Updated, beams, skipped, resample, inject)
+        Correction { outcome: UpdateOutcome::Updated, beams, resampled: resample, inject }
+    }
+
+    /// AMCL's KLD resampling (`pf_update_resample`): particles are drawn one at a time,
+    /// independently, from the weights (replaced by a random free-space pose with probability
+    /// `inject`), each added to the bin histogram; drawing stops once the count exceeds the KLD
+    /// bound of the bins filled so far (clamped to `[min_particles, max_particles]`; AMCL's
+    /// limit is `max_particles` while a single bin is filled) or reaches `max_particles`.
+    fn resample_multinomial_kld(&mut self, inject: f64) {
+        let (min, max) = (self.params.min_particles, self.params.max_particles);
+        self.cumulative.clear();
+        let mut run = 0.0;
+        for &w in &self.weights {
+            run += w;
+            self.cumulative.push(run);
+        }
+        self.next.clear();
+        self.filled.clear();
+        while self.next.len() < max {
+            let injected =
+                if inject > 0.0 && self.rng.random::<f64>() < inject { self.random_free_pose() } else { None };
+            let pose = match injected {
+                Some(p) => p,
+                None => self.particles[multinomial_draw(&self.cumulative, self.rng.random::<f64>())],
+            };
+            self.next.push(pose);
+            self.filled.insert(self.bins.key(&pose));
+            let k = self.filled.len();
+            let limit = if k <= 1 { max } else { kld_bound(k, self.params.kld_err, self.params.kld_z).clamp(min, max) };
+            if self.next.len() > limit {
+                break;
+            }
+        }
+        std::mem::swap(&mut self.particles, &mut self.next);
+        let n = self.particles.len();
+        self.weights.clear();
+        self.weights.resize(n, 1.0 / n as f64);
     }
 
     /// KLD-sampling systematic resampling: starting at `min_particles`, resample `n` particles,

@@ -66,10 +66,10 @@ pub use filter::{Covariance3, Degeneracy, Estimate, Localiser, Recovery, UpdateO
 pub use kld::{BinKey, Bins, count_bins, kld_bound};
 pub use likelihood_field::{BeamSet, LikelihoodField, beam_likelihood, beam_log_likelihood, beam_term};
 pub use params::{
-    BeamCombination, BeamSelection, FilterParams, Kinematics, LOCALISER_PRESETS, MAX_PARTICLES_LIMIT, MotionParams,
-    UnknownCells,
+    BeamCombination, BeamSelection, EstimateFrom, FilterParams, Kinematics, LOCALISER_PRESETS, LidarUpdates,
+    MAX_PARTICLES_LIMIT, MotionParams, Resampler, UnknownCells, UpdateGate,
 };
-pub use resample::systematic_resample;
+pub use resample::{multinomial_draw, systematic_resample};
 
 use mapkeeper_grid::Pose2;
 

@@ -98,8 +98,63 @@ pub enum BeamSelection {
     AmclStride,
 }
 
+/// When the odometry has moved enough for a filter update (`update_min_d_m`, `update_min_a_rad`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpdateGate {
+    /// The travelled distance `√(dx² + dy²)` reaches `update_min_d_m`, or the turn reaches
+    /// `update_min_a_rad`. The `mapkeeper` preset's choice.
+    #[default]
+    Distance,
+    /// ROS / Nav2 amcl's test (`amcl_node.cpp`): `|dx| > update_min_d_m` or `|dy| >
+    /// update_min_d_m` or `|dyaw| > update_min_a_rad`, each a difference of odometry-frame
+    /// coordinates since the last filter update. Diagonal travel waits up to √2 × longer.
+    AmclPerAxis,
+}
+
+/// How the scans of several lidars taken at one step enter the filter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LidarUpdates {
+    /// All lidars' beams in one sensor update, then one resampling. The `mapkeeper` preset's
+    /// choice.
+    #[default]
+    Joint,
+    /// ROS / Nav2 amcl's: each laser's scan is a sensor update of its own, followed by its own
+    /// resampling (every `resample_interval` sensor updates), in lidar order; the motion update
+    /// runs once, before the first.
+    PerLidar,
+}
+
+/// How the particles are resampled with KLD sampling.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Resampler {
+    /// Complete systematic (low-variance) rounds, each grown until the KLD bound holds: a
+    /// particle of weight `w` gets `⌊nw⌋` or `⌈nw⌉` copies. The `mapkeeper` preset's choice.
+    #[default]
+    SystematicKld,
+    /// ROS / Nav2 amcl's (`pf_update_resample`): independent multinomial draws one at a time,
+    /// each added to the bin histogram, stopping as soon as the count exceeds the KLD bound of
+    /// the bins filled so far (at least `min_particles`, at most `max_particles`). Drawn by
+    /// binary search over the cumulative weights, O(N log M), not AMCL's linear scan.
+    MultinomialKld,
+}
+
+/// Which particle set the cluster estimate is taken from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EstimateFrom {
+    /// The weighted set, right after the sensor update. The `mapkeeper` preset's choice.
+    #[default]
+    WeightedSet,
+    /// ROS / Nav2 amcl's: the resampled set (`pf_cluster_stats` at the end of
+    /// `pf_update_resample`), uniform weights; the weighted set when no resampling ran.
+    ResampledSet,
+}
+
 /// The names [`FilterParams::preset`] accepts, the default first.
-pub const LOCALISER_PRESETS: [&str; 2] = ["mapkeeper", "amcl"];
+pub const LOCALISER_PRESETS: [&str; 3] = ["mapkeeper", "amcl", "amcl-joint"];
 
 /// Every parameter of the filter. Units are in the names; each field's doc gives its default.
 ///
@@ -170,6 +225,17 @@ pub struct FilterParams {
     pub update_min_a_rad: f64,
     /// Resample after every this many sensor updates (≥ 1). Default 1.
     pub resample_interval: u32,
+    /// How the update gates are tested. Default [`UpdateGate::Distance`] (`amcl`:
+    /// [`UpdateGate::AmclPerAxis`]).
+    pub update_gate: UpdateGate,
+    /// How several lidars' scans enter. Default [`LidarUpdates::Joint`] (`amcl`:
+    /// [`LidarUpdates::PerLidar`]).
+    pub lidar_updates: LidarUpdates,
+    /// The resampler. Default [`Resampler::SystematicKld`] (`amcl`: [`Resampler::MultinomialKld`]).
+    pub resampler: Resampler,
+    /// Where the estimate is read. Default [`EstimateFrom::WeightedSet`] (`amcl`:
+    /// [`EstimateFrom::ResampledSet`]).
+    pub estimate_from: EstimateFrom,
     /// Augmented MCL: decay rate of the slow average likelihood (0 disables recovery).
     /// Default 0.
     pub recovery_alpha_slow: f64,
@@ -206,21 +272,42 @@ impl FilterParams {
         match name {
             "mapkeeper" => Ok(Self::mapkeeper()),
             "amcl" => Ok(Self::amcl()),
+            "amcl-joint" => Ok(Self::amcl_joint()),
             _ => Err(LocaliserError::UnknownPreset { name: name.to_string(), known: LOCALISER_PRESETS.join(", ") }),
         }
     }
 
-    /// ROS1 `amcl` with Robotnik's Summit-XL configuration: the [`FilterParams::mapkeeper`]
-    /// values, but AMCL's beam selection ([`BeamSelection::AmclStride`]) and its cube-sum
-    /// weighting ([`BeamCombination::AmclCubeSum`]) instead of the tempered product. What still
-    /// differs from ROS amcl (resampler, corrected motion model, ...) is listed in
-    /// `docs/localiser.md`.
+    /// ROS1 / Nav2 `amcl` with Robotnik's Summit-XL configuration: the
+    /// [`FilterParams::mapkeeper`] values, but AMCL's beam selection ([`BeamSelection::AmclStride`])
+    /// and cube-sum weighting ([`BeamCombination::AmclCubeSum`]) instead of the tempered product,
+    /// its per-axis update gate, one sensor update and resampling per lidar, its multinomial KLD
+    /// resampler and its estimate read from the resampled set. What still differs from ROS amcl
+    /// (the corrected motion model, the heaviest cluster's covariance, one seeded random stream)
+    /// is listed in `docs/localiser.md`, with the comparison against Nav2's AMCL.
     pub fn amcl() -> Self {
         Self {
             beam_selection: BeamSelection::AmclStride,
             beam_combination: BeamCombination::AmclCubeSum,
             likelihood_exponent: 1.0,
+            update_gate: UpdateGate::AmclPerAxis,
+            lidar_updates: LidarUpdates::PerLidar,
+            resampler: Resampler::MultinomialKld,
+            estimate_from: EstimateFrom::ResampledSet,
             ..Self::mapkeeper()
+        }
+    }
+
+    /// The `amcl` preset as it was before the comparison with Nav2's AMCL (issue 27 item 7):
+    /// AMCL's weighting and beam selection, but this project's distance gate, both lidars in one
+    /// update, the systematic resampler and the estimate of the weighted set. Kept so that the
+    /// second release's figures can be reproduced (`--localiser amcl-joint`).
+    pub fn amcl_joint() -> Self {
+        Self {
+            update_gate: UpdateGate::Distance,
+            lidar_updates: LidarUpdates::Joint,
+            resampler: Resampler::SystematicKld,
+            estimate_from: EstimateFrom::WeightedSet,
+            ..Self::amcl()
         }
     }
 
@@ -255,6 +342,10 @@ impl FilterParams {
             update_min_d_m: 0.2,
             update_min_a_rad: 0.5,
             resample_interval: 1,
+            update_gate: UpdateGate::Distance,
+            lidar_updates: LidarUpdates::Joint,
+            resampler: Resampler::SystematicKld,
+            estimate_from: EstimateFrom::WeightedSet,
             recovery_alpha_slow: 0.0,
             recovery_alpha_fast: 0.0,
             initial_cov_xx_m2: 0.25,
@@ -357,7 +448,7 @@ mod tests {
     }
 
     #[test]
-    fn presets_validate_round_trip_and_differ_only_in_the_weighting() {
+    fn presets_validate_round_trip_and_differ_only_where_documented() {
         for name in LOCALISER_PRESETS {
             let p = FilterParams::preset(name).unwrap();
             p.validate().unwrap();
@@ -374,13 +465,32 @@ mod tests {
             (a.beam_combination, a.beam_selection, a.likelihood_exponent),
             (BeamCombination::AmclCubeSum, BeamSelection::AmclStride, 1.0)
         );
+        assert_eq!(
+            (a.update_gate, a.lidar_updates, a.resampler, a.estimate_from),
+            (UpdateGate::AmclPerAxis, LidarUpdates::PerLidar, Resampler::MultinomialKld, EstimateFrom::ResampledSet)
+        );
+        let j = FilterParams::amcl_joint();
+        assert_eq!(
+            FilterParams {
+                beam_combination: a.beam_combination,
+                beam_selection: a.beam_selection,
+                likelihood_exponent: 1.0,
+                ..m
+            },
+            j
+        );
         let same = FilterParams {
             beam_combination: m.beam_combination,
             beam_selection: m.beam_selection,
             likelihood_exponent: 0.1,
+            update_gate: m.update_gate,
+            lidar_updates: m.lidar_updates,
+            resampler: m.resampler,
+            estimate_from: m.estimate_from,
             ..a
         };
         assert_eq!(same, m);
+        assert_eq!(FilterParams::preset("amcl-joint").unwrap(), j);
         let text = toml::to_string(&a).unwrap();
         assert!(text.contains("\"amcl_cube_sum\"") && text.contains("\"amcl_stride\""), "{text}");
         let e = FilterParams::preset("nope").unwrap_err();

@@ -33,6 +33,25 @@ pub fn systematic_resample(weights: &[f64], n: usize, u0: f64, out: &mut Vec<usi
     }
 }
 
+/// One multinomial draw from the cumulative weights `cumulative` (`cumulative[i]` = sum of the
+/// weights `0..=i`, non-decreasing, last entry the total) with a uniform `u ∈ [0, 1)`: the first
+/// index whose cumulative weight exceeds `u · total`, found by binary search (O(log M)); a
+/// zero-weight particle is never drawn. This is the draw of AMCL's `pf_update_resample`, which
+/// scans the table linearly.
+///
+/// ```
+/// use mapkeeper_localiser::multinomial_draw;
+/// let c = [0.5, 0.75, 0.75, 1.0];
+/// assert_eq!(multinomial_draw(&c, 0.0), 0);
+/// assert_eq!(multinomial_draw(&c, 0.6), 1);
+/// assert_eq!(multinomial_draw(&c, 0.75), 3);
+/// ```
+pub fn multinomial_draw(cumulative: &[f64], u: f64) -> usize {
+    let total = cumulative.last().copied().unwrap_or(0.0);
+    let target = u.clamp(0.0, 1.0) * total;
+    cumulative.partition_point(|&c| c <= target).min(cumulative.len().saturating_sub(1))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,5 +112,30 @@ mod tests {
         // A sum slightly below 1 never walks past the last particle with weight.
         systematic_resample(&[0.3, 0.3, 0.3999999, 0.0], 3, 0.9999999, &mut out);
         assert_eq!(out, vec![1, 2, 2]);
+    }
+
+    #[test]
+    fn multinomial_draws_follow_the_weights_and_skip_zero_weights() {
+        let w = [0.1, 0.0, 0.6, 0.3];
+        let mut c = Vec::new();
+        let mut run = 0.0;
+        for x in w {
+            run += x;
+            c.push(run);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut counts = [0usize; 4];
+        let n = 200_000;
+        for _ in 0..n {
+            counts[multinomial_draw(&c, rng.random::<f64>())] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        for (i, &wi) in w.iter().enumerate() {
+            let share = counts[i] as f64 / n as f64;
+            assert!((share - wi).abs() < 0.005, "particle {i}: {share} for {wi}");
+        }
+        // The top of the range lands on the last non-zero particle, never past the end.
+        assert_eq!(multinomial_draw(&c, 0.999_999_999), 3);
+        assert_eq!(multinomial_draw(&[0.0, 0.0], 0.5), 1);
     }
 }
