@@ -44,7 +44,7 @@ pub struct Args {
     /// |yaw| ≤ 6.3 rad (a turn: a larger yaw is most likely in degrees).
     #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
     pub init: Option<Pose2>,
-    /// Localiser preset: mapkeeper or amcl (docs/localiser.md). --params overrides its fields.
+    /// Localiser preset: mapkeeper, amcl or amcl-joint (docs/localiser.md). --params overrides its fields.
     #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
     pub localiser: String,
     /// TOML file overriding any FilterParams field of the preset (unknown keys are errors), e.g.

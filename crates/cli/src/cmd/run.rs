@@ -41,7 +41,7 @@ pub struct Args {
     /// TOML file overriding any field of the updater preset (as `mapkeeper update --params`).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
-    /// Localiser preset of both localisers: mapkeeper or amcl (docs/localiser.md); recorded
+    /// Localiser preset of both localisers: mapkeeper, amcl or amcl-joint (docs/localiser.md); recorded
     /// in run.json with its parameters.
     #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
     pub localiser: String,

@@ -53,7 +53,7 @@ pub struct Args {
     /// updater its estimate: the paper's loop on recorded data. Writes OUT/poses.tum.
     #[arg(long, conflicts_with = "poses")]
     pub localise: bool,
-    /// With --localise: the localiser preset, mapkeeper or amcl.
+    /// With --localise: the localiser preset, mapkeeper, amcl or amcl-joint.
     #[arg(long, value_name = "NAME", default_value = "mapkeeper", requires = "localise")]
     pub localiser: String,
     /// With --localise: TOML overriding any FilterParams field of the localiser preset.
