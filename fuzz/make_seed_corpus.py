@@ -258,6 +258,7 @@ search_candidates = 6
 
 [shift_check]
 enabled = false
+when = "every_step"
 search_xy_m = 1.6
 step_xy_m = 0.2
 search_yaw_rad = 0.3490658503988659

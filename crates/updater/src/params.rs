@@ -7,7 +7,7 @@
 use crate::UpdaterError;
 use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
-use crate::additions::shift_check::ShiftCheckParams;
+use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
 use mapkeeper_grid::mapper::MapperParams;
 use serde::{Deserialize, Serialize};
@@ -304,8 +304,9 @@ pub struct UpdaterParams {
     // --- Pose updating (§4.6) ---
     /// Pose updating (ICP) parameters.
     pub pose_updating: PoseUpdatingParams,
-    /// The shift check (a `mapkeeper-shift` addition to the localisation check; see the
-    /// `shift_check` module). Default off (not written when off with its defaults).
+    /// The shift check (a project addition to the localisation check; see the `shift_check`
+    /// module): on every step in `mapkeeper-shift`, on alarm steps only in `mapkeeper`. Default
+    /// off (not written when off with its defaults).
     #[serde(skip_serializing_if = "ShiftCheckParams::is_default_off")]
     pub shift_check: ShiftCheckParams,
     /// Registration before writing (a `mapkeeper` addition; see the `registration` module).
@@ -425,12 +426,15 @@ impl UpdaterParams {
     /// additions of the second release) plus registration before writing (each step's pose
     /// refined against `M_{i-1}` with its own scans, nothing written when the fit is poor or
     /// ambiguous) and the cross-world memory (established structure needs more evidence to go, a
-    /// removed wall face hit again heals). Each is switchable by its own field;
+    /// removed wall face hit again heals), and the shift check on alarm steps only (a Suspend or
+    /// Lost of the change count is lifted when the scan fits `M_{i-1}` at the given pose and no
+    /// nearby pose fits better: a right pose in a stale world). Each is switchable by its own field;
     /// `tests/additions.rs` shows the failure each addition prevents.
     pub fn mapkeeper() -> Self {
         Self {
             registration: RegistrationParams { enabled: true, ..RegistrationParams::default() },
             memory: MemoryParams { enabled: true, ..MemoryParams::default() },
+            shift_check: ShiftCheckParams { enabled: true, when: ShiftWhen::OnAlarm, ..ShiftCheckParams::default() },
             ..Self::mapkeeper_no_registration()
         }
     }
@@ -810,8 +814,15 @@ mod tests {
         assert!(m.free_pass_votes && m.removal_shadow && m.border_interior_only);
         assert_eq!(UpdaterParams { skip_changed_min_m: 0.0, ..m.clone() }.removal_hit_clearance_m, 0.20);
         assert!(m.registration.enabled && m.memory.enabled);
+        assert!(m.shift_check.enabled && m.shift_check.when == ShiftWhen::OnAlarm);
         let n = UpdaterParams::mapkeeper_no_registration();
-        assert_eq!(UpdaterParams { registration: n.registration, memory: n.memory, ..m.clone() }, n);
+        let without =
+            UpdaterParams { registration: n.registration, memory: n.memory, shift_check: n.shift_check, ..m.clone() };
+        assert_eq!(without, n);
+        // `mapkeeper-shift` is `mapkeeper` with the shift check on every step.
+        let s = UpdaterParams::mapkeeper_shift();
+        assert_eq!(s.shift_check.when, ShiftWhen::EveryStep);
+        assert_eq!(UpdaterParams { shift_check: m.shift_check, ..s }, m);
         assert!(!UpdaterParams::always_update().localisation_check);
         assert!(!UpdaterParams::no_update().map_update);
     }

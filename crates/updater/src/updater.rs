@@ -515,7 +515,9 @@ impl MapUpdater {
         } else {
             Verdict::Update
         };
-        if let Some(field) = &self.shift_field {
+        if let Some(field) = &self.shift_field
+            && self.params.shift_check.when.runs_on(verdict)
+        {
             let p = &self.params.shift_check;
             if let Some(r) = crate::additions::shift_check::search(field, pose, scans, p) {
                 verdict = crate::additions::shift_check::combine(verdict, &r, p);

@@ -17,6 +17,14 @@
 //!
 //! Any other case keeps the paper's verdict (a pose whose better fit lies beyond the search, or a
 //! scan that fits poorly everywhere).
+//!
+//! [`ShiftCheckParams::when`] says on which steps the search runs: on every processed step
+//! ([`ShiftWhen::EveryStep`], `mapkeeper-shift`: both rules above), or only on the steps where
+//! the paper's check raised an alarm ([`ShiftWhen::OnAlarm`], `mapkeeper`). On alarm only, the
+//! first rule can never change a verdict (an alarm is at least Suspend already), so the check
+//! only *lifts* the change count's stale-map false alarms and never adds one; and the search's
+//! cost (about 1.5 ms) is paid only on alarm steps, a few per cent of a stale run's steps and
+//! almost none of a validation's, where `M_{i-1}` is kept current.
 
 use crate::paper::localisation_check::Verdict;
 use mapkeeper_grid::{DistanceField, Point2, Pose2};
@@ -27,8 +35,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ShiftCheckParams {
-    /// Run it. Default `false` (`mapkeeper-shift`: `true`).
+    /// Run it. Default `false` (`mapkeeper` and `mapkeeper-shift`: `true`).
     pub enabled: bool,
+    /// On which steps: `every_step` (default, `mapkeeper-shift`) or `on_alarm` (`mapkeeper`:
+    /// only where the paper's check says Suspend or Lost, so it only lifts false alarms).
+    pub when: ShiftWhen,
     /// Half-width of the position search, metres. Default 1.6.
     pub search_xy_m: f64,
     /// Position step of the search, metres. Default 0.2.
@@ -48,10 +59,32 @@ pub struct ShiftCheckParams {
     pub fit_ok_m: f64,
 }
 
+/// On which steps the shift check runs ([`ShiftCheckParams::when`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShiftWhen {
+    /// Every processed step: lifts false alarms and adds Suspend where a better pose lies nearby.
+    #[default]
+    EveryStep,
+    /// Only steps whose paper verdict is Suspend or Lost: lifts false alarms, adds none.
+    OnAlarm,
+}
+
+impl ShiftWhen {
+    /// Whether the search runs on a step whose paper verdict is `verdict`.
+    pub fn runs_on(self, verdict: Verdict) -> bool {
+        match self {
+            Self::EveryStep => true,
+            Self::OnAlarm => verdict != Verdict::Update,
+        }
+    }
+}
+
 impl Default for ShiftCheckParams {
     fn default() -> Self {
         Self {
             enabled: false,
+            when: ShiftWhen::EveryStep,
             search_xy_m: 1.6,
             step_xy_m: 0.2,
             search_yaw_rad: 20f64.to_radians(),
@@ -240,5 +273,16 @@ mod tests {
         assert_eq!(combine(Verdict::Update, &wrong, &p), Verdict::Suspend, "a missed error is caught");
         assert_eq!(combine(Verdict::Lost, &wrong, &p), Verdict::Lost);
         assert!(ShiftCheckParams { step_xy_m: 0.0, ..p }.validate().unwrap_err().contains("step_xy_m"));
+    }
+
+    #[test]
+    fn on_alarm_the_search_runs_only_where_the_paper_raised_one() {
+        assert!(ShiftWhen::EveryStep.runs_on(Verdict::Update));
+        assert!(!ShiftWhen::OnAlarm.runs_on(Verdict::Update));
+        assert!(ShiftWhen::OnAlarm.runs_on(Verdict::Suspend) && ShiftWhen::OnAlarm.runs_on(Verdict::Lost));
+        // Read from a parameter file by name.
+        let p: ShiftCheckParams = serde_json::from_str(r#"{"enabled": true, "when": "on_alarm"}"#).unwrap();
+        assert_eq!(p.when, ShiftWhen::OnAlarm);
+        assert!(serde_json::from_str::<ShiftCheckParams>(r#"{"when": "sometimes"}"#).is_err());
     }
 }
