@@ -148,6 +148,46 @@ fn convert_and_log_read_carmen_and_refuse_bad_files_with_their_place() {
     assert!(!dir.join("x").exists());
 }
 
+/// A raw log (both triplets the odometry pose, no ODOM lines) is read as raw, and the report
+/// says why; `--carmen-kind` overrides, and a kind the file cannot be is refused; a cut gzip is
+/// refused, or read up to the cut with `--salvage`.
+#[test]
+fn convert_tells_raw_from_corrected_and_salvages_a_cut_gzip_on_request() {
+    use std::io::Write;
+    let dir = scratch("logs", "carmen-kind");
+    std::fs::create_dir_all(&dir).unwrap();
+    let text: String = (0..40)
+        .map(|k| {
+            let (x, t) = (0.1 * k as f64, 1.0 + 0.2 * k as f64);
+            format!("FLASER 4 1 2 3 2.5 {x} 0 0 {x} 0 0 {t} h {t}\n")
+        })
+        .collect();
+    let raw = dir.join("raw.log");
+    std::fs::write(&raw, &text).unwrap();
+    let o = mapkeeper(&["convert", "--log", s(&raw), "--out", s(&dir.join("r"))]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("raw log (all 40 laser messages have equal pose and odometry triplets"), "{said}");
+    assert!(!dir.join("r/reference.tum").exists(), "a raw log has no reference");
+    let e = err(&["convert", "--log", s(&raw), "--carmen-kind", "corrected", "--out", s(&dir.join("x"))]);
+    assert!(e.contains("raw.log") && e.contains("no ODOM lines"), "{e}");
+    let e = err(&["convert", "--log", s(&raw), "--carmen-kind", "fixed", "--out", s(&dir.join("x"))]);
+    assert!(e.contains("--carmen-kind") && e.contains("auto, raw, corrected"), "{e}");
+    // Gzipped and cut two thirds of the way in.
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    enc.write_all(text.as_bytes()).unwrap();
+    let gz = enc.finish().unwrap();
+    let cut = dir.join("cut.log.gz");
+    std::fs::write(&cut, &gz[..gz.len() * 2 / 3]).unwrap();
+    let e = err(&["convert", "--log", s(&cut), "--out", s(&dir.join("x"))]);
+    assert!(e.contains("cut.log.gz") && e.contains("truncated or corrupt") && e.contains("--salvage"), "{e}");
+    let o = mapkeeper(&["convert", "--log", s(&cut), "--salvage", "--out", s(&dir.join("c"))]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("salvaged: read up to the damage"), "{said}");
+    assert!(!dir.join("x").exists());
+}
+
 #[test]
 fn generate_writes_a_drive_log_of_each_world_the_same_for_any_thread_count() {
     let dir = scratch("logs", "generate");

@@ -24,20 +24,34 @@
 //! anything beyond it are invalid beams (`range_max`); otherwise `range_max` is just above the
 //! largest reading.
 //!
-//! **Corrected logs** (SLAM-corrected, as the Radish "-corrected" logs): every `FLASER` holds the
-//! same corrected pose in both triplets, and the `ODOM` lines hold raw odometry re-anchored at
-//! each scan's corrected pose (an `ODOM` with timestamp 0 equal to the pose follows each scan).
-//! Such a log is recognised (both triplets equal in every laser message) and read as:
+//! **Raw and corrected logs.** A *raw* log (what a robot records) holds odometry poses: the laser
+//! lines' pose fields are the lidar's odometry pose and their odometry fields the robot's (equal
+//! when the lidar sits at the robot's origin), and `ODOM` lines, if any, are the odometry as
+//! the robot reported it. A *corrected* log (SLAM-corrected, as the Radish "-corrected" logs)
+//! holds the same corrected pose in both triplets of every `FLASER`, and `ODOM` lines of raw
+//! odometry re-anchored at each scan's corrected pose (an `ODOM` equal to the pose follows each
+//! scan). [`CarmenKind::Auto`] tells them apart from what the file holds:
+//!
+//! - a laser message whose two triplets differ, or a `ROBOTLASER1`: **raw**;
+//! - both triplets equal everywhere and no `ODOM` lines: **raw** (a lidar at the robot's origin;
+//!   a corrected log keeps its raw odometry in `ODOM` lines, so one without them could not be
+//!   localised anyway);
+//! - both triplets equal everywhere and at least half of the scans followed by an `ODOM` are
+//!   followed by one equal to their pose (the re-anchoring): **corrected**; fewer: **raw**.
+//!
+//! A raw log's odometry is its `ODOM` lines as written, or without them the laser lines'
+//! odometry fields (one reading per scan); it has no reference. A corrected log is read as:
 //! reference poses = the corrected poses; odometry = the raw odometry re-chained from the
 //! increments `p_k⁻¹ ∘ q_{k+1}` (`p_k` the corrected pose of scan `k`, `q_{k+1}` the last `ODOM`
-//! before scan `k + 1`), one reading at each scan's stamp, starting at the identity. Otherwise
-//! the `ODOM` lines are the odometry as written and the log has no reference.
+//! before scan `k + 1`), one reading at each scan's stamp, starting at the identity.
+//! [`ImportOptions::carmen_kind`] overrides the decision; the import report's first note says
+//! which kind was read and why.
 //!
 //! Negative timestamps (a few in real logs) read as 0, so where they are used they count as
 //! steps back in the report.
 
 use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan};
-use crate::options::{ImportOptions, StampFrom};
+use crate::options::{CarmenKind, ImportOptions, StampFrom};
 use crate::report::ImportReport;
 use crate::{ImportError, OdometryFrom};
 use mapkeeper_grid::{Pose2, wrap_angle};
@@ -83,6 +97,8 @@ struct Parsed {
     front_offset: f64,
     rear_offset: f64,
     skipped: std::collections::BTreeMap<String, usize>,
+    /// What salvaging a damaged file kept, if it had to.
+    salvaged: Option<String>,
 }
 
 /// Reads a CARMEN log.
@@ -99,23 +115,49 @@ pub fn read(path: &Path, options: &ImportOptions) -> Result<(SensorLog, ImportRe
     } else {
         Box::new(BufReader::new(file))
     };
-    let parsed = parse(reader, path, options.stamp)?;
+    let parsed = parse(reader, path, options.stamp, Damage { gz, salvage: options.salvage })?;
     assemble(parsed, path, options)
 }
 
-fn parse(mut reader: Box<dyn BufRead>, path: &Path, stamp: StampFrom) -> Result<Parsed, ImportError> {
+/// How a read error is met: whether the file is gzipped (named in the message), and whether to
+/// salvage what came before it.
+#[derive(Clone, Copy, Debug)]
+struct Damage {
+    gz: bool,
+    salvage: bool,
+}
+
+/// Parses the lines of `reader`. With `damage.salvage`, a read error (a truncated or corrupt
+/// gzip stream) ends the file where it happened, the partial line dropped, with a note.
+fn parse(mut reader: Box<dyn BufRead>, path: &Path, stamp: StampFrom, damage: Damage) -> Result<Parsed, ImportError> {
     let mut p = Parsed::default();
     let mut buf = Vec::new();
     let mut line_no = 0usize;
+    let mut text_bytes = 0u64;
     loop {
         buf.clear();
-        let n = (&mut reader)
-            .take(64 << 20)
-            .read_until(b'\n', &mut buf)
-            .map_err(|e| ImportError::parse(path, format!("line {}", line_no + 1), format!("cannot read: {e}")))?;
+        let n = match (&mut reader).take(64 << 20).read_until(b'\n', &mut buf) {
+            Ok(n) => n,
+            Err(e) => {
+                let what = if damage.gz { "the gzip stream is truncated or corrupt" } else { "the file is damaged" };
+                if damage.salvage {
+                    p.salvaged = Some(format!(
+                        "salvaged: read up to the damage ({what}: {e}): {line_no} complete lines, {text_bytes} bytes of text kept, \
+the partial line and everything after it lost"
+                    ));
+                    break;
+                }
+                return Err(ImportError::parse(
+                    path,
+                    format!("line {}", line_no + 1),
+                    format!("cannot read: {e} ({what}; --salvage reads up to the damage)"),
+                ));
+            }
+        };
         if n == 0 {
             break;
         }
+        text_bytes += n as u64;
         line_no += 1;
         let text = std::str::from_utf8(&buf)
             .map_err(|_| ImportError::parse(path, format!("line {line_no}"), "not UTF-8 text"))?;
@@ -237,9 +279,113 @@ impl Fields<'_> {
     }
 }
 
-/// Whether both pose triplets of every laser message are the same (a corrected log).
-fn is_corrected(lasers: &[Laser]) -> bool {
-    !lasers.is_empty() && lasers.iter().all(|l| l.name != "ROBOTLASER1" && l.pose == l.robot)
+/// What a file holds that tells a raw log from a corrected one (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct KindEvidence {
+    /// Laser messages.
+    lasers: usize,
+    /// Laser messages whose two triplets differ, or `ROBOTLASER1` messages, and the first one's line.
+    differing: usize,
+    first_differing_line: usize,
+    /// `ODOM` lines.
+    odom_lines: usize,
+    /// Scans followed by at least one `ODOM` before the next scan, and those whose first such
+    /// `ODOM` equals their pose (a corrected log's re-anchoring).
+    followed: usize,
+    anchors: usize,
+}
+
+impl KindEvidence {
+    fn of(p: &Parsed) -> Self {
+        let differing: Vec<&Laser> = p.lasers.iter().filter(|l| l.name == "ROBOTLASER1" || l.pose != l.robot).collect();
+        let first_after = |k: usize| p.odometry.iter().find(|(before, _)| *before == k).map(|(_, o)| o.pose);
+        let followed = (1..=p.lasers.len()).filter(|&k| first_after(k).is_some()).count();
+        let anchors = (1..=p.lasers.len()).filter(|&k| first_after(k) == Some(p.lasers[k - 1].robot)).count();
+        Self {
+            lasers: p.lasers.len(),
+            differing: differing.len(),
+            first_differing_line: differing.first().map_or(0, |l| l.line),
+            odom_lines: p.odometry.len(),
+            followed,
+            anchors,
+        }
+    }
+
+    /// What the file says, in a sentence.
+    fn said(&self) -> String {
+        if self.differing > 0 {
+            format!(
+                "{} of {} laser messages have a pose triplet different from their odometry triplet (first at line {})",
+                self.differing, self.lasers, self.first_differing_line
+            )
+        } else if self.odom_lines == 0 {
+            format!(
+                "all {} laser messages have equal pose and odometry triplets, and there are no ODOM lines",
+                self.lasers
+            )
+        } else {
+            format!(
+                "all {} laser messages have equal pose and odometry triplets, and {} of the {} scans followed by an ODOM line are followed by one equal to their pose",
+                self.lasers, self.anchors, self.followed
+            )
+        }
+    }
+
+    /// The kind the file shows.
+    fn looks_corrected(&self) -> bool {
+        self.differing == 0 && self.odom_lines > 0 && self.anchors > 0 && 2 * self.anchors >= self.followed
+    }
+}
+
+/// The kind to read `p` as, and why (the import report's note); an error for a kind asked for
+/// that the file cannot be.
+fn decide_kind(p: &Parsed, asked: CarmenKind, path: &Path) -> Result<(bool, String), ImportError> {
+    let e = KindEvidence::of(p);
+    let looks = e.looks_corrected();
+    let odometry = if e.odom_lines > 0 {
+        "odometry = the ODOM lines as written"
+    } else {
+        "odometry = the laser lines' odometry fields, one reading per scan"
+    };
+    match asked {
+        CarmenKind::Auto if looks => Ok((
+            true,
+            format!(
+                "corrected log ({}): reference = the laser messages' corrected poses; odometry = raw increments re-chained",
+                e.said()
+            ),
+        )),
+        CarmenKind::Auto => Ok((false, format!("raw log ({}): {odometry}; no reference poses", e.said()))),
+        CarmenKind::Raw => Ok((
+            false,
+            format!(
+                "raw log (as asked; {}{}): {odometry}; no reference poses",
+                e.said(),
+                if looks {
+                    ": the file looks corrected, so its ODOM lines are re-anchored at the scans, not continuous"
+                } else {
+                    ""
+                }
+            ),
+        )),
+        CarmenKind::Corrected if e.differing > 0 => Err(ImportError::parse(
+            path,
+            format!("line {}", e.first_differing_line),
+            "read as a corrected log (as asked), but this laser message's pose and odometry triplets differ, which a corrected log's never do",
+        )),
+        CarmenKind::Corrected if e.odom_lines == 0 => Err(ImportError::parse(
+            path,
+            "the whole file",
+            "read as a corrected log (as asked), but it has no ODOM lines: a corrected log's raw odometry is in them, and without it there is no odometry (read it as raw to take the poses as odometry)",
+        )),
+        CarmenKind::Corrected => Ok((
+            true,
+            format!(
+                "corrected log (as asked; {}): reference = the laser messages' corrected poses; odometry = raw increments re-chained",
+                e.said()
+            ),
+        )),
+    }
 }
 
 /// The file's no-return value: its largest reading if two or more beams hold exactly it.
@@ -262,7 +408,11 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
             a.count_message(k, k);
         }
     }
-    let corrected = is_corrected(&p.lasers);
+    let (corrected, why) = decide_kind(&p, options.carmen_kind, path)?;
+    a.note(why);
+    if let Some(s) = &p.salvaged {
+        a.note(s.clone());
+    }
     let no_return = no_return_value(&p.lasers);
     let largest = p.lasers.iter().flat_map(|l| l.ranges.iter().copied()).fold(0.0f32, f32::max);
     let file_max = no_return.unwrap_or_else(|| largest.next_up());
@@ -302,23 +452,30 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
             "no-return value {v} m (the file's largest reading, held by several beams): those beams are invalid"
         ));
     }
+    let raw_topic = if p.odometry.is_empty() { LASER_ODOMETRY } else { "ODOM" };
     if corrected {
         rechain(&p, &mut a);
+    } else if p.odometry.is_empty() {
+        for l in &p.lasers {
+            a.odometry(RawOdometry { topic: LASER_ODOMETRY.into(), stamp_ns: l.stamp_ns, pose: l.robot });
+        }
     } else {
         for (_, o) in &p.odometry {
             a.odometry(RawOdometry { topic: "ODOM".into(), stamp_ns: o.stamp_ns, pose: o.pose });
         }
-        a.note("laser poses differ from odometry poses: not a corrected log; ODOM used as written, no reference");
     }
     for (k, n) in &p.skipped {
         a.note(format!("{n} {k} message(s) skipped"));
     }
     let mut options = options.clone();
     if options.odometry == OdometryFrom::Auto || options.odometry == OdometryFrom::Topic("ODOM".into()) {
-        options.odometry = OdometryFrom::Topic(if corrected { RECHAINED.into() } else { "ODOM".into() });
+        options.odometry = OdometryFrom::Topic(if corrected { RECHAINED.into() } else { raw_topic.into() });
     }
     a.finish(&options)
 }
+
+/// The name of a raw log's odometry stream when it has no `ODOM` lines.
+pub const LASER_ODOMETRY: &str = "the laser lines' odometry fields";
 
 /// The name of the re-chained odometry stream of a corrected log.
 pub const RECHAINED: &str = "ODOM (raw increments re-chained at the scans)";
@@ -337,17 +494,7 @@ fn rechain(p: &Parsed, a: &mut Assembler) {
         a.odometry(RawOdometry { topic: RECHAINED.into(), stamp_ns: l.stamp_ns, pose: odom });
         a.truth(RawPose { stamp_ns: l.stamp_ns, pose: l.robot }, "the corrected poses of the laser messages");
     }
-    // A re-anchoring line: the first ODOM after a scan, equal to that scan's pose.
-    let anchors = (1..=p.lasers.len())
-        .filter(|&k| {
-            p.odometry.iter().find(|(before, _)| *before == k).is_some_and(|(_, o)| o.pose == p.lasers[k - 1].robot)
-        })
-        .count();
-    a.note(format!(
-        "corrected log: reference = the laser messages' corrected poses; odometry = raw increments re-chained, one reading per \
-scan ({} ODOM lines read, {anchors} of them re-anchoring lines equal to the scan before)",
-        p.odometry.len()
-    ));
+    a.note(format!("re-chained odometry: one reading per scan from {} ODOM lines", p.odometry.len()));
 }
 
 #[cfg(test)]
@@ -425,6 +572,102 @@ mod tests {
         assert!((log.scans().next().unwrap().angle_increment_rad - PI / 2.0).abs() < 1e-12);
     }
 
+    /// The odometry poses and the notes of a log read with `kind`.
+    fn read_kind(name: &str, text: &str, kind: CarmenKind) -> Result<(Vec<Pose2>, usize, Vec<String>), String> {
+        let p = write(name, text);
+        let options = ImportOptions { carmen_kind: kind, ..ImportOptions::default() };
+        let (log, report) = read(&p, &options).map_err(|e| e.to_string())?;
+        Ok((log.odometry().map(|o| o.pose_in_odom).collect(), log.truth().count(), report.notes))
+    }
+
+    /// Three scans driven 1 m forward each, then turned: the raw log a robot records with its
+    /// lidar at the origin (both triplets the odometry pose), without `ODOM` lines.
+    fn raw_equal_triplets() -> String {
+        [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.5)]
+            .iter()
+            .enumerate()
+            .map(|(k, &pose)| flaser(&[1.0, 2.0, 3.0, 2.5], pose, 1.0 + k as f64))
+            .collect()
+    }
+
+    #[test]
+    fn a_raw_log_with_equal_triplets_and_no_odom_lines_takes_the_laser_odometry() {
+        // The issue's case: read as corrected, this re-chained to zero motion with the odometry
+        // as the "reference". It is raw: the odometry moves, and there is no reference.
+        let (odom, truth, notes) = read_kind("raw-equal", &raw_equal_triplets(), CarmenKind::Auto).unwrap();
+        assert_eq!(truth, 0);
+        assert_eq!(odom.len(), 3);
+        assert!((odom[1].x - 1.0).abs() < 1e-12 && (odom[2].x - 2.0).abs() < 1e-12, "{odom:?}");
+        assert!((odom[2].yaw - 0.5).abs() < 1e-12);
+        assert!(
+            notes[0].starts_with(
+                "raw log (all 3 laser messages have equal pose and odometry triplets, and there are no ODOM"
+            ),
+            "{notes:?}"
+        );
+        assert!(notes[0].contains("the laser lines' odometry fields"), "{notes:?}");
+    }
+
+    #[test]
+    fn a_raw_log_with_differing_triplets_takes_the_odometry_triplet() {
+        // The lidar 0.1 m ahead of the robot: pose triplet = lidar, odometry triplet = robot.
+        let text = "FLASER 2 1 2 0.1 0 0 0 0 0 1.0 h 1.0\nFLASER 2 1 2 1.1 0 0 1 0 0 2.0 h 2.0\n";
+        let (odom, truth, notes) = read_kind("raw-diff", text, CarmenKind::Auto).unwrap();
+        assert_eq!((odom.len(), truth), (2, 0));
+        assert!((odom[1].x - 1.0).abs() < 1e-12, "{odom:?}");
+        assert!(notes[0].starts_with("raw log (2 of 2 laser messages have a pose triplet different"), "{notes:?}");
+        // Asked to read it as corrected, it is refused, naming the line.
+        let e = read_kind("raw-diff", text, CarmenKind::Corrected).unwrap_err();
+        assert!(e.contains("line 1") && e.contains("triplets differ"), "{e}");
+    }
+
+    #[test]
+    fn a_raw_log_with_odom_lines_that_do_not_re_anchor_uses_them_as_written() {
+        // Equal triplets, and ODOM lines of continuous odometry (none equal to the scan before).
+        let mut text = String::new();
+        for k in 0..4 {
+            let x = k as f64;
+            text += &format!("ODOM {} 0 0 0 0 0 {} h {}\n", x + 0.05, x + 0.5, x + 0.5);
+            text += &flaser(&[1.0, 2.0, 3.0, 2.5], (x + 0.1, 0.0, 0.0), 1.0 + x);
+        }
+        let (odom, truth, notes) = read_kind("raw-odom", &text, CarmenKind::Auto).unwrap();
+        assert_eq!((odom.len(), truth), (4, 0));
+        assert!((odom[3].x - 3.05).abs() < 1e-12, "{odom:?}");
+        assert!(notes[0].contains("0 of the 3 scans followed by an ODOM line"), "{notes:?}");
+        assert!(notes[0].starts_with("raw log") && notes[0].contains("the ODOM lines as written"), "{notes:?}");
+    }
+
+    #[test]
+    fn a_corrected_log_whose_odometry_equals_its_poses_is_still_corrected() {
+        // Re-anchoring lines after each scan, raw odometry that agrees with the corrections.
+        let mut text = String::new();
+        for k in 0..3 {
+            let x = k as f64;
+            text += &flaser(&[1.0, 2.0, 3.0, 2.5], (x, 0.0, 0.0), 1.0 + x);
+            text += &format!("ODOM {x} 0 0 0 0 0 0 h 0\nODOM {} 0 0 0 0 0 {} h {}\n", x + 1.0, x + 1.5, x + 1.5);
+        }
+        let (odom, truth, notes) = read_kind("corr-equal", &text, CarmenKind::Auto).unwrap();
+        assert_eq!((odom.len(), truth), (3, 3));
+        assert!((odom[2].x - 2.0).abs() < 1e-12, "{odom:?}");
+        assert!(notes[0].starts_with("corrected log (") && notes[0].contains("3 of the 3 scans"), "{notes:?}");
+        // Read as raw on request: no reference, the re-anchored ODOM lines as written, and a
+        // warning that they are not continuous.
+        let (odom, truth, notes) = read_kind("corr-equal", &text, CarmenKind::Raw).unwrap();
+        assert_eq!((odom.len(), truth), (6, 0));
+        assert!(notes[0].contains("the file looks corrected"), "{notes:?}");
+    }
+
+    #[test]
+    fn a_corrected_reading_without_odom_lines_is_refused() {
+        let e = read_kind("corr-none", &raw_equal_triplets(), CarmenKind::Corrected).unwrap_err();
+        assert!(e.contains("no ODOM lines") && e.contains("read it as raw"), "{e}");
+        // Raw on request: the same as told from the file.
+        assert_eq!(
+            read_kind("corr-none", &raw_equal_triplets(), CarmenKind::Raw).unwrap().0,
+            read_kind("corr-none", &raw_equal_triplets(), CarmenKind::Auto).unwrap().0
+        );
+    }
+
     #[test]
     fn bad_lines_are_named() {
         for (text, want) in [
@@ -438,6 +681,78 @@ mod tests {
             let e = read(&p, &ImportOptions::default()).unwrap_err().to_string();
             assert!(e.contains(&p.display().to_string()) && e.contains(want), "{text:?}: {e}");
         }
+    }
+
+    /// A gzipped raw log of 80 scans, its path and the scans read from it whole.
+    fn gz_log(name: &str) -> (std::path::PathBuf, Vec<u8>, Vec<mapkeeper_sensor::LaserScan>) {
+        use std::io::Write;
+        let text: String = (0..80)
+            .map(|k| {
+                let r: Vec<f64> = (0..90).map(|b| 1.0 + ((k * 7 + b * 13) % 97) as f64 / 10.0).collect();
+                flaser(&r, (0.05 * k as f64, 0.0, 0.001 * k as f64), 1.0 + 0.1 * k as f64)
+            })
+            .collect();
+        let p = write(name, "").with_extension("gz");
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        enc.write_all(text.as_bytes()).unwrap();
+        let bytes = enc.finish().unwrap();
+        std::fs::write(&p, &bytes).unwrap();
+        let scans = read(&p, &ImportOptions::default()).unwrap().0.scans().cloned().collect();
+        (p, bytes, scans)
+    }
+
+    #[test]
+    fn a_gzip_cut_anywhere_is_an_error_or_with_salvage_a_prefix_and_a_note() {
+        let (p, bytes, whole) = gz_log("cut");
+        let salvage = ImportOptions { salvage: true, ..ImportOptions::default() };
+        let mut salvaged = 0;
+        for cut in (1..bytes.len()).step_by(bytes.len() / 97).chain([bytes.len() - 1, bytes.len() - 4, bytes.len() - 8])
+        {
+            std::fs::write(&p, &bytes[..cut]).unwrap();
+            let e = read(&p, &ImportOptions::default()).unwrap_err().to_string();
+            assert!(e.contains(&p.display().to_string()), "cut at {cut}: {e}");
+            assert!(e.contains("truncated or corrupt") || e.contains("no laser scans"), "cut at {cut}: {e}");
+            match read(&p, &salvage) {
+                Ok((log, report)) => {
+                    // The same scans as the whole file's first ones (range_max aside: the
+                    // file's largest reading decides it).
+                    let got: Vec<_> = log.scans().map(|s| (s.stamp_ns, s.ranges_m.clone())).collect();
+                    let first: Vec<_> =
+                        whole.iter().take(got.len()).map(|s| (s.stamp_ns, s.ranges_m.clone())).collect();
+                    assert!(got.len() <= whole.len() && got == first, "cut at {cut}: not a prefix");
+                    assert!(
+                        report.notes.iter().any(|n| n.starts_with("salvaged: read up to the damage")),
+                        "{:?}",
+                        report.notes
+                    );
+                    salvaged += 1;
+                }
+                Err(e) => assert!(e.to_string().contains("no laser scans"), "cut at {cut}: {e}"),
+            }
+        }
+        assert!(salvaged >= 80, "{salvaged} cuts salvaged");
+    }
+
+    #[test]
+    fn a_corrupt_gzip_byte_is_an_error_unless_it_changed_nothing() {
+        let (p, bytes, whole) = gz_log("corrupt");
+        let mut refused = 0;
+        // The compressed data: after the 10-byte header, before the 8-byte trailer.
+        for at in (10..bytes.len() - 8).step_by((bytes.len() - 18) / 101) {
+            let mut b = bytes.clone();
+            b[at] ^= 0x5a;
+            std::fs::write(&p, &b).unwrap();
+            match read(&p, &ImportOptions::default()) {
+                Ok((log, _)) => {
+                    assert!(log.scans().cloned().collect::<Vec<_>>() == whole, "byte {at}: silently different")
+                }
+                Err(e) => {
+                    assert!(e.to_string().contains(&p.display().to_string()), "byte {at}: {e}");
+                    refused += 1;
+                }
+            }
+        }
+        assert!(refused >= 90, "{refused} corruptions refused");
     }
 
     #[test]

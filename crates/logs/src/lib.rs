@@ -35,7 +35,7 @@ pub mod ros2;
 
 pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 pub use error::ImportError;
-pub use options::{ImportOptions, OdometryFrom, StampFrom};
+pub use options::{CarmenKind, ImportOptions, OdometryFrom, StampFrom};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 pub use rigid::Rigid3;
 pub use ros2::{McapRunWriter, McapWriteError, write_log_mcap};

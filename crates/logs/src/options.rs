@@ -15,6 +15,33 @@ pub enum OdometryFrom {
     Tf,
 }
 
+/// Which kind of CARMEN log a file is: raw (the laser lines' poses and the `ODOM` lines are the
+/// robot's odometry) or corrected (SLAM-corrected poses in the laser lines, raw odometry
+/// re-anchored at each scan in the `ODOM` lines). See the `carmen` module.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CarmenKind {
+    /// Tell from what the file holds (the import report says what it found and why).
+    #[default]
+    Auto,
+    /// A raw log: the odometry is the `ODOM` lines as written, or, without them, the laser lines'
+    /// odometry fields; no reference poses.
+    Raw,
+    /// A corrected log: the laser lines' poses are the reference, the odometry is re-chained
+    /// from the `ODOM` lines.
+    Corrected,
+}
+
+impl CarmenKind {
+    /// Every kind, by its flag name.
+    pub const NAMES: [(&'static str, CarmenKind); 3] =
+        [("auto", CarmenKind::Auto), ("raw", CarmenKind::Raw), ("corrected", CarmenKind::Corrected)];
+
+    /// The kind of a flag value (`auto`, `raw`, `corrected`).
+    pub fn from_name(name: &str) -> Option<CarmenKind> {
+        Self::NAMES.iter().find(|(n, _)| *n == name).map(|(_, k)| *k)
+    }
+}
+
 /// Which clock stamps a message.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum StampFrom {
@@ -47,6 +74,12 @@ pub struct ImportOptions {
     pub truth_topic: Option<String>,
     /// The clock.
     pub stamp: StampFrom,
+    /// CARMEN logs: raw or corrected (default: told from the file).
+    pub carmen_kind: CarmenKind,
+    /// Read a damaged file up to the damage instead of refusing it (a truncated or corrupt gzip
+    /// stream of a CARMEN log): what was read is kept, and the import report says how much and
+    /// what the damage was. Default `false`: the damage is an error.
+    pub salvage: bool,
 }
 
 impl Default for ImportOptions {
@@ -59,6 +92,8 @@ impl Default for ImportOptions {
             odom_frame: "odom".into(),
             truth_topic: None,
             stamp: StampFrom::Header,
+            carmen_kind: CarmenKind::Auto,
+            salvage: false,
         }
     }
 }

@@ -2,7 +2,7 @@
 //! `update`, `map`, `convert`): the project's own log, a ROS 2 MCAP bag, a ROS 1 bag or a CARMEN
 //! log, detected from the content (`docs/real-data.md`).
 
-use mapkeeper_logs::{ImportOptions, Imported, LogFormat, OdometryFrom, StampFrom, read_log};
+use mapkeeper_logs::{CarmenKind, ImportOptions, Imported, LogFormat, OdometryFrom, StampFrom, read_log};
 use mapkeeper_sensor::SensorLog;
 use std::path::PathBuf;
 
@@ -47,6 +47,23 @@ pub struct LogInput {
     /// (when the recorder received it).
     #[arg(long, value_name = "CLOCK", default_value = "header", value_parser = stamp_from)]
     pub stamp: StampFrom,
+    /// CARMEN logs: auto (told from the file: a laser line whose pose and odometry triplets
+    /// differ, or no ODOM lines, or ODOM lines that are not re-anchored at the scans, make it
+    /// raw), raw (odometry = the ODOM lines, else the laser lines' odometry fields; no
+    /// reference) or corrected (reference = the laser lines' poses, odometry re-chained from the
+    /// ODOM lines). The import report says which was read and why.
+    #[arg(long, value_name = "KIND", default_value = "auto", value_parser = carmen_kind)]
+    pub carmen_kind: CarmenKind,
+    /// Read a damaged file up to the damage instead of refusing it (a truncated or corrupt
+    /// gzipped CARMEN log): what came before is kept, and the import report says how much was
+    /// read and what the damage was.
+    #[arg(long)]
+    pub salvage: bool,
+}
+
+fn carmen_kind(s: &str) -> Result<CarmenKind, String> {
+    CarmenKind::from_name(s)
+        .ok_or_else(|| format!("'{}' is not a CARMEN log kind (known: auto, raw, corrected)", s.escape_debug()))
 }
 
 fn log_format(s: &str) -> Result<LogFormat, String> {
@@ -78,6 +95,8 @@ impl LogInput {
             odom_frame: "odom".into(),
             truth_topic: None,
             stamp: StampFrom::Header,
+            carmen_kind: CarmenKind::Auto,
+            salvage: false,
         }
     }
 
@@ -96,6 +115,8 @@ impl LogInput {
             odom_frame: self.odom_frame.clone(),
             truth_topic: self.truth_topic.clone(),
             stamp: self.stamp,
+            carmen_kind: self.carmen_kind,
+            salvage: self.salvage,
         }
     }
 
