@@ -76,9 +76,11 @@ pub struct ImportOptions {
     pub stamp: StampFrom,
     /// CARMEN logs: raw or corrected (default: told from the file).
     pub carmen_kind: CarmenKind,
-    /// Read a damaged file up to the damage instead of refusing it (a truncated or corrupt gzip
-    /// stream of a CARMEN log): what was read is kept, and the import report says how much and
-    /// what the damage was. Default `false`: the damage is an error.
+    /// Read a damaged file past its damage instead of refusing it: a CARMEN log's truncated or
+    /// corrupt gzip stream up to the damage; a ROS 1 bag's damaged records and chunks skipped to
+    /// the next chunk that reads, a truncated bag as far as it goes. What was read is kept, and
+    /// the import report's `salvaged:` notes say what was skipped. Default `false`: the damage
+    /// is an error.
     pub salvage: bool,
 }
 

@@ -54,9 +54,10 @@ pub struct LogInput {
     /// ODOM lines). The import report says which was read and why.
     #[arg(long, value_name = "KIND", default_value = "auto", value_parser = carmen_kind)]
     pub carmen_kind: CarmenKind,
-    /// Read a damaged file up to the damage instead of refusing it (a truncated or corrupt
-    /// gzipped CARMEN log): what came before is kept, and the import report says how much was
-    /// read and what the damage was.
+    /// Read a damaged file past its damage instead of refusing it: a truncated or corrupt gzipped
+    /// CARMEN log up to the damage; a ROS 1 bag's damaged records and chunks skipped to the next
+    /// chunk that reads, a truncated bag as far as it goes. The import report's `salvaged:` notes
+    /// say what was skipped.
     #[arg(long)]
     pub salvage: bool,
 }

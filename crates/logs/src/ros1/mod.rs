@@ -46,7 +46,11 @@
 //! named. A file that ends cleanly before the chunks its bag header counts is refused as
 //! truncated. Only damage in the index section, after every chunk was read (at or past a valid
 //! `index_pos`, or once the header's `chunk_count` chunks are in), is read past with a note; so
-//! is an `index_pos` that is 0, past the end or not at an index record.
+//! is an `index_pos` that is 0, past the end or not at an index record. With
+//! [`ImportOptions::salvage`] the rest is read past too, each with a `salvaged:` note: a record
+//! that cannot be read is skipped to the next record that reads as a chunk
+//! (`BagFile::next_chunk`), a chunk that does not decompress or decode keeps the messages
+//! before the damage, and a truncated file is read as far as it goes.
 
 mod msg;
 mod record;
@@ -309,11 +313,30 @@ impl<'a> Walk<'a> {
             self.reached_index |= self.index_at == Some(offset);
             let rec = match file.next() {
                 Ok(r) => r,
+                Err(m) if self.options.salvage && !self.after_chunks() => {
+                    if self.resync(file, offset, &m)? {
+                        continue;
+                    }
+                    break;
+                }
                 Err(m) => return self.damaged_tail(offset, m),
             };
             let at = Where { offset, chunk: None };
             match rec.op {
-                Some(Op::Chunk) => self.chunk(rec)?,
+                Some(Op::Chunk) => {
+                    let offset_after = file.pos;
+                    match self.chunk(rec) {
+                        Ok(()) => {}
+                        Err(e) if self.options.salvage => {
+                            self.asm.note(format!(
+                                "salvaged: chunk {} is damaged ({e}); its records before the damage were kept, the \
+rest skipped, reading on at byte {offset_after}",
+                                self.chunks
+                            ));
+                        }
+                        Err(e) => return Err(e),
+                    }
+                }
                 Some(Op::Connection) => match connection(&rec.fields, &rec.data, self.options) {
                     Ok((id, c)) => _ = self.conns.entry(id).or_insert(c),
                     // In the index section: noted (the chunks may describe the connection too).
@@ -336,6 +359,35 @@ impl<'a> Walk<'a> {
             }
         }
         self.check_end(file.len)
+    }
+
+    /// With `--salvage`: a record at `offset` that cannot be read (`m`) before the index section.
+    /// Moves the file to the next record that reads as a chunk and says what was skipped; false
+    /// (and a note) if there is none.
+    fn resync(&mut self, file: &mut BagFile, offset: u64, m: &str) -> Result<bool, ImportError> {
+        let next = file.next_chunk(offset + 1).map_err(|e| self.err(format!("byte {offset}"), e))?;
+        match next {
+            Some(at) => {
+                self.asm.note(format!(
+                    "salvaged: the record at byte {offset} (after chunk {}) is damaged ({m}); bytes {offset}-{} skipped, \
+reading on at the next chunk, byte {at}",
+                    self.chunks,
+                    at - 1
+                ));
+                file.seek(at).map_err(|e| self.err(format!("byte {at}"), e))?;
+                Ok(true)
+            }
+            None => {
+                self.asm.note(format!(
+                    "salvaged: the record at byte {offset} (after chunk {}) is damaged ({m}) and no chunk follows; bytes \
+{offset}-{} skipped",
+                    self.chunks,
+                    file.len.saturating_sub(1)
+                ));
+                file.seek(file.len).map_err(|e| self.err(format!("byte {}", file.len), e))?;
+                Ok(false)
+            }
+        }
     }
 
     /// Whether the walk is in the index section, after every chunk: it met a record at a valid
@@ -361,7 +413,11 @@ impl<'a> Walk<'a> {
     /// counts that disagree.
     fn check_end(&mut self, len: u64) -> Result<(), ImportError> {
         let (expected, read) = (self.header.chunk_count as usize, self.chunks);
-        if expected > read {
+        if expected > read && self.options.salvage {
+            self.asm.note(format!(
+                "salvaged: the file ends after {read} chunks, but its bag header counts {expected}: the bag is truncated"
+            ));
+        } else if expected > read {
             return Err(self.err(
                 format!("byte {len} (end of file)"),
                 format!(

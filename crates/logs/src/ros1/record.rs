@@ -223,6 +223,58 @@ impl BagFile {
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 
+    /// The offset of the first record at or after `from` that reads as a chunk record (its header
+    /// parses, `op` 0x05 with a `compression` and a `size`, and its data ends within the file),
+    /// if any: where a damaged bag can be read on. Searches for the `op=\x05` field and tries the
+    /// record starts up to 4 KiB before it. Leaves the file at an unspecified offset.
+    pub fn next_chunk(&mut self, from: u64) -> Result<Option<u64>, String> {
+        const WINDOW: u64 = 1 << 20;
+        const BACK: u64 = 4096;
+        let mut start = from;
+        while start < self.len {
+            // The window holds `BACK` bytes before `start` for the headers found near its start.
+            let lo = start.saturating_sub(BACK).max(from);
+            let hi = (start + WINDOW).min(self.len);
+            self.seek(lo)?;
+            let buf = self.bytes(hi - lo, "bytes searched for a chunk")?;
+            let first = (start - lo) as usize;
+            let hits =
+                buf.windows(8).enumerate().skip(first.saturating_sub(4)).filter(|(_, w)| w == b"\x04\0\0\0op=\x05");
+            let mut found = None;
+            for (at, _) in hits {
+                found = (at.saturating_sub(BACK as usize)..=at.saturating_sub(4))
+                    .filter(|&s| lo + s as u64 >= from)
+                    .find(|&s| self.chunk_header_at(&buf, s, at, lo));
+                if found.is_some() {
+                    break;
+                }
+            }
+            if let Some(s) = found {
+                return Ok(Some(lo + s as u64));
+            }
+            if hi == self.len {
+                break;
+            }
+            start = hi - 8;
+        }
+        Ok(None)
+    }
+
+    /// Whether `buf[s..]` (at file offset `lo + s`) starts a chunk record whose header holds the
+    /// field at `field`.
+    fn chunk_header_at(&self, buf: &[u8], s: usize, field: usize, lo: u64) -> bool {
+        let le = |i: usize| buf.get(i..i + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+        let Some(header_len) = le(s).filter(|&n| n <= 4096 && s + 4 + n >= field + 8) else { return false };
+        let Some(header) = buf.get(s + 4..s + 4 + header_len) else { return false };
+        let Ok(fields) = Fields::parse(header) else { return false };
+        let is_chunk = matches!(fields.op(), Ok((_, Some(Op::Chunk))));
+        let Some(data_len) = le(s + 4 + header_len) else { return false };
+        is_chunk
+            && fields.string("compression").is_ok()
+            && fields.u32("size").is_ok()
+            && lo + (s + 8 + header_len + data_len) as u64 <= self.len
+    }
+
     /// Reads the record at the current offset; the data of index data records is skipped.
     pub fn next(&mut self) -> Result<TopRecord, String> {
         let offset = self.pos;
