@@ -124,10 +124,28 @@ fn the_lab_runs_and_bad_routes_are_refused() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("route.waypoints[1] [-2, 0] → route.waypoints[2] [3, 0] is blocked by column \"pillar\""),
+        err.contains("--route: ")
+            && err.contains("through.toml: waypoints[1] [-2, 0] → waypoints[2] [3, 0] is blocked by column \"pillar\""),
         "{err}"
     );
     assert!(!bad.exists(), "no output folder for a refused world");
+    // The same rule in `simulate` (which took a route 500 m outside the world and drove 0 m),
+    // naming the flag that brought the file.
+    let far = dir.join("far.toml");
+    std::fs::write(&far, "format = \"mapkeeper-route\"\nversion = 1\nwaypoints = [[500.0, 500.0], [510.0, 500.0]]\n")
+        .unwrap();
+    for cmd in
+        [&["simulate", "--route", s(&far), "--out", s(&bad)][..], &["validate", "--route", s(&far), "--out", s(&bad)]]
+    {
+        let out = mapkeeper(cmd);
+        assert!(!out.status.success(), "{cmd:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--route: ") && err.contains("far.toml: waypoints[0] [500, 500] lies outside the interior"),
+            "{err}"
+        );
+        assert!(!bad.exists(), "{cmd:?}: no output folder");
+    }
     // A world file whose agent walks through a wall: file, agent and place named.
     let w = dir.join("w.toml");
     std::fs::write(

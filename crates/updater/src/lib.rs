@@ -24,7 +24,7 @@
 //! | `additions/grazing.rs` | project addition: the incidence test of the removal gates (a robot driving along a wall erodes it) |
 //! | `additions/hit_index.rs` | project addition: the hit clearance of the removal gates (edge cells of a wall hit by the same step voted "removed") |
 //! | `additions/free_pass.rs` | project addition: cells free in `M_{i-1}` got only "changed" votes, so new obstacles came out 2-4 cells thick |
-//! | `additions/shift_check.rs` | project addition (`mapkeeper-shift`): the change count cannot tell a wrong pose from a stale map; a nearby pose that fits better can |
+//! | `additions/shift_check.rs` | project addition (`mapkeeper` on alarm steps, `mapkeeper-shift` on every step): the change count cannot tell a wrong pose from a stale map; a nearby pose that fits better can |
 //! | `additions/registration.rs` | project addition: a yaw error of a fraction of a degree (AMCL on a stale map) is written into the map and erodes fixed walls; each step's pose is refined against `M_{i-1}` first, and a poor or ambiguous fit writes nothing |
 //! | `additions/structure_memory.rs` | project addition: long-standing structure was as easy to remove as yesterday's box, and an eroded wall face never came back; a cross-world memory of young cells and scars |
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |

@@ -172,7 +172,7 @@ pub fn load_site(
         Some(n) if mapkeeper_sim::EMBEDDED_WORLDS.contains(&n) => format!("world {n} (embedded)"),
         _ => name.clone(),
     };
-    let route = route.map(mapkeeper_sim::Route::load).transpose().context("--route")?;
+    let route = route.map(|r| load_route(r, &w)).transpose()?;
     // Commands that do not generate worlds only drive the route (no exploration in W_1).
     let params = mapkeeper_scenario::SiteParams { check_exploration: need_areas, ..Default::default() };
     let site = mapkeeper_scenario::Site::resolve(&w, route.as_ref(), &origin, &params).context("--world")?;
@@ -190,6 +190,24 @@ pub fn load_site(
         errln!("mapkeeper: note: {origin} has no storage areas: derived {}", site.storage.len());
     }
     Ok(Some((name, site)))
+}
+
+/// `--route FILE`, loaded and checked against `world` by the one rule of every command that
+/// takes it (`validate`, `generate`, `recover`, `run`, `simulate`): every waypoint inside the
+/// world and every leg, from the robot's start on, clear of its walls, columns, racks and items
+/// by the route clearance (`SiteParams::route_clearance_m`). A refusal names `--route`, the file,
+/// the waypoint and what is in the way.
+pub fn load_route(path: &Path, world: &mapkeeper_sim::World) -> anyhow::Result<mapkeeper_sim::Route> {
+    let route = mapkeeper_sim::Route::load(path).context("--route")?;
+    let clearance = mapkeeper_scenario::SiteParams::default().route_clearance_m;
+    mapkeeper_scenario::worlds::site::check_route(world, &route, &path.display().to_string(), "waypoints", clearance)
+        .map_err(|e| match e {
+            // The message names the file and the waypoint; the generator's prefix says nothing here.
+            mapkeeper_scenario::WorldsError::Generator(m) => anyhow::anyhow!(m),
+            other => other.into(),
+        })
+        .context("--route")?;
+    Ok(route)
 }
 
 /// The wall clock the libraries get injected (they read none themselves).

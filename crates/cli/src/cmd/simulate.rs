@@ -66,7 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => World::default_warehouse(),
     };
     let route = match (&args.route, &args.world) {
-        (Some(p), _) => Some(Route::load(p)?),
+        (Some(p), _) => Some(super::load_route(p, &world)?),
         (None, None) => Some(Route::default_warehouse()),
         (None, Some(_)) => world.route.as_ref().map(mapkeeper_sim::WorldRoute::route),
     };
