@@ -67,6 +67,8 @@ enum Command {
     Run(cmd::run::Args),
     /// Combine result folders (e.g. shards of a sweep) into one summary.
     Merge(cmd::merge::Args),
+    /// Compare a validation's results with a stored baseline: pass / fail for a team's CI.
+    Check(cmd::check::Args),
     /// CPU time per scan of the simulator, localisers, updaters, grid traversal and the closed loop.
     Bench(cmd::bench::Args),
     /// Simulate a world and write a sensor log, the true trajectory and the ground-truth map.
@@ -100,6 +102,14 @@ fn main() -> ExitCode {
         Command::Generate(a) => cmd::generate::run(a),
         Command::Run(a) => cmd::run::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Check(a) => match cmd::check::run(a) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::from(1),
+            Err(e) => {
+                errln!("mapkeeper: error: {}", one_line(&e));
+                return ExitCode::from(2);
+            }
+        },
         Command::Bench(a) => cmd::bench::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Map(a) => cmd::map::run(a),

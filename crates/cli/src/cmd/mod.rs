@@ -1,6 +1,7 @@
 //! One module per subcommand: its arguments and the glue that calls the libraries.
 
 pub mod bench;
+pub mod check;
 pub mod converge;
 pub mod convert;
 pub mod experiment;

@@ -6,6 +6,7 @@ pub mod check_detection_report;
 pub mod claims;
 pub mod comparison;
 pub mod figures;
+pub mod gate;
 pub mod kidnap_robot_report;
 pub mod merge;
 pub mod real_data_report;
@@ -61,6 +62,9 @@ pub enum ResultsError {
     /// A map-quality metric failed while re-scoring.
     #[error("metrics: {0}")]
     Metrics(#[from] mapkeeper_grid::metrics::MetricsError),
+    /// A results folder or a baseline file that cannot be used (the message names it).
+    #[error("{0}")]
+    Invalid(String),
 }
 
 impl ResultsError {

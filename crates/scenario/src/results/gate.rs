@@ -1,0 +1,377 @@
+//! A pass / fail gate for a team's CI: a validation's results against a stored baseline
+//! (`mapkeeper check`, `docs/evaluation.md`, "A gate for CI").
+//!
+//! [`Baseline::of`] measures a validation folder (one preset, or a sweep's folder of presets)
+//! and gives each metric a tolerance from its spread over the seeds; [`Baseline::check`]
+//! compares another run of the same setting against it and lists every metric that moved beyond
+//! its tolerance in the bad direction (a regression) or the good one (an improvement, which
+//! passes). The metrics, per preset, each a mean over the seeds of the per-seed mean over worlds:
+//!
+//! | metric | what | better |
+//! |---|---|---|
+//! | `cc_gain`, `ms_gain`, `opdf_gain` | M_i − M_1 against G_i, points | higher |
+//! | `cc_better`, `ms_better`, `opdf_better` | share of worlds where M_i beats M_1 | higher |
+//! | `retention_last` | structure retention at the last world, % | higher |
+//! | `error_updated_m` | the chain localiser's mean position error on M_{i-1}, metres | lower |
+//! | `lost_share` | Lost verdicts per processed scan | lower |
+//!
+//! The tolerance of a metric is `max(floor, t(0.975, n − 1) · s · √(2/n))` over its n per-seed
+//! values with standard deviation s: the half-width of the 95 % interval of a difference of two
+//! n-seed means, so run-to-run noise on other seeds stays inside it. With one seed, or seeds
+//! that agree exactly, the floor alone (per metric, in [`floor`]). A run with the same seeds and
+//! code is bit-identical, so any move at all is a change of the code; the tolerance says which
+//! moves matter. The file is JSON with sorted keys, the same bytes for the same results.
+
+use crate::experiments::validation::{ValidationRecord, WorldRow};
+use crate::results::ResultsError;
+use crate::results::merge::load_result_dir;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The file format name of a baseline.
+pub const BASELINE_FORMAT: &str = "mapkeeper-baseline";
+/// Its version.
+pub const BASELINE_VERSION: u32 = 1;
+
+/// Which way a metric is better.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Better {
+    /// Larger values are better.
+    Higher,
+    /// Smaller values are better.
+    Lower,
+}
+
+/// One metric of a baseline.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Metric {
+    /// Its value (mean over the seeds).
+    pub value: f64,
+    /// How far a run may move in the bad direction before it is a regression (≥ 0).
+    pub tolerance: f64,
+    /// Which way is better.
+    pub better: Better,
+}
+
+/// What a baseline was measured on: a run compares only with the same setting.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Setting {
+    /// Worlds per seed.
+    pub worlds: usize,
+    /// The seeds.
+    pub seeds: Vec<u64>,
+    /// The ground truth of the metrics (`exact` or `observed`).
+    pub ground_truth: String,
+}
+
+/// A stored baseline: per preset, per metric, the value and its tolerance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Baseline {
+    /// Always [`BASELINE_FORMAT`].
+    pub format: String,
+    /// [`BASELINE_VERSION`].
+    pub version: u32,
+    /// The setting it was measured on.
+    pub setting: Setting,
+    /// Preset → metric name → metric.
+    pub presets: BTreeMap<String, BTreeMap<String, Metric>>,
+}
+
+/// One metric that moved beyond its tolerance.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moved {
+    /// The preset.
+    pub preset: String,
+    /// The metric's name.
+    pub metric: String,
+    /// The baseline's value.
+    pub baseline: f64,
+    /// The run's value.
+    pub now: f64,
+    /// The tolerance.
+    pub tolerance: f64,
+}
+
+impl std::fmt::Display for Moved {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} {}: {:.4} → {:.4} ({:+.4}, tolerance {:.4})",
+            self.preset,
+            self.metric,
+            self.baseline,
+            self.now,
+            self.now - self.baseline,
+            self.tolerance
+        )
+    }
+}
+
+/// The outcome of [`Baseline::check`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Verdict {
+    /// Metrics worse than the baseline by more than their tolerance: the gate fails.
+    pub regressions: Vec<Moved>,
+    /// Metrics better by more than their tolerance (the gate passes; a new baseline may be due).
+    pub improvements: Vec<Moved>,
+    /// Metrics checked.
+    pub checked: usize,
+}
+
+/// The smallest tolerance of a metric: what a change must exceed to matter even when the seeds
+/// agree exactly.
+pub fn floor(metric: &str) -> f64 {
+    match metric {
+        "cc_gain" | "ms_gain" | "opdf_gain" => 0.25,
+        "cc_better" | "ms_better" | "opdf_better" => 0.02,
+        "retention_last" => 0.5,
+        "error_updated_m" => 0.005,
+        _ => 0.002,
+    }
+}
+
+/// Student's t, two-sided 95 %, for `dof` degrees of freedom (1.96 beyond 30).
+fn t975(dof: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
+        2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
+    ];
+    T.get(dof.wrapping_sub(1)).copied().unwrap_or(1.96)
+}
+
+fn mean(xs: &[f64]) -> f64 {
+    xs.iter().sum::<f64>() / xs.len().max(1) as f64
+}
+
+/// The metric of per-seed values `xs` (module docs).
+fn metric(name: &str, xs: &[f64], better: Better) -> Metric {
+    let n = xs.len();
+    let m = mean(xs);
+    let spread = if n >= 2 {
+        let s = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        t975(n - 1) * s * (2.0 / n as f64).sqrt()
+    } else {
+        0.0
+    };
+    Metric { value: m, tolerance: spread.max(floor(name)), better }
+}
+
+/// The per-seed values of every metric of one seed's rows.
+fn seed_values(rows: &[WorldRow]) -> Vec<(&'static str, f64, Better)> {
+    let n = rows.len().max(1) as f64;
+    let avg = |f: &dyn Fn(&WorldRow) -> f64| rows.iter().map(f).sum::<f64>() / n;
+    let share = |f: &dyn Fn(&WorldRow) -> bool| rows.iter().filter(|r| f(r)).count() as f64 / n;
+    let processed = rows.iter().map(|r| r.updater.processed).sum::<u64>().max(1) as f64;
+    let lost = rows.iter().map(|r| r.updater.lost).sum::<u64>() as f64;
+    let retention = rows.last().and_then(|r| r.retention.as_ref()).map_or(f64::NAN, |r| r.updated_map);
+    vec![
+        ("cc_gain", avg(&|r| r.updated_map.cc - r.static_map.cc), Better::Higher),
+        ("ms_gain", avg(&|r| r.updated_map.ms - r.static_map.ms), Better::Higher),
+        ("opdf_gain", avg(&|r| r.updated_map.opdf - r.static_map.opdf), Better::Higher),
+        ("cc_better", share(&|r| r.updated_map.cc > r.static_map.cc), Better::Higher),
+        ("ms_better", share(&|r| r.updated_map.ms > r.static_map.ms), Better::Higher),
+        ("opdf_better", share(&|r| r.updated_map.opdf > r.static_map.opdf), Better::Higher),
+        ("retention_last", retention, Better::Higher),
+        ("error_updated_m", avg(&|r| r.loc_updated.mean_error_m), Better::Lower),
+        ("lost_share", lost / processed, Better::Lower),
+    ]
+}
+
+/// The metrics of one preset's record (those that are defined: retention needs exact ground
+/// truth).
+fn preset_metrics(record: &ValidationRecord) -> BTreeMap<String, Metric> {
+    let per_seed: Vec<_> = record.seeds.iter().map(|s| seed_values(&s.rows)).collect();
+    let mut out = BTreeMap::new();
+    for (k, &(name, _, better)) in per_seed.first().map(Vec::as_slice).unwrap_or_default().iter().enumerate() {
+        let xs: Vec<f64> = per_seed.iter().map(|v| v[k].1).collect();
+        if xs.iter().all(|x| x.is_finite()) {
+            out.insert(name.to_string(), metric(name, &xs, better));
+        }
+    }
+    out
+}
+
+/// The validation records of a results folder: itself (one preset), or each subfolder that
+/// holds a `runs.json` (a sweep), by preset name.
+fn records(dir: &Path) -> Result<Vec<ValidationRecord>, ResultsError> {
+    if dir.join("runs.json").is_file() {
+        return Ok(vec![load_result_dir(dir)?]);
+    }
+    let entries = std::fs::read_dir(dir).map_err(|e| ResultsError::Io { path: dir.to_path_buf(), source: e })?;
+    let mut subs: Vec<_> =
+        entries.filter_map(Result::ok).map(|e| e.path()).filter(|p| p.join("runs.json").is_file()).collect();
+    subs.sort();
+    if subs.is_empty() {
+        return Err(ResultsError::Invalid(format!(
+            "{}: neither a validation's output folder (runs.json) nor a sweep's (PRESET/runs.json)",
+            dir.display()
+        )));
+    }
+    subs.iter().map(|p| load_result_dir(p)).collect()
+}
+
+impl Baseline {
+    /// Measures the validation folder `dir` (module docs).
+    pub fn of(dir: &Path) -> Result<Baseline, ResultsError> {
+        let recs = records(dir)?;
+        let setting = |r: &ValidationRecord| Setting {
+            worlds: r.params.worlds,
+            seeds: r.seeds.iter().map(|s| s.seed).collect(),
+            ground_truth: serde_json::to_value(r.params.ground_truth)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default(),
+        };
+        let first = setting(&recs[0]);
+        if let Some(other) = recs.iter().find(|r| setting(r) != first) {
+            return Err(ResultsError::Invalid(format!(
+                "{}: the presets were run in different settings ({} has {:?}, {} has {first:?})",
+                dir.display(),
+                other.params.preset,
+                setting(other),
+                recs[0].params.preset
+            )));
+        }
+        let presets = recs.iter().map(|r| (r.params.preset.clone(), preset_metrics(r))).collect();
+        Ok(Baseline { format: BASELINE_FORMAT.into(), version: BASELINE_VERSION, setting: first, presets })
+    }
+
+    /// Reads a baseline file; errors name the file and the problem.
+    pub fn load(path: &Path) -> Result<Baseline, ResultsError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| ResultsError::Io { path: path.to_path_buf(), source: e })?;
+        let b: Baseline = serde_json::from_str(&text)
+            .map_err(|e| ResultsError::Invalid(format!("{}: not a baseline file: {e}", path.display())))?;
+        if b.format != BASELINE_FORMAT || b.version != BASELINE_VERSION {
+            return Err(ResultsError::Invalid(format!(
+                "{}: format '{}' version {}, this build reads '{BASELINE_FORMAT}' version {BASELINE_VERSION}",
+                path.display(),
+                b.format,
+                b.version
+            )));
+        }
+        if let Some((p, m, _)) = b.metrics().find(|(_, _, m)| !(m.value.is_finite() && m.tolerance >= 0.0)) {
+            return Err(ResultsError::Invalid(format!(
+                "{}: presets.{p}.{m}: value and tolerance must be finite, the tolerance ≥ 0",
+                path.display()
+            )));
+        }
+        Ok(b)
+    }
+
+    /// The JSON text (sorted keys, one field a line; the same bytes for the same baseline).
+    pub fn to_json(&self) -> Result<String, ResultsError> {
+        let value = serde_json::to_value(self)
+            .map_err(|e| ResultsError::Serialise { what: "baseline".into(), message: e.to_string() })?;
+        let text = serde_json::to_string_pretty(&value)
+            .map_err(|e| ResultsError::Serialise { what: "baseline".into(), message: e.to_string() })?;
+        Ok(text + "\n")
+    }
+
+    fn metrics(&self) -> impl Iterator<Item = (&String, &String, &Metric)> {
+        self.presets.iter().flat_map(|(p, ms)| ms.iter().map(move |(name, m)| (p, name, m)))
+    }
+
+    /// Compares `run` (measured by [`Baseline::of`]) with this baseline. An error when the
+    /// settings differ or a preset or metric of the baseline is missing from the run.
+    pub fn check(&self, run: &Baseline) -> Result<Verdict, String> {
+        if run.setting != self.setting {
+            return Err(format!(
+                "the results were run in another setting than the baseline's: {:?} against {:?} (run the baseline's \
+                 setting, or write a new baseline with --write-baseline)",
+                run.setting, self.setting
+            ));
+        }
+        let mut v = Verdict::default();
+        for (preset, name, base) in self.metrics() {
+            let now = run
+                .presets
+                .get(preset)
+                .ok_or_else(|| format!("preset {preset} of the baseline is not in the results"))?
+                .get(name)
+                .ok_or_else(|| format!("{preset} {name}: in the baseline, not in the results"))?;
+            let worse = match base.better {
+                Better::Higher => base.value - now.value,
+                Better::Lower => now.value - base.value,
+            };
+            let moved = Moved {
+                preset: preset.clone(),
+                metric: name.clone(),
+                baseline: base.value,
+                now: now.value,
+                tolerance: base.tolerance,
+            };
+            if worse > base.tolerance {
+                v.regressions.push(moved);
+            } else if -worse > base.tolerance {
+                v.improvements.push(moved);
+            }
+            v.checked += 1;
+        }
+        Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tolerance_is_the_spread_of_a_difference_of_means_or_the_floor() {
+        // Four seeds with s = 1: t(0.975, 3) · 1 · √(2/4) = 3.182 · 0.7071.
+        let xs = [9.0, 10.0, 11.0, 10.0 + 2f64.sqrt() * 0.0];
+        let s = (xs.iter().map(|x| (x - 10.0f64).powi(2)).sum::<f64>() / 3.0).sqrt();
+        let m = metric("cc_gain", &xs, Better::Higher);
+        assert!((m.value - 10.0).abs() < 1e-12);
+        assert!((m.tolerance - 3.182 * s * 0.5f64.sqrt()).abs() < 1e-9, "{m:?}");
+        assert_eq!(metric("cc_gain", &[3.0, 3.0, 3.0], Better::Higher).tolerance, 0.25);
+        assert_eq!(metric("lost_share", &[0.1], Better::Lower).tolerance, 0.002);
+    }
+
+    fn baseline(cc: f64, err: f64) -> Baseline {
+        let m = |value, tolerance, better| Metric { value, tolerance, better };
+        let metrics = BTreeMap::from([
+            ("cc_gain".to_string(), m(cc, 0.5, Better::Higher)),
+            ("error_updated_m".to_string(), m(err, 0.01, Better::Lower)),
+        ]);
+        Baseline {
+            format: BASELINE_FORMAT.into(),
+            version: BASELINE_VERSION,
+            setting: Setting { worlds: 10, seeds: vec![11, 12], ground_truth: "exact".into() },
+            presets: BTreeMap::from([("mapkeeper".to_string(), metrics)]),
+        }
+    }
+
+    #[test]
+    fn a_move_beyond_the_tolerance_in_the_bad_direction_fails_and_in_the_good_one_passes() {
+        let base = baseline(10.0, 0.05);
+        assert_eq!(base.check(&base).unwrap(), Verdict { checked: 2, ..Verdict::default() });
+        // Within tolerance either way.
+        assert!(base.check(&baseline(9.6, 0.059)).unwrap().regressions.is_empty());
+        // CC gain down by 0.6 > 0.5; the error up by 0.02 > 0.01 (lower is better).
+        let v = base.check(&baseline(9.4, 0.07)).unwrap();
+        let names: Vec<_> = v.regressions.iter().map(|m| m.metric.as_str()).collect();
+        assert_eq!(names, ["cc_gain", "error_updated_m"]);
+        assert!(
+            v.regressions[0].to_string().starts_with("mapkeeper cc_gain: 10.0000 → 9.4000 (-0.6000"),
+            "{}",
+            v.regressions[0]
+        );
+        // Better beyond the tolerance: passes, reported as an improvement.
+        let v = base.check(&baseline(11.0, 0.03)).unwrap();
+        assert!(v.regressions.is_empty() && v.improvements.len() == 2);
+        // Another setting is refused.
+        let mut other = baseline(10.0, 0.05);
+        other.setting.seeds = vec![11];
+        assert!(base.check(&other).unwrap_err().contains("another setting"));
+        // The JSON is stable and reads back.
+        let text = base.to_json().unwrap();
+        assert_eq!(serde_json::from_str::<Baseline>(&text).unwrap(), base);
+        assert_eq!(text, baseline(10.0, 0.05).to_json().unwrap());
+    }
+}
