@@ -298,9 +298,18 @@ struct KindEvidence {
 impl KindEvidence {
     fn of(p: &Parsed) -> Self {
         let differing: Vec<&Laser> = p.lasers.iter().filter(|l| l.name == "ROBOTLASER1" || l.pose != l.robot).collect();
-        let first_after = |k: usize| p.odometry.iter().find(|(before, _)| *before == k).map(|(_, o)| o.pose);
-        let followed = (1..=p.lasers.len()).filter(|&k| first_after(k).is_some()).count();
-        let anchors = (1..=p.lasers.len()).filter(|&k| first_after(k) == Some(p.lasers[k - 1].robot)).count();
+        // The first ODOM after scan k − 1 (and before scan k), for k = 1 … n, in one pass (the
+        // ODOM lines are in file order, so their scan counts never decrease).
+        let mut first_after: Vec<Option<Pose2>> = vec![None; p.lasers.len() + 1];
+        for (before, o) in &p.odometry {
+            if let Some(slot) = first_after.get_mut(*before)
+                && slot.is_none()
+            {
+                *slot = Some(o.pose);
+            }
+        }
+        let followed = (1..=p.lasers.len()).filter(|&k| first_after[k].is_some()).count();
+        let anchors = (1..=p.lasers.len()).filter(|&k| first_after[k] == Some(p.lasers[k - 1].robot)).count();
         Self {
             lasers: p.lasers.len(),
             differing: differing.len(),
@@ -482,13 +491,19 @@ pub const RECHAINED: &str = "ODOM (raw increments re-chained at the scans)";
 
 /// A corrected log's reference poses and re-chained raw odometry (see the module docs).
 fn rechain(p: &Parsed, a: &mut Assembler) {
+    // The last ODOM after scan k − 1 and before scan k, for k = 1 … n, in one pass (the
+    // re-anchoring line, equal to scan k − 1's pose, if it is the only one: no motion).
+    let mut last_before: Vec<Option<Pose2>> = vec![None; p.lasers.len() + 1];
+    for (before, o) in &p.odometry {
+        if let Some(slot) = last_before.get_mut(*before) {
+            *slot = Some(o.pose);
+        }
+    }
     let mut odom = Pose2::IDENTITY;
     for (k, l) in p.lasers.iter().enumerate() {
         if k > 0 {
             let prev = &p.lasers[k - 1];
-            // The last ODOM after scan k − 1 and before scan k (the re-anchoring line, equal to
-            // scan k − 1's pose, if it is the only one: no motion).
-            let q = p.odometry.iter().rev().find(|(before, _)| *before == k).map_or(prev.robot, |(_, o)| o.pose);
+            let q = last_before[k].unwrap_or(prev.robot);
             odom = odom.compose(&prev.robot.between(&q));
         }
         a.odometry(RawOdometry { topic: RECHAINED.into(), stamp_ns: l.stamp_ns, pose: odom });
