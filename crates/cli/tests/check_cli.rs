@@ -25,6 +25,14 @@ fn validate(out: &Path, seeds: &str) {
         s(out),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Before the first world, `validate` says what it runs and where it writes (issue 32 item 4).
+    let said = String::from_utf8_lossy(&o.stdout);
+    let first = said.lines().next().unwrap_or_default();
+    let want = format!(
+        "validate: preset(s) mapkeeper × seeds 11-{} × 3 worlds (W_2-W_3), localiser amcl",
+        10 + seeds.parse::<u64>().unwrap()
+    );
+    assert!(first.starts_with(&want) && first.contains(&format!("writing {}", s(out))), "{first}");
 }
 
 fn text(o: &std::process::Output) -> String {

@@ -239,6 +239,31 @@ fn spec_of(args: &Args) -> anyhow::Result<SweepSpec> {
     })
 }
 
+/// What a validation is about to run and where it writes (printed before the first world, so a
+/// user who typed the bare command knows what it does before the progress bar).
+fn plan_line(args: &Args, plan: &SweepPlan, out: &Path, to_run: usize, threads: usize) -> String {
+    let mut seeds: Vec<u64> = plan.jobs.iter().map(|j| j.1).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    let seeds = match (seeds.first(), seeds.last()) {
+        (Some(a), Some(b)) if b - a + 1 == seeds.len() as u64 && a != b => format!("seeds {a}-{b}"),
+        _ => format!("seed(s) {}", seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ")),
+    };
+    let presets: Vec<&str> = plan.groups().into_iter().map(|p| plan.presets[p].as_str()).collect();
+    let poses = plan.params.first().map_or("localiser", |p| p.runner.updater_poses.name());
+    format!(
+        "validate: preset(s) {} × {seeds} × {} worlds (W_2-W_{}), localiser {}, updater poses {poses}, ground truth {}; \
+{} job(s), {to_run} to run, on {threads} thread(s); writing {} (a killed run continues with --resume --out)",
+        presets.join(", "),
+        args.worlds,
+        args.worlds,
+        args.localiser,
+        args.ground_truth.name(),
+        plan.jobs.len(),
+        out.display()
+    )
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let sweep = args.preset.is_none();
@@ -269,6 +294,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };
     let to_run = done.iter().filter(|d| d.is_none()).count();
     let pool = simulate_ahead_if_cores_free(&mut plan, to_run, super::thread_pool(args.jobs)?);
+    outln!("{}", plan_line(&args, &plan, &out, to_run, pool.current_num_threads()));
     let runs = pool.install(|| plan.run_resuming(done, Some(&checkpoints), clock, &|_| bar.inc(1)))?;
     bar.finish_and_clear();
     let elapsed_s = start.elapsed().as_secs_f64();
