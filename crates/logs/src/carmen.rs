@@ -297,7 +297,7 @@ struct KindEvidence {
 
 impl KindEvidence {
     fn of(p: &Parsed) -> Self {
-        let differing: Vec<&Laser> = p.lasers.iter().filter(|l| l.name == "ROBOTLASER1" || l.pose != l.robot).collect();
+        let differs = |l: &&Laser| l.name == "ROBOTLASER1" || l.pose != l.robot;
         // The first ODOM after scan k − 1 (and before scan k), for k = 1 … n, in one pass (the
         // ODOM lines are in file order, so their scan counts never decrease).
         let mut first_after: Vec<Option<Pose2>> = vec![None; p.lasers.len() + 1];
@@ -312,8 +312,8 @@ impl KindEvidence {
         let anchors = (1..=p.lasers.len()).filter(|&k| first_after[k] == Some(p.lasers[k - 1].robot)).count();
         Self {
             lasers: p.lasers.len(),
-            differing: differing.len(),
-            first_differing_line: differing.first().map_or(0, |l| l.line),
+            differing: p.lasers.iter().filter(differs).count(),
+            first_differing_line: p.lasers.iter().find(differs).map_or(0, |l| l.line),
             odom_lines: p.odometry.len(),
             followed,
             anchors,

@@ -25,6 +25,7 @@
 use crate::experiments::validation::{ValidationRecord, WorldRow};
 use crate::results::ResultsError;
 use crate::results::merge::load_result_dir;
+use crate::stats::{frac, mean, paired_diff};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -135,37 +136,19 @@ pub fn floor(metric: &str) -> f64 {
     }
 }
 
-/// Student's t, two-sided 95 %, for `dof` degrees of freedom (1.96 beyond 30).
-fn t975(dof: usize) -> f64 {
-    const T: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
-        2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
-    ];
-    T.get(dof.wrapping_sub(1)).copied().unwrap_or(1.96)
-}
-
-fn mean(xs: &[f64]) -> f64 {
-    xs.iter().sum::<f64>() / xs.len().max(1) as f64
-}
-
 /// The metric of per-seed values `xs` (module docs).
 fn metric(name: &str, xs: &[f64], better: Better) -> Metric {
-    let n = xs.len();
-    let m = mean(xs);
-    let spread = if n >= 2 {
-        let s = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
-        t975(n - 1) * s * (2.0 / n as f64).sqrt()
-    } else {
-        0.0
-    };
-    Metric { value: m, tolerance: spread.max(floor(name)), better }
+    // The half-width of the mean's 95 % interval, t · s/√n, times √2: that of a difference of two
+    // such means.
+    let d = paired_diff(xs);
+    let spread = d.ci95.map_or(0.0, |[lo, hi]| (hi - lo) / 2.0 * std::f64::consts::SQRT_2);
+    Metric { value: d.mean, tolerance: spread.max(floor(name)), better }
 }
 
 /// The per-seed values of every metric of one seed's rows.
 fn seed_values(rows: &[WorldRow]) -> Vec<(&'static str, f64, Better)> {
-    let n = rows.len().max(1) as f64;
-    let avg = |f: &dyn Fn(&WorldRow) -> f64| rows.iter().map(f).sum::<f64>() / n;
-    let share = |f: &dyn Fn(&WorldRow) -> bool| rows.iter().filter(|r| f(r)).count() as f64 / n;
+    let avg = |f: &dyn Fn(&WorldRow) -> f64| mean(rows.iter().map(f));
+    let share = |f: &dyn Fn(&WorldRow) -> bool| frac(rows.iter().map(f));
     let processed = rows.iter().map(|r| r.updater.processed).sum::<u64>().max(1) as f64;
     let lost = rows.iter().map(|r| r.updater.lost).sum::<u64>() as f64;
     let retention = rows.last().and_then(|r| r.retention.as_ref()).map_or(f64::NAN, |r| r.updated_map);
@@ -323,12 +306,12 @@ mod tests {
 
     #[test]
     fn the_tolerance_is_the_spread_of_a_difference_of_means_or_the_floor() {
-        // Four seeds with s = 1: t(0.975, 3) · 1 · √(2/4) = 3.182 · 0.7071.
-        let xs = [9.0, 10.0, 11.0, 10.0 + 2f64.sqrt() * 0.0];
+        // Four seeds: t(0.975, 3) · s · √(2/4), t = 3.1824.
+        let xs = [9.0, 10.0, 11.0, 10.0];
         let s = (xs.iter().map(|x| (x - 10.0f64).powi(2)).sum::<f64>() / 3.0).sqrt();
         let m = metric("cc_gain", &xs, Better::Higher);
         assert!((m.value - 10.0).abs() < 1e-12);
-        assert!((m.tolerance - 3.182 * s * 0.5f64.sqrt()).abs() < 1e-9, "{m:?}");
+        assert!((m.tolerance - 3.1824 * s * 0.5f64.sqrt()).abs() < 1e-9, "{m:?}");
         assert_eq!(metric("cc_gain", &[3.0, 3.0, 3.0], Better::Higher).tolerance, 0.25);
         assert_eq!(metric("lost_share", &[0.1], Better::Lower).tolerance, 0.002);
     }
