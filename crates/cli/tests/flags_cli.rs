@@ -224,6 +224,7 @@ const FLAGS: &[Flag] = &[
     other("convert", "--scan-frame", Name),
     other("generate", "--logs", Name),
     num("validate", "--mcap-worlds", Count),
+    num("validate", "--save-maps", Count),
     ok("validate", "--people-pause-s", Real, &["0"], "0 s: people never stop (the paper's setting)"),
     ok("generate", "--people-pause-s", Real, &["0"], "0 s: people never stop (the paper's setting)"),
     num("generate", "--jobs", Count),

@@ -16,6 +16,14 @@
 //! | removed: occupied in `a`, not in `b` | [`REMOVED`] red (220, 30, 30) |
 //! | free ↔ unknown | [`UNKNOWN_CHANGED`] blue (90, 140, 255) |
 //!
+//! | errors of a map against its ground truth | colour |
+//! |---|---|
+//! | right (the same state) | the map colour above |
+//! | wrongly free: occupied in the truth, free in the map | [`WRONGLY_FREE`] red (220, 30, 30) |
+//! | wrongly occupied: free or unknown in the truth, occupied in the map | [`WRONGLY_OCCUPIED`] orange (255, 150, 0) |
+//! | missing: known in the truth, unknown in the map | [`MISSING`] blue (90, 140, 255) |
+//! | free in the map where the truth is unknown | [`UNKNOWN`] grey, as unknown |
+//!
 //! ```
 //! use mapkeeper_grid::render::{render_map, OCCUPIED, UNKNOWN};
 //! use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
@@ -46,6 +54,13 @@ pub const ADDED: Rgb = [0, 170, 0];
 pub const REMOVED: Rgb = [220, 30, 30];
 /// Diff: free in one map, unknown in the other.
 pub const UNKNOWN_CHANGED: Rgb = [90, 140, 255];
+
+/// Errors: occupied in the truth, free in the map (a wall the map lost).
+pub const WRONGLY_FREE: Rgb = REMOVED;
+/// Errors: occupied in the map, not in the truth (a wall the map keeps or invents).
+pub const WRONGLY_OCCUPIED: Rgb = [255, 150, 0];
+/// Errors: known in the truth, unknown in the map.
+pub const MISSING: Rgb = UNKNOWN_CHANGED;
 
 /// The largest image accepted, in pixels (after scaling).
 pub const MAX_PIXELS: usize = 1 << 28;
@@ -195,6 +210,27 @@ pub fn diff_colour(a: CellState, b: CellState) -> Rgb {
     }
 }
 
+/// The colour of a cell that is `map` in a map and `truth` in its ground truth.
+pub fn error_colour(map: CellState, truth: CellState) -> Rgb {
+    match (map, truth) {
+        _ if map == truth => cell_colour(map),
+        (CellState::Occupied, _) => WRONGLY_OCCUPIED,
+        (CellState::Free, CellState::Occupied) => WRONGLY_FREE,
+        (CellState::Unknown, _) => MISSING,
+        (CellState::Free, _) => UNKNOWN,
+    }
+}
+
+/// The errors of `map` against `truth` as an image (colours in the module docs); the maps must
+/// share a geometry.
+pub fn render_errors(map: &OccupancyGrid, truth: &OccupancyGrid) -> Result<RgbImage, GridError> {
+    if !map.geometry().same_as(truth.geometry()) {
+        return Err(GridError::GeometryMismatch);
+    }
+    let (cm, ct) = (map.cells(), truth.cells());
+    Ok(RgbImage::from_cells(map, |i| error_colour(cm[i], ct[i])))
+}
+
 /// The map as an image, one pixel per cell, top row first.
 pub fn render_map(grid: &OccupancyGrid) -> RgbImage {
     let cells = grid.cells();
@@ -303,6 +339,35 @@ mod tests {
         assert_eq!(diff_colour(CellState::Occupied, CellState::Unknown), REMOVED);
         assert_eq!(diff_colour(CellState::Unknown, CellState::Unknown), UNKNOWN);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn error_colours_of_every_pair() {
+        use CellState::{Free as F, Occupied as O, Unknown as U};
+        // (map, truth) → colour, all nine pairs.
+        let want = [
+            ((F, F), FREE),
+            ((O, O), OCCUPIED),
+            ((U, U), UNKNOWN),
+            ((F, O), WRONGLY_FREE),
+            ((O, F), WRONGLY_OCCUPIED),
+            ((O, U), WRONGLY_OCCUPIED),
+            ((U, F), MISSING),
+            ((U, O), MISSING),
+            ((F, U), UNKNOWN),
+        ];
+        for ((m, t), c) in want {
+            assert_eq!(error_colour(m, t), c, "map {m:?}, truth {t:?}");
+        }
+        let g = GridGeometry::new(3, 1, 0.05, Pose2::IDENTITY).unwrap();
+        let map = OccupancyGrid::from_cells(g, vec![F, O, U]).unwrap();
+        let truth = OccupancyGrid::from_cells(g, vec![O, O, F]).unwrap();
+        let image = render_errors(&map, &truth).unwrap();
+        assert_eq!(image.pixel(0, 0), Some(WRONGLY_FREE));
+        assert_eq!(image.pixel(1, 0), Some(OCCUPIED));
+        assert_eq!(image.pixel(2, 0), Some(MISSING));
+        let other = OccupancyGrid::filled(GridGeometry::new(2, 1, 0.05, Pose2::IDENTITY).unwrap(), F);
+        assert_eq!(render_errors(&map, &other), Err(GridError::GeometryMismatch));
     }
 
     #[test]

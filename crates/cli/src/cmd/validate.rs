@@ -19,8 +19,9 @@ For each seed: generate W_1 … W_N; build M_1 in W_1 with the log-odds mapper; 
 W_i (i ≥ 2) drive the route with a chain localiser on M_{i-1} (feeding the updater, which makes M_i; \
 --poses true or true+noise feeds it the true pose instead, with or without noise) and a baseline localiser on M_1; score M_1/G_i and M_i/G_i with CC, MS, OPDF.\n\n\
 Output in OUT (default results/validate-s<SEED>-<N>w-<counter>): runs.json, summary.json, worlds.csv, \
-report.md, edits.json, plots/ (Fig. 24-27, SVG and PNG), seed-S/maps (M_i, G_i of W_1, W_2, W_50, W_100, \
-W_N), seed-S/trajectories (TUM: true, chain, baseline). Results are identical whatever --jobs; only \
+report.md, report.html (the report as one self-contained page, with a world stepper), edits.json, plots/ \
+(Fig. 24-27, SVG and PNG), seed-S/maps (M_i, G_i and E_i, the errors of M_i against G_i as a PNG, of W_1 and \
+the saved worlds: W_2, W_50, W_100, W_N, or --save-maps), seed-S/trajectories (TUM: true, chain, baseline). Results are identical whatever --jobs; only \
 wall_time_s and median_scan_us vary (not with --no-timing).\n\n\
 Sharding: --shard k/N runs the k-th of N contiguous slices of the seeds; `mapkeeper merge` combines the \
 shards' folders into the folder of the whole run.\n\n\
@@ -119,6 +120,11 @@ pub struct Args {
     /// world numbers from 2 to --worlds: `OUT[/PRESET]/mcap/PRESET-sSEED-WNNN.mcap`.
     #[arg(long, value_name = "I,J", value_delimiter = ',', value_parser = super::count_in(2, super::MAX_WORLDS), allow_hyphen_values = true)]
     pub mcap_worlds: Vec<usize>,
+    /// Worlds whose maps are kept: `all`, or comma-separated world numbers from 2 to --worlds
+    /// [default: 2,50,100 and the last]. Each keeps M_i, G_i, the error image E_i and the
+    /// trajectories in seed-S/; report.md lists them and report.html steps through them.
+    #[arg(long, value_name = "all|I,J", value_parser = str::parse::<SaveMaps>, allow_hyphen_values = true)]
+    pub save_maps: Option<SaveMaps>,
     /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
     #[arg(long)]
     pub no_timing: bool,
@@ -134,6 +140,52 @@ pub struct Args {
     /// not the chain localiser).
     #[command(flatten)]
     pub poses: super::poses::PoseArgs,
+}
+
+/// `--save-maps`: every world, or the listed ones.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SaveMaps {
+    /// W_2 … W_N.
+    All,
+    /// These worlds (each ≥ 2), sorted, without repeats.
+    List(Vec<usize>),
+}
+
+impl std::str::FromStr for SaveMaps {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.trim() == "all" {
+            return Ok(SaveMaps::All);
+        }
+        let mut worlds = Vec::new();
+        for part in s.split(',') {
+            let w: usize = part
+                .trim()
+                .parse()
+                .map_err(|_| format!("`{part}` is neither `all` nor a world number (e.g. all, or 2,37,50)"))?;
+            if w < 2 {
+                return Err(format!("world {w}: saved worlds are W_2 or later (W_1 is always saved)"));
+            }
+            worlds.push(w);
+        }
+        worlds.sort_unstable();
+        worlds.dedup();
+        Ok(SaveMaps::List(worlds))
+    }
+}
+
+impl SaveMaps {
+    /// The worlds of a run of `worlds` worlds, or an error naming the flag.
+    fn resolve(&self, worlds: usize) -> anyhow::Result<Vec<usize>> {
+        match self {
+            SaveMaps::All => Ok((2..=worlds).collect()),
+            SaveMaps::List(list) => match list.iter().find(|&&w| w > worlds) {
+                Some(w) => anyhow::bail!("--save-maps: world {w} is beyond --worlds {worlds}"),
+                None => Ok(list.clone()),
+            },
+        }
+    }
 }
 
 /// First seed of the default run (after the tuning seeds 1-3 of the algorithms issue).
@@ -201,7 +253,11 @@ fn simulate_ahead_if_cores_free(
 /// The flags that override fields of every preset's parameters.
 fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Result<()> {
     let poses = args.poses.updater_poses()?;
+    let saved = args.save_maps.as_ref().map(|s| s.resolve(args.worlds)).transpose()?;
     for p in &mut plan.params {
+        if let Some(saved) = &saved {
+            p.saved_worlds.clone_from(saved);
+        }
         p.runner.updater_poses = poses;
         if let Some(k) = args.update_every {
             p.update_every = k;
@@ -322,8 +378,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         records.push(record);
     }
     if let Some(top) = top {
-        let c = Comparison::new(&plan.presets, &records.iter().collect::<Vec<_>>());
-        write_comparison(&top, &c)?;
+        let records: Vec<&ValidationRecord> = records.iter().collect();
+        let c = Comparison::new(&plan.presets, &records);
+        write_comparison(&top, &c, &records)?;
         top.finish()?;
         outln!(
             "wrote {} and {} (presets side by side)",

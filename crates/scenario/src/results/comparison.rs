@@ -9,6 +9,7 @@ use crate::experiments::pose_oracle::UpdaterPoses;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
+use crate::results::html::{Part, page_html, world_steppers};
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
 use crate::results::report::with_ci;
 use crate::stats::{PairedDiff, mean, paired_diff};
@@ -351,12 +352,38 @@ impl Comparison {
 /// The top-level files of a sweep folder.
 pub const COMPARISON_FILES: [&str; 2] = ["summary.json", "report.md"];
 
-/// Writes `summary.json` and `report.md` of a sweep folder `out` (being written; its per-preset
+/// Writes `summary.json`, `report.md` and `report.html` of a sweep folder `out` (being written; its per-preset
 /// folders are [`StagedDir::sub`] folders of it, so the sweep appears whole or not at all).
-pub fn write_comparison(out: &StagedDir, c: &Comparison) -> Result<(), ResultsError> {
-    for (f, text) in [(COMPARISON_FILES[0], c.json()?), (COMPARISON_FILES[1], c.report_md())] {
+pub fn write_comparison(out: &StagedDir, c: &Comparison, records: &[&ValidationRecord]) -> Result<(), ResultsError> {
+    let md = c.report_md();
+    for (f, text) in [(COMPARISON_FILES[0], c.json()?), (COMPARISON_FILES[1], md.clone())] {
         out.write(f, text.as_bytes())?;
     }
+    write_sweep_html(out, &md, records)
+}
+
+/// `OUT/report.html`: the comparison, then the report of each preset this folder holds (read
+/// from `OUT/<preset>/report.md`, written before; a shard holds some of the sweep's presets)
+/// with its world steppers, on one page.
+fn write_sweep_html(out: &StagedDir, md: &str, records: &[&ValidationRecord]) -> Result<(), ResultsError> {
+    let mut texts = Vec::with_capacity(records.len());
+    for r in records {
+        let p = &r.params.preset;
+        let file = out.path().join(p).join("report.md");
+        let text = std::fs::read_to_string(&file).map_err(ResultsError::io(&file))?;
+        // Its title says which preset it is (the table of contents lists the presets).
+        texts.push(match text.strip_prefix("# ") {
+            Some(rest) => format!("# Preset `{p}`: {rest}"),
+            None => text,
+        });
+    }
+    let mut parts = vec![Part { id: String::new(), markdown: md, base: String::new(), steppers: Vec::new() }];
+    for (text, r) in texts.iter().zip(records) {
+        let p = &r.params.preset;
+        parts.push(Part { id: format!("{p}-"), markdown: text, base: format!("{p}/"), steppers: world_steppers(r) });
+    }
+    let page = page_html("Validation sweep", &parts, out.path())?;
+    out.write("report.html", page.as_bytes())?;
     Ok(())
 }
 
@@ -428,7 +455,7 @@ pub fn merge_sweeps(dirs: &[PathBuf], out: &StagedDir) -> Result<Comparison, Res
         sub.finish()?;
     }
     let c = Comparison::new(&presets, &records.iter().collect::<Vec<_>>());
-    write_comparison(out, &c)?;
+    write_comparison(out, &c, &records.iter().collect::<Vec<_>>())?;
     Ok(c)
 }
 

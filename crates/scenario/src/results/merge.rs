@@ -399,13 +399,14 @@ fn copy_tree(from: &Path, out: &StagedDir, rel: &str) -> Result<(), ResultsError
 pub fn merge_dirs(dirs: &[PathBuf], staged: &StagedDir) -> Result<(ValidationRecord, Summary), ResultsError> {
     let inputs = dirs.iter().map(|d| Ok((d.clone(), load_result_dir(d)?))).collect::<Result<Vec<_>, ResultsError>>()?;
     let merged = merge_records(&inputs)?;
-    let summary = write_results(staged, &merged)?;
+    // The seeds' folders first: report.html embeds their images.
     for (dir, r) in &inputs {
         for s in &r.seeds {
             let sub = format!("seed-{}", s.seed);
             copy_tree(&dir.join(&sub), staged, &sub)?;
         }
     }
+    let summary = write_results(staged, &merged)?;
     Ok((merged, summary))
 }
 

@@ -7,11 +7,13 @@ pub mod claims;
 pub mod comparison;
 pub mod figures;
 pub mod gate;
+pub mod html;
 pub mod kidnap_robot_report;
 pub mod merge;
 pub mod real_data_report;
 pub mod recovery_report;
 pub mod report;
+pub mod saved_worlds;
 pub mod sensor_realism_report;
 pub mod table1_hold_report;
 

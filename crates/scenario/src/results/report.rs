@@ -2,8 +2,10 @@
 //!
 //! Validation folder: `runs.json` (the machine-readable record everything else is computed
 //! from), `summary.json`, `worlds.csv`, `report.md`, `edits.json`, `plots/` (the paper's
-//! Fig. 24-27, SVG and PNG, [`crate::results::figures`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
-//! (M_1, G_1 and the saved worlds) and `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
+//! Fig. 24-27, SVG and PNG, [`crate::results::figures`]), `report.html` (the report as one
+//! self-contained page, [`crate::results::html`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
+//! and `E_iii.png` (M_1, G_1 and the saved worlds, [`crate::results::saved_worlds`]) and
+//! `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
 //!
 //! Scenario set (`generate`): `manifest.json`, `route.toml`, `worlds/W_iii.toml`,
 //! `ground_truth/G_iii.{yaml,pgm}`. Same seed ⇒ byte-identical files.
@@ -15,7 +17,6 @@ use crate::worlds::generator::WorldChain;
 use mapkeeper_grid::GridGeometry;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_grid::map_io::save_map;
-use mapkeeper_sensor::tum::format_tum;
 use mapkeeper_sim::{Route, ground_truth_map};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -561,8 +562,9 @@ pub fn runs_json(record: &ValidationRecord) -> Result<String, ResultsError> {
 }
 
 /// Writes everything of a validation folder that is computed from its record: `runs.json`,
-/// `summary.json`, `worlds.csv`, `edits.json`, the figures in `plots/` and `report.md`.
-/// Returns the summary.
+/// `summary.json`, `worlds.csv`, `edits.json`, the figures in `plots/`, `report.md` and
+/// `report.html` (which embeds the saved worlds' error images: write them first). Returns the
+/// summary.
 pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summary, ResultsError> {
     let summary = record.summary();
     dir.write("runs.json", runs_json(record)?.as_bytes())?;
@@ -573,7 +575,9 @@ pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summa
     let figures = write_figures(dir, record)?;
     let mut report = report_md_with_figures(&summary, &figures);
     report.push_str(&per_world_md(record));
+    report.push_str(&crate::results::saved_worlds::saved_worlds_md(record));
     dir.write("report.md", report.as_bytes())?;
+    crate::results::html::write_report_html(dir, &report, &crate::results::html::world_steppers(record))?;
     Ok(summary)
 }
 
@@ -635,28 +639,12 @@ pub fn per_world_md(record: &ValidationRecord) -> String {
     s
 }
 
-/// Writes the whole validation folder into `dir`: [`write_results`] for `record` (made from
-/// `runs`), and each seed's maps and trajectories. Returns the summary.
+/// Writes the whole validation folder into `dir`: each seed's saved worlds and trajectories
+/// ([`crate::results::saved_worlds`]), then [`write_results`] for `record` (made from `runs`;
+/// `report.html` embeds the images written first). Returns the summary.
 pub fn write_validation(dir: &StagedDir, runs: &[SeedRun], record: &ValidationRecord) -> Result<Summary, ResultsError> {
-    let summary = write_results(dir, record)?;
-    for r in runs {
-        let base = format!("seed-{}", r.seed);
-        save_map(&r.initial_map, &dir.file(&format!("{base}/maps/M_001.yaml"))?)?;
-        save_map(&r.initial_ground_truth, &dir.file(&format!("{base}/maps/G_001.yaml"))?)?;
-        for w in &r.saved {
-            save_map(&w.map, &dir.file(&format!("{base}/maps/M_{:03}.yaml", w.world))?)?;
-            save_map(&w.ground_truth, &dir.file(&format!("{base}/maps/G_{:03}.yaml", w.world))?)?;
-            if let Some(t) = &w.trajectories {
-                for (name, poses) in [("true", &t.truth), ("chain", &t.chain), ("baseline", &t.baseline)] {
-                    dir.write(
-                        &format!("{base}/trajectories/W_{:03}_{name}.tum", w.world),
-                        format_tum(poses).as_bytes(),
-                    )?;
-                }
-            }
-        }
-    }
-    Ok(summary)
+    crate::results::saved_worlds::write_saved_worlds(dir, runs)?;
+    write_results(dir, record)
 }
 
 /// The manifest of a scenario set.
