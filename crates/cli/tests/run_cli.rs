@@ -56,5 +56,15 @@ fn run_one_world_end_to_end() {
     let out = mapkeeper(&["convert", "--log", s(&bag), "--truth-topic", "/truth", "--out", s(&conv)]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let import: serde_json::Value = serde_json::from_slice(&std::fs::read(conv.join("import.json")).unwrap()).unwrap();
-    assert!(import["topics"]["/updater/verdict"]["messages"].as_u64().unwrap() > 50, "{import}");
+    let topics = &import["topics"];
+    let verdicts = topics["/updater/verdict"]["messages"].as_u64().unwrap();
+    assert!(verdicts > 50, "{import}");
+    // The check's state every updater step (a step without a verdict too), and the layer of
+    // changed cells beside the maps that changed.
+    assert_eq!(topics["/updater/step"]["type_name"], "mapkeeper_msgs/msg/UpdaterStep", "{import}");
+    assert!(topics["/updater/step"]["messages"].as_u64().unwrap() >= verdicts, "{import}");
+    assert_eq!(topics["/updater/changes"]["type_name"], "nav_msgs/msg/OccupancyGrid", "{import}");
+    let (maps, changes) =
+        (topics["/map"]["messages"].as_u64().unwrap(), topics["/updater/changes"]["messages"].as_u64().unwrap());
+    assert!(changes >= 1 && changes < maps, "{changes} change layers, {maps} maps: {import}");
 }

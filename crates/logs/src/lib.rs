@@ -38,7 +38,10 @@ pub use error::ImportError;
 pub use options::{CarmenKind, ImportOptions, OdometryFrom, StampFrom};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 pub use rigid::Rigid3;
-pub use ros2::{McapRunWriter, McapWriteError, write_log_mcap};
+pub use ros2::{
+    CHANGE_ADDED, CHANGE_NONE, CHANGE_OTHER, CHANGE_REMOVED, McapRunWriter, McapWriteError, UpdaterStepMsg,
+    write_log_mcap,
+};
 
 use mapkeeper_sensor::SensorLog;
 use std::io::Read;

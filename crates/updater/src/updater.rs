@@ -46,9 +46,12 @@ pub enum StepOutcome {
 pub struct StepReport {
     /// What happened to the step.
     pub outcome: StepOutcome,
-    /// The localisation check's verdict (always `Update` with the check disabled); `None` if
-    /// the step was not checked.
+    /// The localisation check's verdict (always `Update` with the check disabled), after the
+    /// shift check when that is on; `None` if the step was not checked.
     pub verdict: Option<Verdict>,
+    /// The paper's localisation check (§4.2) alone: differs from `verdict` where the shift
+    /// check lifted a false alarm or raised one; `None` if the step was not checked.
+    pub check_verdict: Option<Verdict>,
     /// n: valid beams over all lidars of the step.
     pub n_valid: usize,
     /// Invalid beams (bad readings, every beam of a scan whose header is invalid, and every
@@ -75,6 +78,7 @@ impl StepReport {
         Self {
             outcome,
             verdict: None,
+            check_verdict: None,
             n_valid: 0,
             n_invalid: 0,
             invalid_scans: 0,
@@ -446,7 +450,8 @@ impl MapUpdater {
         if let Some(r) = &registration {
             self.stats.registration.record(r);
         }
-        let verdict = self.verdict(counts.n_valid, counts.n_dc, pose, scans);
+        let (check_verdict, verdict) = self.verdict(counts.n_valid, counts.n_dc, pose, scans);
+        report.check_verdict = Some(check_verdict);
         report.verdict = Some(verdict);
         if verdict != Verdict::Lost {
             self.last_attempt_ns = None;
@@ -508,13 +513,14 @@ impl MapUpdater {
         Some(registrar.register(robot_in_map, scans, self.params.max_range_m, &self.params.registration))
     }
 
-    /// The localisation check (§4.2) with the shift check when on.
-    fn verdict(&self, n_valid: usize, n_dc: usize, pose: Pose2, scans: &[LaserScan]) -> Verdict {
-        let mut verdict = if self.params.localisation_check {
+    /// The localisation check (§4.2) alone, and with the shift check when on.
+    fn verdict(&self, n_valid: usize, n_dc: usize, pose: Pose2, scans: &[LaserScan]) -> (Verdict, Verdict) {
+        let check = if self.params.localisation_check {
             localisation_check(n_valid, n_dc, self.params.d_eps_min, self.params.d_eps_max)
         } else {
             Verdict::Update
         };
+        let mut verdict = check;
         if let Some(field) = &self.shift_field
             && self.params.shift_check.when.runs_on(verdict)
         {
@@ -523,7 +529,7 @@ impl MapUpdater {
                 verdict = crate::additions::shift_check::combine(verdict, &r, p);
             }
         }
-        verdict
+        (check, verdict)
     }
 
     /// Pose updating (§4.6) on a Lost step, if enabled and due (the first Lost step of an

@@ -229,8 +229,7 @@ impl CdrWriter {
         self.buf.extend_from_slice(&le_bytes);
     }
 
-    /// A `uint8`.
-    #[cfg(test)]
+    /// A `uint8` (or a `bool`: 0 or 1).
     pub fn u8(&mut self, v: u8) {
         self.put([v]);
     }

@@ -24,7 +24,10 @@ mod msgs;
 mod schemas;
 mod writer;
 
-pub use writer::{McapRunWriter, McapWriteError, write_log_mcap};
+pub use writer::{
+    CHANGE_ADDED, CHANGE_NONE, CHANGE_OTHER, CHANGE_REMOVED, McapRunWriter, McapWriteError, UpdaterStepMsg,
+    write_log_mcap,
+};
 
 use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 use crate::options::{ImportOptions, OdometryFrom, StampFrom};

@@ -187,6 +187,37 @@ pub static OCCUPANCY_GRID: Def = Def {
     uses: &[&HEADER, &MAP_META_DATA],
 };
 
+/// `mapkeeper_msgs/msg/UpdaterStep`: what the map updater did with one step (this project's
+/// own type; the definition travels in the file, so Foxglove decodes and plots it).
+pub static UPDATER_STEP: Def = Def {
+    package: "mapkeeper_msgs",
+    name: "UpdaterStep",
+    fields: "std_msgs/Header header\n\
+# The verdict acted on (update, suspend, lost; empty: the step was not checked).\n\
+string verdict\n\
+# The paper's localisation check (section 4.2) alone: differs from verdict where the shift check\n\
+# lifted a false alarm or raised one.\n\
+string check_verdict\n\
+# processed, gated, unregistered, no_valid_beams, too_few_beams.\n\
+string outcome\n\
+uint32 valid_beams\n\
+uint32 detected_change_beams\n\
+# detected_change_beams / valid_beams (0 without valid beams).\n\
+float64 detected_share\n\
+# Cells of the map that became occupied, stopped being occupied, or changed between free and unknown.\n\
+uint32 cells_added\n\
+uint32 cells_removed\n\
+uint32 cells_other\n\
+# Registration before writing: ran, accepted, and its correction of the pose.\n\
+bool registration_ran\n\
+bool registration_accepted\n\
+float64 registration_shift_m\n\
+float64 registration_turn_deg\n\
+# Pose updating on Lost: empty (no attempt), recovered, or why it failed.\n\
+string pose_recovery\n",
+    uses: &[&HEADER],
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

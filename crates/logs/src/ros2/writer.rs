@@ -16,6 +16,8 @@
 //! | `/particlecloud` | `geometry_msgs/msg/PoseArray` | `map` |
 //! | `/map` | `nav_msgs/msg/OccupancyGrid` | `map` |
 //! | `/updater/verdict` | `std_msgs/msg/String` | — |
+//! | `/updater/step` | `mapkeeper_msgs/msg/UpdaterStep` (the definition is in the file) | — |
+//! | `/updater/changes` | `nav_msgs/msg/OccupancyGrid` | `map`: the cells changed since the previous `/map`: 100 added, 0 removed, 50 free ↔ unknown, −1 unchanged |
 
 use super::cdr::CdrWriter;
 use super::schemas::{self, Def};
@@ -66,6 +68,43 @@ const ESTIMATE_TOPIC: &str = "/estimate";
 const PARTICLES_TOPIC: &str = "/particlecloud";
 const MAP_TOPIC: &str = "/map";
 const VERDICT_TOPIC: &str = "/updater/verdict";
+const STEP_TOPIC: &str = "/updater/step";
+const CHANGES_TOPIC: &str = "/updater/changes";
+
+/// The values of `/updater/changes`: a cell that became occupied.
+pub const CHANGE_ADDED: i8 = 100;
+/// A cell that was occupied and is no longer.
+pub const CHANGE_REMOVED: i8 = 0;
+/// A cell that changed between free and unknown.
+pub const CHANGE_OTHER: i8 = 50;
+/// A cell that did not change.
+pub const CHANGE_NONE: i8 = -1;
+
+/// One step of the map updater, as `/updater/step` carries it
+/// (`mapkeeper_msgs/msg/UpdaterStep`; field meanings in its definition).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct UpdaterStepMsg {
+    /// The verdict acted on (`update`, `suspend`, `lost`; empty: not checked).
+    pub verdict: String,
+    /// The paper's localisation check alone.
+    pub check_verdict: String,
+    /// What happened to the step (`processed`, `gated`, …).
+    pub outcome: String,
+    /// Valid beams.
+    pub valid_beams: u32,
+    /// Detected-change beams.
+    pub detected_change_beams: u32,
+    /// Cells that became occupied.
+    pub cells_added: u32,
+    /// Cells that stopped being occupied.
+    pub cells_removed: u32,
+    /// Cells that changed between free and unknown.
+    pub cells_other: u32,
+    /// Registration's correction `(accepted, shift m, turn rad)`, when it ran.
+    pub registration: Option<(bool, f64, f64)>,
+    /// Pose updating's outcome (empty: no attempt; `recovered`; or why it refused).
+    pub pose_recovery: String,
+}
 
 /// Writes a run as an MCAP file (see the module docs for its topics).
 ///
@@ -212,18 +251,6 @@ impl McapRunWriter {
     /// A map on `/map` (frame `map`): 0 free, 100 occupied, −1 unknown, rows from the bottom
     /// as the grid's, its origin the grid's.
     pub fn map(&mut self, stamp_ns: u64, map: &OccupancyGrid) -> Result<(), McapWriteError> {
-        let g = map.geometry();
-        let size = |n: usize, what: &str| {
-            u32::try_from(n).map_err(|_| self.value(MAP_TOPIC, format!("a {what} of {n} cells does not fit")))
-        };
-        let (width, height) = (size(g.width(), "width")?, size(g.height(), "height")?);
-        let mut w = CdrWriter::little_endian();
-        self.header(&mut w, MAP_TOPIC, stamp_ns, "map")?;
-        self.time(&mut w, MAP_TOPIC, stamp_ns)?; // map_load_time
-        w.f32(g.resolution_m() as f32);
-        w.u32(width);
-        w.u32(height);
-        pose(&mut w, &g.origin());
         let cells: Vec<u8> = map
             .cells()
             .iter()
@@ -233,9 +260,75 @@ impl McapRunWriter {
                 CellState::Unknown => (-1i8).to_le_bytes()[0],
             })
             .collect();
-        w.byte_seq(&cells);
-        let data = self.done(w, MAP_TOPIC)?;
-        self.write(MAP_TOPIC, &schemas::OCCUPANCY_GRID, stamp_ns, &data)
+        self.grid(MAP_TOPIC, stamp_ns, map.geometry(), &cells)
+    }
+
+    /// What the updater did with a step, on `/updater/step`.
+    pub fn updater_step(&mut self, stamp_ns: u64, m: &UpdaterStepMsg) -> Result<(), McapWriteError> {
+        let mut w = CdrWriter::little_endian();
+        self.header(&mut w, STEP_TOPIC, stamp_ns, "")?;
+        w.string(&m.verdict);
+        w.string(&m.check_verdict);
+        w.string(&m.outcome);
+        w.u32(m.valid_beams);
+        w.u32(m.detected_change_beams);
+        let share =
+            if m.valid_beams == 0 { 0.0 } else { f64::from(m.detected_change_beams) / f64::from(m.valid_beams) };
+        w.f64(share);
+        w.u32(m.cells_added);
+        w.u32(m.cells_removed);
+        w.u32(m.cells_other);
+        let (ran, (accepted, shift, turn)) = (m.registration.is_some(), m.registration.unwrap_or((false, 0.0, 0.0)));
+        w.u8(u8::from(ran));
+        w.u8(u8::from(accepted));
+        w.f64(shift);
+        w.f64(turn.to_degrees());
+        w.string(&m.pose_recovery);
+        let data = self.done(w, STEP_TOPIC)?;
+        self.write(STEP_TOPIC, &schemas::UPDATER_STEP, stamp_ns, &data)
+    }
+
+    /// The cells changed since the last call, on `/updater/changes` (frame `map`): a grid of
+    /// `geometry`'s shape holding [`CHANGE_ADDED`], [`CHANGE_REMOVED`], [`CHANGE_OTHER`] or
+    /// [`CHANGE_NONE`] per cell (`values`, row-major from the bottom row as the grid's).
+    pub fn changes(
+        &mut self,
+        stamp_ns: u64,
+        geometry: &mapkeeper_grid::GridGeometry,
+        values: &[i8],
+    ) -> Result<(), McapWriteError> {
+        if values.len() != geometry.width() * geometry.height() {
+            return Err(self.value(
+                CHANGES_TOPIC,
+                format!("{} values for a {} × {} grid", values.len(), geometry.width(), geometry.height()),
+            ));
+        }
+        let bytes: Vec<u8> = values.iter().map(|v| v.to_le_bytes()[0]).collect();
+        self.grid(CHANGES_TOPIC, stamp_ns, geometry, &bytes)
+    }
+
+    /// An `OccupancyGrid` message of `geometry`'s shape with these cell bytes on `topic`.
+    fn grid(
+        &mut self,
+        topic: &str,
+        stamp_ns: u64,
+        g: &mapkeeper_grid::GridGeometry,
+        cells: &[u8],
+    ) -> Result<(), McapWriteError> {
+        let size = |n: usize, what: &str| {
+            u32::try_from(n).map_err(|_| self.value(topic, format!("a {what} of {n} cells does not fit")))
+        };
+        let (width, height) = (size(g.width(), "width")?, size(g.height(), "height")?);
+        let mut w = CdrWriter::little_endian();
+        self.header(&mut w, topic, stamp_ns, "map")?;
+        self.time(&mut w, topic, stamp_ns)?; // map_load_time
+        w.f32(g.resolution_m() as f32);
+        w.u32(width);
+        w.u32(height);
+        pose(&mut w, &g.origin());
+        w.byte_seq(cells);
+        let data = self.done(w, topic)?;
+        self.write(topic, &schemas::OCCUPANCY_GRID, stamp_ns, &data)
     }
 
     /// The updater's verdict on `/updater/verdict`.
@@ -391,4 +484,89 @@ pub fn write_log_mcap(log: &mapkeeper_sensor::SensorLog, path: &Path) -> Result<
         }
     }
     w.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ros2::cdr::CdrReader;
+    use mapkeeper_grid::GridGeometry;
+
+    /// Every message of `path` as (topic, schema name, schema text, data).
+    fn messages(path: &Path) -> Vec<(String, String, String, Vec<u8>)> {
+        let bytes = std::fs::read(path).unwrap();
+        mcap::MessageStream::new(&bytes)
+            .unwrap()
+            .map(|m| {
+                let m = m.unwrap();
+                let s = m.channel.schema.as_ref().unwrap();
+                (m.channel.topic.clone(), s.name.clone(), String::from_utf8(s.data.to_vec()).unwrap(), m.data.to_vec())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn updater_steps_and_changes_read_back() {
+        let dir = std::env::temp_dir().join(format!("mapkeeper-writer-steps-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("steps.mcap");
+        let g = GridGeometry::new(3, 2, 0.05, Pose2::new(1.0, 2.0, 0.0)).unwrap();
+        let mut w = McapRunWriter::create(&path).unwrap();
+        let step = UpdaterStepMsg {
+            verdict: "update".into(),
+            check_verdict: "suspend".into(),
+            outcome: "processed".into(),
+            valid_beams: 400,
+            detected_change_beams: 100,
+            cells_added: 2,
+            cells_removed: 1,
+            cells_other: 0,
+            registration: Some((true, 0.03, 0.01)),
+            pose_recovery: String::new(),
+        };
+        w.updater_step(1_500_000_000, &step).unwrap();
+        let values = [CHANGE_NONE, CHANGE_ADDED, CHANGE_REMOVED, CHANGE_OTHER, CHANGE_NONE, CHANGE_NONE];
+        w.changes(2_000_000_000, &g, &values).unwrap();
+        // A layer of the wrong size is refused, naming the topic.
+        let e = w.changes(2_000_000_000, &g, &values[..5]).unwrap_err().to_string();
+        assert!(e.contains("/updater/changes") && e.contains("5 values for a 3 × 2 grid"), "{e}");
+        w.finish().unwrap();
+
+        let msgs = messages(&path);
+        assert_eq!(msgs.len(), 2);
+        let (topic, schema, text, data) = &msgs[0];
+        assert_eq!((topic.as_str(), schema.as_str()), ("/updater/step", "mapkeeper_msgs/msg/UpdaterStep"));
+        assert!(text.contains("string check_verdict") && text.contains("MSG: std_msgs/Header"), "{text}");
+        let mut r = CdrReader::new(data).unwrap();
+        assert_eq!((r.i32("sec").unwrap(), r.u32("nanosec").unwrap()), (1, 500_000_000));
+        assert_eq!(r.string("frame").unwrap(), "");
+        for want in ["update", "suspend", "processed"] {
+            assert_eq!(r.string("s").unwrap(), want);
+        }
+        assert_eq!((r.u32("n").unwrap(), r.u32("dc").unwrap()), (400, 100));
+        assert_eq!(r.f64("share").unwrap(), 0.25);
+        assert_eq!([r.u32("a").unwrap(), r.u32("r").unwrap(), r.u32("o").unwrap()], [2, 1, 0]);
+        assert_eq!((r.u8("ran").unwrap(), r.u8("ok").unwrap()), (1, 1));
+        assert_eq!(r.f64("shift").unwrap(), 0.03);
+        assert!((r.f64("turn").unwrap() - 0.01f64.to_degrees()).abs() < 1e-12);
+        assert_eq!(r.string("recovery").unwrap(), "");
+        assert_eq!(r.remaining(), 0, "nothing after the last field");
+
+        let (topic, schema, _, data) = &msgs[1];
+        assert_eq!((topic.as_str(), schema.as_str()), ("/updater/changes", "nav_msgs/msg/OccupancyGrid"));
+        let mut r = CdrReader::new(data).unwrap();
+        assert_eq!(r.i32("sec").unwrap(), 2);
+        r.u32("nanosec").unwrap();
+        assert_eq!(r.string("frame").unwrap(), "map");
+        r.i32("load sec").unwrap();
+        r.u32("load nanosec").unwrap();
+        assert_eq!(r.f32("resolution").unwrap(), 0.05);
+        assert_eq!((r.u32("w").unwrap(), r.u32("h").unwrap()), (3, 2));
+        let origin: [f64; 7] = r.f64_array("origin").unwrap();
+        assert_eq!((origin[0], origin[1]), (1.0, 2.0));
+        let n = r.sequence_len(1, 1, "data").unwrap();
+        let cells: Vec<i8> = (0..n).map(|_| r.i8("cell").unwrap()).collect();
+        assert_eq!(cells, values);
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
