@@ -176,7 +176,8 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
 /// the memory are off (their fields then hold their defaults and are left out), so that the
 /// digests of the presets that did not change stay those pinned then. The fit's position sigma
 /// (`xy_sigma_m`, reported since the tolerances that follow the pose uncertainty) is left out
-/// too: it is a new figure of the same fit, not a change of what the updater does.
+/// too: it is a new figure of the same fit, not a change of what the updater does; so is the
+/// paper's check's verdict before the shift check (`check_verdict`).
 fn legacy(debug: String) -> String {
     const FIELD: &str = ", xy_sigma_m: ";
     let unused = format!(", registration: {:?}, heal_votes: 0", mapkeeper_updater::RegistrationStats::default());
@@ -186,6 +187,12 @@ fn legacy(debug: String) -> String {
         let end = out[at..].find(", writes_withheld").map_or(out.len(), |k| at + k);
         let counts: Vec<&str> = out[at..end].split(", ").filter_map(|f| f.split(": ").nth(1)).collect();
         out.replace_range(at..end, &format!("refused: [{}]", counts.join(", ")));
+    }
+    // The paper's check's own verdict (reported since the MCAP layer of the check's state): a new
+    // figure of the same step, printed between `verdict` and `n_valid`.
+    if let Some(at) = out.find(", check_verdict: ") {
+        let end = out[at..].find(", n_valid").map_or(out.len(), |k| at + k);
+        out.replace_range(at..end, "");
     }
     while let Some(at) = out.find(FIELD) {
         let value = at + FIELD.len();
