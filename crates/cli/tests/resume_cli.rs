@@ -141,3 +141,49 @@ fn a_closed_standard_output_does_not_lose_the_run() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Ctrl-C (SIGINT) stops a run as a kill does: no output folder, the finished jobs kept for
+/// `--resume`, which completes the run. The progress lines say how long is left.
+#[test]
+fn ctrl_c_leaves_the_folder_as_a_killed_run_does() {
+    use std::os::unix::process::ExitStatusExt as _;
+    let dir = scratch("resume", "ctrl-c");
+    let part = dir.join("part");
+    let mut child = spawn(&part, Stdio::piped);
+    let first = dir.join(".part.jobs").join("paper-s11.json");
+    while !first.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be interrupted");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let pid = child.id().to_string();
+    assert!(Command::new("kill").args(["-INT", &pid]).status().unwrap().success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.signal(), Some(2), "not ended by SIGINT: {}", text(&o));
+    assert!(!part.exists(), "an interrupted run leaves no output folder");
+    assert!(first.is_file(), "the finished job is kept");
+    // Before the first world: what it runs, and an estimate with where it comes from.
+    let t = text(&o);
+    assert!(t.contains("validate: about ") && t.contains("left (from the reference machine's costs)"), "{t}");
+    assert!(t.contains("Ctrl-C stops it as a kill does (--resume continues)"), "{t}");
+
+    let o = run(&sweep(&part, &["--resume"]));
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains(".part.partial: removed the incomplete folder"), "{t}");
+    let done = t.lines().find(|l| l.contains("job(s) already done")).unwrap_or_else(|| panic!("{t}"));
+    assert!(!done.contains(": 0 of"), "{done}");
+    // The lines printed as worlds finish: done/total and the time left from this run's worlds,
+    // the share done rising.
+    let lines: Vec<(u64, u64)> = t
+        .lines()
+        .filter(|l| l.contains(" worlds after ") && l.ends_with("left (from this run's world times)"))
+        .map(|l| {
+            let frac = l.trim_start_matches("validate: ").split(' ').next().unwrap();
+            let (a, b) = frac.split_once('/').unwrap();
+            (a.parse().unwrap(), b.parse().unwrap())
+        })
+        .collect();
+    assert!(lines.len() >= 3, "{t}");
+    assert!(lines.windows(2).all(|w| w[0].0 < w[1].0 && w[0].1 == w[1].1 && w[1].0 < w[1].1), "{lines:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -20,6 +20,7 @@ pub mod render;
 pub mod run;
 pub mod sensor;
 pub mod simulate;
+pub mod sweep_progress;
 pub mod update;
 pub mod validate;
 

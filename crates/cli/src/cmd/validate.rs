@@ -1,6 +1,7 @@
 //! `mapkeeper validate`: the hundred-world validation of the paper (§5.3.2), over one or more
 //! seeds in parallel; the wall clock is read here (not in the libraries).
 
+use super::sweep_progress::{SweepProgress, describe};
 use anyhow::Context;
 use mapkeeper_scenario::experiments::checkpoint::Checkpoints;
 use mapkeeper_scenario::results::comparison::{Comparison, write_comparison};
@@ -344,15 +345,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
     let checkpoints = Checkpoints::beside(&out);
     let done = finished_jobs(&plan, &checkpoints, &out, args.resume)?;
-    let bar = super::progress_bar(plan.total_worlds(), "worlds");
     let start = Instant::now();
     let wall = super::Wall::start();
     let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };
     let to_run = done.iter().filter(|d| d.is_none()).count();
     let pool = simulate_ahead_if_cores_free(&mut plan, to_run, super::thread_pool(args.jobs)?);
-    outln!("{}", plan_line(&args, &plan, &out, to_run, pool.current_num_threads()));
-    let runs = pool.install(|| plan.run_resuming(done, Some(&checkpoints), clock, &|_| bar.inc(1)))?;
-    bar.finish_and_clear();
+    let threads = pool.current_num_threads();
+    let progress = SweepProgress::new(&plan, &args.localiser, threads, done.iter().map(Option::is_some).collect());
+    outln!("{}", plan_line(&args, &plan, &out, to_run, threads));
+    outln!("validate: {}; Ctrl-C stops it as a kill does (--resume continues)", describe(progress.estimate()));
+    let runs =
+        pool.install(|| plan.run_resuming(done, Some(&checkpoints), clock, &|k, w| progress.world_done(k, w)))?;
+    progress.finish();
     let elapsed_s = start.elapsed().as_secs_f64();
     let wall_time_s = if args.no_timing { 0.0 } else { elapsed_s };
     let mut records = Vec::new();

@@ -9,6 +9,7 @@ pub mod check_detection;
 pub mod checkpoint;
 pub mod convergence;
 pub mod erosion;
+pub mod eta;
 pub mod kidnap_robot;
 pub mod pose_oracle;
 pub mod real_data;

@@ -118,7 +118,7 @@ impl SweepPlan {
 
     /// Runs every job on the current rayon pool; `progress` is called after each world.
     pub fn run(&self, clock: &dyn Clock, progress: &(dyn Fn(usize) + Sync)) -> Result<Vec<SeedRun>, ExperimentError> {
-        self.run_resuming(vec![None; self.jobs.len()], None, clock, progress)
+        self.run_resuming(vec![None; self.jobs.len()], None, clock, &|_, world| progress(world))
     }
 
     /// The finished runs of this plan's jobs found in `checkpoints` (in job order; `None`: to
@@ -128,30 +128,31 @@ impl SweepPlan {
     }
 
     /// Runs the jobs that `done` (in job order) does not hold, on the current rayon pool, each
-    /// written to `checkpoints` as soon as it finishes; `progress` is called after each world
-    /// (for a job already done, once per world at the start). The runs come back in job order,
+    /// written to `checkpoints` as soon as it finishes; `progress(job, world)` is called after
+    /// each world (for a job already done, once per world at the start). The runs come back in job order,
     /// the same whichever were resumed.
     pub fn run_resuming(
         &self,
         done: Vec<Option<SeedRun>>,
         checkpoints: Option<&Checkpoints>,
         clock: &dyn Clock,
-        progress: &(dyn Fn(usize) + Sync),
+        progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Vec<SeedRun>, ExperimentError> {
         if done.len() != self.jobs.len() {
             return Err(ExperimentError::Invalid(format!("{} finished runs for {} jobs", done.len(), self.jobs.len())));
         }
-        for (&(p, _), _) in self.jobs.iter().zip(&done).filter(|(_, d)| d.is_some()) {
-            (1..=self.params[p].worlds).for_each(progress);
+        for (k, (&(p, _), _)) in self.jobs.iter().zip(&done).enumerate().filter(|(_, (_, d))| d.is_some()) {
+            (1..=self.params[p].worlds).for_each(|w| progress(k, w));
         }
         self.jobs
             .par_iter()
             .zip(done)
-            .map(|(&(p, s), done)| {
+            .enumerate()
+            .map(|(k, (&(p, s), done))| {
                 if let Some(run) = done {
                     return Ok(run);
                 }
-                let run = run_seed(&self.params[p], s, clock, progress)?;
+                let run = run_seed(&self.params[p], s, clock, &|w| progress(k, w))?;
                 if let Some(c) = checkpoints {
                     c.save(&self.params[p], &run)?;
                 }
