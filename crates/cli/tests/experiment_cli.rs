@@ -18,6 +18,18 @@ fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports
     let stdout = run(&a, "1");
     assert!(stdout.contains("paper") && stdout.contains("mapkeeper") && stdout.contains("detection"), "{stdout}");
     run(&b, "2");
+    // What it runs (8 trials × 3 presets) and where it writes, then the time left as runs finish
+    // (stderr, off a terminal).
+    let c = dir.join("c");
+    let o = mapkeeper(&["experiment", "check-detection", "--quick", "--trials", "8", "--jobs", "1", "--out", s(&c)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let first = err.lines().next().unwrap_or_default();
+    assert!(first.starts_with("experiment check-detection: 24 runs to run, on 1 thread(s); writing "), "{err}");
+    assert!(first.contains(s(&c)), "{err}");
+    let progress: Vec<&str> = err.lines().filter(|l| l.contains(" runs after ")).collect();
+    assert!(progress.len() >= 3, "{err}");
+    assert!(progress[0].starts_with("experiment check-detection: 1/24 runs after "), "{err}");
+    assert!(progress.iter().all(|l| l.ends_with("left (at this run's rate so far)")), "{err}");
     for f in ["summary.json", "trials.csv", "report.md", "detection_by_error.svg", "detection_by_error.png"] {
         assert!(a.join(f).is_file(), "{f} missing");
     }

@@ -116,9 +116,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("--localisers / --seeds / --errors: {e}");
     }
     let dir = super::output_dir(&args.out, args.force)?;
-    let bar = super::progress_bar(params.jobs().len() as u64, "runs");
+    let pool = super::thread_pool(args.jobs)?;
+    let bar = pool.install(|| super::progress_bar("converge", params.jobs().len() as u64, "runs", &args.out));
     let w1 = World::default_warehouse();
-    let runs = super::thread_pool(args.jobs)?.install(|| run_convergence(&w1, &params, &|| bar.inc(1)))?;
+    let runs = pool.install(|| run_convergence(&w1, &params, &|| bar.inc(1)))?;
     bar.finish_and_clear();
     for r in &runs {
         dir.write(&format!("runs/{}-e{}-s{}.csv", r.localiser, r.start_error_m, r.seed), samples_csv(r).as_bytes())?;

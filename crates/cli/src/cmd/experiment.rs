@@ -103,9 +103,10 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --preset")?;
     let (default, total) = (default_out("kidnap-robot", args.seed, p.trials), p.trials);
-    let (mut r, wall_time_s, dir) = run_timed(&args.common, default, total, "trials", |w1, progress| {
-        Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
-    })?;
+    let (mut r, wall_time_s, dir) =
+        run_timed("kidnap-robot", &args.common, default, total, "trials", |w1, progress| {
+            Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
+        })?;
     r.wall_time_s = wall_time_s;
     write_kidnap_robot(&dir, &r)?;
     let out = dir.finish()?;
@@ -187,7 +188,7 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     p.validate().context("--trials / --presets")?;
     let runs = p.trials * p.presets.len() * p.conditions().len() * VARIANTS.len();
     let (mut r, wall_time_s, dir) =
-        run_timed(&args.common, default_out("table1", args.seed, p.trials), runs, "runs", |w1, progress| {
+        run_timed("table1", &args.common, default_out("table1", args.seed, p.trials), runs, "runs", |w1, progress| {
             Ok(run_table1_hold(w1, &file.recovery, &file.table1, args.seed, progress)?)
         })?;
     r.summary.wall_time_s = wall_time_s;
@@ -246,6 +247,7 @@ pub struct Common {
 /// warehouse on the `--jobs` pool with a progress bar of `total` `unit`s; returns its result,
 /// the wall time in seconds and the folder to write into.
 fn run_timed<R: Send>(
+    name: &str,
     c: &Common,
     default: PathBuf,
     total: usize,
@@ -254,8 +256,8 @@ fn run_timed<R: Send>(
 ) -> anyhow::Result<(R, f64, StagedDir)> {
     let out = c.out.clone().unwrap_or(default);
     let dir = super::output_dir(&out, c.force)?;
-    let bar = super::progress_bar(total as u64, unit);
     let pool = super::thread_pool(c.jobs)?;
+    let bar = pool.install(|| super::progress_bar(&format!("experiment {name}"), total as u64, unit, &out));
     let start = Instant::now();
     let w1 = World::default_warehouse();
     let progress = || bar.inc(1);
@@ -349,9 +351,10 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --presets / --max-world")?;
     let (default, total) = (default_out("check-detection", args.seed, p.trials), p.trials * p.presets.len());
-    let (mut r, wall_time_s, dir) = run_timed(&args.common, default, total, "runs", |w1, progress| {
-        Ok(run_check_detection(w1, &file.recovery, &file.check_detection, args.seed, progress)?)
-    })?;
+    let (mut r, wall_time_s, dir) =
+        run_timed("check-detection", &args.common, default, total, "runs", |w1, progress| {
+            Ok(run_check_detection(w1, &file.recovery, &file.check_detection, args.seed, progress)?)
+        })?;
     r.summary.wall_time_s = wall_time_s;
     write_check_detection(&dir, &r)?;
     let out = dir.finish()?;

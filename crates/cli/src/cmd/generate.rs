@@ -106,7 +106,7 @@ fn write_logs(
     use rayon::prelude::*;
     let params = mapkeeper_sim::SimParams::default();
     let pool = super::thread_pool(jobs)?;
-    let bar = super::progress_bar(worlds.len() as u64, "drives");
+    let bar = pool.install(|| super::progress_bar("generate --logs", worlds.len() as u64, "drives", dir.target()));
     let rows: Vec<serde_json::Value> = pool.install(|| {
         worlds
             .par_iter()

@@ -110,8 +110,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let out = args.out.clone().unwrap_or_else(|| default_out(p.first_seed, p.worlds));
     let dir = super::output_dir(&out, args.force)?;
-    let bar = super::progress_bar((p.run_configs().len() * p.seeds) as u64, "chains");
     let pool = super::thread_pool(args.jobs)?;
+    let chains = (p.run_configs().len() * p.seeds) as u64;
+    let bar = pool.install(|| super::progress_bar("experiment sensor-realism", chains, "chains", &out));
     let start = Instant::now();
     let r = pool.install(|| run_sensor_realism(&vp, p, &|| bar.inc(1)))?;
     bar.finish_and_clear();

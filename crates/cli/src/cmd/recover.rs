@@ -113,8 +113,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
     let dir = super::output_dir(&out, args.force)?;
     let cases = if params.kidnap.best_case { 2 } else { 1 };
-    let bar = super::progress_bar(4 + (cases * args.trials) as u64, "steps");
     let pool = super::thread_pool(args.jobs)?;
+    let bar = pool.install(|| super::progress_bar("recover", 4 + (cases * args.trials) as u64, "steps", &out));
     let start = Instant::now();
     let progress = |_: Progress| bar.inc(1);
     let mut results = pool.install(|| run_recovery(&w1, &params, args.seed, &progress))?;
