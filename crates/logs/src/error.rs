@@ -44,13 +44,37 @@ impl ImportError {
         ImportError::Io { path: path.to_path_buf(), source }
     }
 
-    /// A parse error on `path` at `place`.
+    /// A parse error on `path` at `place` (control characters of the message, which may quote
+    /// the file, escaped: the error stays one line).
     pub fn parse(path: &Path, place: impl Into<String>, message: impl Into<String>) -> Self {
-        ImportError::Parse { path: path.to_path_buf(), place: place.into(), message: message.into() }
+        ImportError::Parse { path: path.to_path_buf(), place: place.into(), message: one_line(&message.into()) }
     }
 
     /// A log of `path` that cannot be used.
     pub fn unusable(path: &Path, message: impl Into<String>) -> Self {
-        ImportError::Unusable { path: path.to_path_buf(), message: message.into() }
+        ImportError::Unusable { path: path.to_path_buf(), message: one_line(&message.into()) }
+    }
+}
+
+/// `s` with its control characters escaped (`\n`, `\u{1b}`, …), so an error that quotes a
+/// file's bytes is one line.
+pub fn one_line(s: &str) -> String {
+    if !s.chars().any(char::is_control) {
+        return s.to_string();
+    }
+    s.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_quoting_the_file_stay_one_line() {
+        let e = ImportError::parse(Path::new("a.bag"), "byte 0", "'#ROSBAG V1.\n x': only 2.0 is read");
+        assert_eq!(e.to_string(), "a.bag: byte 0: '#ROSBAG V1.\\n x': only 2.0 is read");
+        let e = ImportError::unusable(Path::new("b.log"), "tab\there\u{1b}[1m");
+        assert!(!e.to_string().contains(['\n', '\t', '\u{1b}']), "{e}");
+        assert_eq!(one_line("plain"), "plain");
     }
 }

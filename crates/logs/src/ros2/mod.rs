@@ -386,6 +386,32 @@ fn planar(at: &At<'_>, p: &msgs::Pose) -> Result<Pose2, ImportError> {
     Ok(rigid(at, p)?.planar().0)
 }
 
+/// The message of an error of the `mcap` crate without what follows its first line: a parse
+/// error of its `binrw` records prints a coloured backtrace there, whose one useful line
+/// (`Error: …`) is kept.
+fn first_line(s: &str) -> String {
+    let mut plain = String::with_capacity(s.len());
+    let mut chars = s.chars();
+    while let Some(c) = chars.next() {
+        if c == '\u{1b}' {
+            // An ANSI escape: ESC [ parameters letter.
+            for d in chars.by_ref() {
+                if d.is_ascii_alphabetic() {
+                    break;
+                }
+            }
+        } else {
+            plain.push(c);
+        }
+    }
+    let mut lines = plain.lines().map(str::trim);
+    let mut out = lines.next().unwrap_or_default().trim_end_matches(':').trim().to_string();
+    if let Some(cause) = plain.lines().find_map(|l| l.trim().split_once("Error: ").map(|(_, e)| e.trim().to_string())) {
+        out = if out.is_empty() { cause } else { format!("{out}: {cause}") };
+    }
+    out
+}
+
 /// An error of the MCAP container (not of a message in it).
 fn mcap_error(file: &Path, after: usize, byte: u64, e: &mcap::McapError) -> ImportError {
     let what = match e {
@@ -402,10 +428,10 @@ recording cut short)"
             )
         }
         other => {
-            let mut s = other.to_string();
+            let mut s = first_line(&other.to_string());
             let mut source = std::error::Error::source(other);
             while let Some(c) = source {
-                s.push_str(&format!(": {c}"));
+                s.push_str(&format!(": {}", first_line(&c.to_string())));
                 source = c.source();
             }
             s
@@ -428,6 +454,13 @@ mod tests {
         let mut names = vec!["bag_10.mcap", "bag_9.mcap", "bag_0.mcap", "a.mcap", "bag_09b.mcap"];
         names.sort_by(|a, b| natural_cmp(a, b));
         assert_eq!(names, vec!["a.mcap", "bag_0.mcap", "bag_9.mcap", "bag_09b.mcap", "bag_10.mcap"]);
+    }
+
+    #[test]
+    fn mcap_errors_become_one_plain_line() {
+        let binrw = "Record parse failed: \n \u{1b}[1m╺━━┅ Backtrace ┅━━╸\u{1b}[22m\n\n 0: \u{1b}[1m\u{1b}[1mError: not enough bytes in reader\u{1b}[22m\n   at x.rs:1";
+        assert_eq!(first_line(binrw), "Record parse failed: not enough bytes in reader");
+        assert_eq!(first_line("bad magic"), "bad magic");
     }
 
     #[test]
