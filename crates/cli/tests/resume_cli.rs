@@ -187,3 +187,37 @@ fn ctrl_c_leaves_the_folder_as_a_killed_run_does() {
     assert!(lines.windows(2).all(|w| w[0].0 < w[1].0 && w[0].1 == w[1].1 && w[1].0 < w[1].1), "{lines:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An absurd but accepted run (10,000 worlds × 100 seeds × 2 presets) says before its first
+/// world that it would take weeks, and Ctrl-C then leaves nothing that looks complete.
+#[test]
+fn an_absurd_run_says_how_long_before_it_starts_and_stops_on_ctrl_c() {
+    use std::io::{BufRead as _, BufReader};
+    let dir = scratch("resume", "absurd");
+    let out = dir.join("big");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
+        .args(["validate", "--worlds", "10000", "--seeds", "100", "--no-timing", "--out", s(&out)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let estimate = BufReader::new(stdout)
+        .lines()
+        .map(Result::unwrap)
+        .find(|l| l.contains(" left (from the reference machine's costs)"))
+        .unwrap();
+    let pid = child.id().to_string();
+    assert!(Command::new("kill").args(["-INT", &pid]).status().unwrap().success());
+    child.wait().unwrap();
+    // 2 million worlds at seconds each on 2 threads: weeks.
+    let days: u64 = estimate
+        .split("about ")
+        .nth(1)
+        .and_then(|r| r.split(" days").next())
+        .and_then(|d| d.parse().ok())
+        .unwrap_or_else(|| panic!("not in days: {estimate}"));
+    assert!(days > 14, "{estimate}");
+    assert!(!out.exists(), "an interrupted run leaves no output folder");
+    let _ = std::fs::remove_dir_all(&dir);
+}

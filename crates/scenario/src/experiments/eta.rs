@@ -155,13 +155,14 @@ impl SweepEta {
     }
 }
 
-/// A duration for people: `45 s`, `12 min`, `1 h 05 min`.
+/// A duration for people: `45 s`, `12 min`, `1 h 05 min`, `27 days 9 h`.
 pub fn human_duration(s: f64) -> String {
     let s = s.max(0.0).round() as u64;
     match s {
         0..=89 => format!("{s} s"),
         90..=3599 => format!("{} min", (s + 30) / 60),
-        _ => format!("{} h {:02} min", s / 3600, (s % 3600 + 30) / 60),
+        3600..=172_799 => format!("{} h {:02} min", s / 3600, (s % 3600 + 30) / 60),
+        _ => format!("{} days {} h", s / 86_400, (s % 86_400 + 1800) / 3600),
     }
 }
 
@@ -234,5 +235,6 @@ mod tests {
         assert_eq!(human_duration(42.4), "42 s");
         assert_eq!(human_duration(600.0), "10 min");
         assert_eq!(human_duration(4320.0), "1 h 12 min");
+        assert_eq!(human_duration(657.3 * 3600.0), "27 days 9 h");
     }
 }
