@@ -198,6 +198,15 @@ fn a_bag_folder_reads_the_same_as_the_bare_file() {
     std::fs::write(bag.join("metadata.yaml"), "relative_file_paths:\n  - run_1.mcap\n  - run_3.mcap\n").unwrap();
     let e = ros2::read(&bag, &truth_options()).unwrap_err().to_string();
     assert!(e.contains("run_3.mcap") && e.contains("not in the bag folder"), "{e}");
+    assert!(e.starts_with(&format!("{}: ", bag.display())), "the error names the bag folder: {e}");
+    // A listed path that leaves the folder is refused, naming the folder (found by fuzzing: an
+    // absolute path made the error name only the listed path).
+    for listed in ["/tmp/elsewhere.mcap", "../run_1.mcap", "sub/../../run_1.mcap"] {
+        std::fs::write(bag.join("metadata.yaml"), format!("relative_file_paths:\n  - {listed}\n")).unwrap();
+        let e = ros2::read(&bag, &truth_options()).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("{}: ", bag.display())), "{e}");
+        assert!(e.contains(&format!("'{listed}', which is not a path inside the bag folder")), "{e}");
+    }
     std::fs::write(bag.join("metadata.yaml"), "  storage_identifier: sqlite3\n").unwrap();
     let e = ros2::read(&bag, &truth_options()).unwrap_err().to_string();
     assert!(e.contains("'sqlite3'") && e.contains("ros2 bag convert"), "{e}");

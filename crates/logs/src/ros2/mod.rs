@@ -84,7 +84,19 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, ImportError> {
         ));
     }
     let files = match listed_files(&text) {
-        Some(names) => names.iter().map(|n| path.join(n)).collect(),
+        Some(names) => {
+            // Listed paths are relative to the bag folder: one that leaves it is refused, naming
+            // the folder (the error must name what the user gave).
+            if let Some(bad) =
+                names.iter().find(|n| Path::new(n).components().any(|c| !matches!(c, std::path::Component::Normal(_))))
+            {
+                return Err(ImportError::unusable(
+                    path,
+                    format!("metadata.yaml lists '{bad}', which is not a path inside the bag folder"),
+                ));
+            }
+            names.iter().map(|n| path.join(n)).collect()
+        }
         None => folder_mcaps(path)?,
     };
     if files.is_empty() {
@@ -99,7 +111,10 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, ImportError> {
             ));
         }
         if !f.is_file() {
-            return Err(ImportError::unusable(f, "metadata.yaml lists this file, but it is not in the bag folder"));
+            return Err(ImportError::unusable(
+                path,
+                format!("metadata.yaml lists '{}', but it is not in the bag folder", f.display()),
+            ));
         }
     }
     Ok(files)
