@@ -171,3 +171,19 @@ fn write_seed_corpus() {
     }
     let _ = std::fs::remove_dir_all(&scratch);
 }
+
+/// Found by `ros2_mcap`: an uncompressed chunk whose record is longer than the rest of the
+/// chunk made the `mcap` crate subtract past zero (a panic with overflow checks); the reader
+/// now refuses it first, the same in every build.
+#[test]
+fn a_record_overrunning_an_uncompressed_chunk_is_refused_in_every_build() {
+    let file = corpus_dir("ros2_mcap").join("regression_record_overruns_plain_chunk.mcap");
+    let e = mapkeeper_logs::ros2::read(&file, &mapkeeper_logs::ImportOptions::default()).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!(
+            "{}: byte 153: MCAP: a record of 255 bytes in an uncompressed chunk with 91 bytes left: the chunk is damaged",
+            file.display()
+        )
+    );
+}

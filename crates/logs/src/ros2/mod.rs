@@ -235,6 +235,72 @@ impl<R: Read> Read for Counting<R> {
     }
 }
 
+/// Refuses an uncompressed chunk holding a record longer than what is left of the chunk.
+///
+/// The `mcap` crate (0.26, `sans_io/linear_reader.rs`) subtracts such a record's length from the
+/// chunk's remaining bytes unchecked: with overflow checks (debug builds, the fuzz build) it
+/// panics, without them the count wraps and a later length check refuses the file. Found by the
+/// `ros2_mcap` fuzz target; this walk of the top-level records makes the refusal the same,
+/// one line, in every build. It reads only record headers (9 bytes, and a chunk's fields) and
+/// stops quietly where the file stops making sense: the `mcap` reader reports that.
+fn check_plain_chunks(file: &Path) -> Result<(), ImportError> {
+    use std::io::{Seek, SeekFrom};
+    const CHUNK: u8 = 0x06;
+    const FOOTER: u8 = 0x02;
+    let f = std::fs::File::open(file).map_err(|e| ImportError::io(file, e))?;
+    let size = f.metadata().map_err(|e| ImportError::io(file, e))?.len();
+    let mut r = BufReader::with_capacity(1 << 12, f);
+    let mut pos = 8u64; // the magic
+    let mut head = [0u8; 9];
+    let u64_at = |b: &[u8], at: usize| b.get(at..at + 8).and_then(|x| x.try_into().ok()).map(u64::from_le_bytes);
+    while pos.saturating_add(9) <= size {
+        if r.seek(SeekFrom::Start(pos)).is_err() || r.read_exact(&mut head).is_err() {
+            return Ok(());
+        }
+        let (opcode, len) = (head[0], u64::from_le_bytes(head[1..9].try_into().unwrap_or_default()));
+        if opcode == FOOTER {
+            return Ok(());
+        }
+        // A chunk that runs past the end of the file is still streamed by the reader: check
+        // what there is of it.
+        let end = (pos + 9).saturating_add(len);
+        if opcode == CHUNK && len.min(size - pos - 9) <= 1 << 20 {
+            // start, end, uncompressed size (8 each), crc (4), compression (4 + n), records size (8), records.
+            let mut body = vec![0u8; len.min(size - pos - 9) as usize];
+            if r.read_exact(&mut body).is_err() {
+                return Ok(());
+            }
+            let n = body.get(28..32).and_then(|x| x.try_into().ok()).map_or(0, u32::from_le_bytes) as usize;
+            let at = 32usize.saturating_add(n);
+            if n == 0
+                && let Some(records) = u64_at(&body, at)
+            {
+                let mut left = records.min((body.len() - (at + 8).min(body.len())) as u64);
+                let mut inner = at + 8;
+                while left > 0 {
+                    let Some(l) = u64_at(&body, inner + 1) else { break };
+                    let need = l.checked_add(9);
+                    if need.is_none_or(|need| need > left) {
+                        return Err(ImportError::parse(
+                            file,
+                            format!("byte {}", pos + 9 + inner as u64),
+                            format!(
+                                "MCAP: a record of {l} bytes in an uncompressed chunk with {} bytes left: the chunk is damaged",
+                                left.saturating_sub(9)
+                            ),
+                        ));
+                    }
+                    let need = need.unwrap_or(left);
+                    left -= need;
+                    inner += need as usize;
+                }
+            }
+        }
+        pos = end;
+    }
+    Ok(())
+}
+
 /// One message being decoded: where it is, for errors.
 struct At<'a> {
     file: &'a Path,
@@ -256,6 +322,7 @@ struct BagReader<'a> {
 impl BagReader<'_> {
     /// Reads every message of `file` (part of the bag at `bag`).
     fn read_file(&mut self, bag: &Path, file: &Path) -> Result<(), ImportError> {
+        check_plain_chunks(file)?;
         let f = std::fs::File::open(file).map_err(|e| ImportError::io(file, e))?;
         let read = Rc::new(Cell::new(0u64));
         let source = Counting { inner: BufReader::with_capacity(1 << 16, f), read: read.clone() };
