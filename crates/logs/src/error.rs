@@ -47,7 +47,11 @@ impl ImportError {
     /// A parse error on `path` at `place` (control characters of the message, which may quote
     /// the file, escaped: the error stays one line).
     pub fn parse(path: &Path, place: impl Into<String>, message: impl Into<String>) -> Self {
-        ImportError::Parse { path: path.to_path_buf(), place: place.into(), message: one_line(&message.into()) }
+        ImportError::Parse {
+            path: path.to_path_buf(),
+            place: one_line(&place.into()),
+            message: one_line(&message.into()),
+        }
     }
 
     /// A log of `path` that cannot be used.
