@@ -24,6 +24,32 @@ pub enum CellState {
     Unknown = 2,
 }
 
+/// How a cell changed from one state to another: the one rule behind map diffs (rendered, in
+/// the MCAP changes layer and in the updater's step counts).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChangeKind {
+    /// The same state.
+    Same,
+    /// Became occupied.
+    Added,
+    /// Was occupied, is no longer.
+    Removed,
+    /// Between free and unknown.
+    Other,
+}
+
+impl ChangeKind {
+    /// The change from `a` to `b`.
+    pub fn of(a: CellState, b: CellState) -> ChangeKind {
+        match (a, b) {
+            _ if a == b => ChangeKind::Same,
+            (_, CellState::Occupied) => ChangeKind::Added,
+            (CellState::Occupied, _) => ChangeKind::Removed,
+            _ => ChangeKind::Other,
+        }
+    }
+}
+
 impl CellState {
     /// The occupancy value used by the map metrics: 1 occupied, 0 free, `unknown_value` unknown.
     pub fn value(self, unknown_value: f64) -> f64 {

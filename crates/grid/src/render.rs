@@ -202,11 +202,11 @@ pub fn cell_colour(state: CellState) -> Rgb {
 
 /// The colour of a cell that is `a` in the first map and `b` in the second.
 pub fn diff_colour(a: CellState, b: CellState) -> Rgb {
-    match (a, b) {
-        _ if a == b => cell_colour(a),
-        (_, CellState::Occupied) => ADDED,
-        (CellState::Occupied, _) => REMOVED,
-        _ => UNKNOWN_CHANGED,
+    match crate::grid::ChangeKind::of(a, b) {
+        crate::grid::ChangeKind::Same => cell_colour(a),
+        crate::grid::ChangeKind::Added => ADDED,
+        crate::grid::ChangeKind::Removed => REMOVED,
+        crate::grid::ChangeKind::Other => UNKNOWN_CHANGED,
     }
 }
 

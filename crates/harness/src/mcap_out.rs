@@ -8,7 +8,7 @@ use crate::HarnessError;
 use crate::driver::Control;
 use crate::session::{Session, StepReport};
 use crate::source::{RobotControl, Step};
-use mapkeeper_grid::{CellState, OccupancyGrid};
+use mapkeeper_grid::{CellState, ChangeKind, OccupancyGrid};
 use mapkeeper_logs::{
     CHANGE_ADDED, CHANGE_NONE, CHANGE_OTHER, CHANGE_REMOVED, McapRunWriter, McapWriteError, UpdaterStepMsg,
 };
@@ -125,18 +125,19 @@ impl McapRecorder {
 
 /// The value of a cell of `/updater/changes` that was `a` and is `b`.
 fn change_value(a: CellState, b: CellState) -> i8 {
-    match (a, b) {
-        _ if a == b => CHANGE_NONE,
-        (_, CellState::Occupied) => CHANGE_ADDED,
-        (CellState::Occupied, _) => CHANGE_REMOVED,
-        _ => CHANGE_OTHER,
+    match ChangeKind::of(a, b) {
+        ChangeKind::Same => CHANGE_NONE,
+        ChangeKind::Added => CHANGE_ADDED,
+        ChangeKind::Removed => CHANGE_REMOVED,
+        ChangeKind::Other => CHANGE_OTHER,
     }
 }
 
 /// `/updater/step` of an updater report.
 fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
-    let count = |f: &dyn Fn(CellState, CellState) -> bool| {
-        u32::try_from(u.changed_cells.iter().filter(|c| f(c.from, c.to)).count()).unwrap_or(u32::MAX)
+    let count = |kind: ChangeKind| {
+        u32::try_from(u.changed_cells.iter().filter(|c| ChangeKind::of(c.from, c.to) == kind).count())
+            .unwrap_or(u32::MAX)
     };
     let outcome = match u.outcome {
         StepOutcome::Processed => "processed",
@@ -156,9 +157,9 @@ fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
         outcome: outcome.into(),
         valid_beams: u32::try_from(u.n_valid).unwrap_or(u32::MAX),
         detected_change_beams: u32::try_from(u.n_dc).unwrap_or(u32::MAX),
-        cells_added: count(&|a, b| a != b && b == CellState::Occupied),
-        cells_removed: count(&|a, b| a == CellState::Occupied && b != CellState::Occupied),
-        cells_other: count(&|a, b| a != b && a != CellState::Occupied && b != CellState::Occupied),
+        cells_added: count(ChangeKind::Added),
+        cells_removed: count(ChangeKind::Removed),
+        cells_other: count(ChangeKind::Other),
         registration: u.registration.as_ref().map(|r| (r.accepted(), r.shift_m, r.turn_rad)),
         pose_recovery,
     }
