@@ -187,3 +187,15 @@ fn a_record_overrunning_an_uncompressed_chunk_is_refused_in_every_build() {
         )
     );
 }
+
+/// Found by `ros2_mcap`: an attachment record shorter than the lengths it declares made the
+/// `mcap` crate slice past its end (a panic in every build); the reader no longer parses
+/// records it does not use, so the file is read as far as it makes sense and refused there.
+#[test]
+fn an_attachment_shorter_than_its_lengths_is_never_parsed() {
+    let file = corpus_dir("ros2_mcap").join("regression_attachment_shorter_than_its_lengths.mcap");
+    let e = mapkeeper_logs::ros2::read(&file, &mapkeeper_logs::ImportOptions::default()).unwrap_err().to_string();
+    assert!(e.starts_with(&format!("{}: ", file.display())), "{e}");
+    assert!(!e.contains('\n'), "{e}");
+    println!("{e}");
+}

@@ -314,6 +314,70 @@ impl At<'_> {
     }
 }
 
+/// Why [`read_messages`] stopped: the file, after `usize` messages, or the caller.
+enum Stop {
+    Mcap(mcap::McapError, usize),
+    Import(ImportError),
+}
+
+/// Every message of an MCAP stream, in file order, handed to `each`. Only the records a
+/// message needs are parsed (schemas, channels, messages, linked and checked by the `mcap`
+/// crate's `ChannelAccumulator`); attachments, metadata, indexes and the summary are skipped
+/// unparsed. (The `mcap` crate's own `MessageReader` parses every record, and 0.26 slices an
+/// attachment whose declared lengths exceed its record unchecked: a panic, found by the
+/// `ros2_mcap` fuzz target.)
+fn read_messages<R: Read>(
+    mut source: R,
+    opts: mcap::sans_io::LinearReaderOptions,
+    each: &mut dyn FnMut(&mcap::Message<'_>) -> Result<(), ImportError>,
+) -> Result<(), Stop> {
+    use mcap::records::{Record, op};
+    use mcap::sans_io::LinearReadEvent;
+    let mut reader = mcap::sans_io::LinearReader::new_with_options(opts);
+    let mut channels = mcap::read::ChannelAccumulator::default();
+    let mut count = 0usize;
+    while let Some(event) = reader.next_event() {
+        let (opcode, data) = match event.map_err(|e| Stop::Mcap(e, count))? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = loop {
+                    match source.read(reader.insert(need)) {
+                        Ok(n) => break n,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => return Err(Stop::Mcap(e.into(), count)),
+                    }
+                };
+                reader.notify_read(n);
+                continue;
+            }
+            LinearReadEvent::Record { opcode, data } => (opcode, data),
+        };
+        if !matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE) {
+            continue;
+        }
+        let fail = |e| Stop::Mcap(e, count);
+        match mcap::parse_record(opcode, data).map_err(fail)? {
+            Record::Schema { header, data } => channels.add_schema_from_slice(header, &data).map_err(fail)?,
+            Record::Channel(c) => channels.add_channel(c).map_err(fail)?,
+            Record::Message { header, data } => {
+                let channel = channels
+                    .get(header.channel_id)
+                    .ok_or(Stop::Mcap(mcap::McapError::UnknownChannel(header.sequence, header.channel_id), count))?;
+                let m = mcap::Message {
+                    channel,
+                    sequence: header.sequence,
+                    log_time: header.log_time,
+                    publish_time: header.publish_time,
+                    data,
+                };
+                count += 1;
+                each(&m).map_err(Stop::Import)?;
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 struct BagReader<'a> {
     options: &'a ImportOptions,
     asm: Assembler,
@@ -336,12 +400,14 @@ impl BagReader<'_> {
             format!("{}: ", file.file_name().unwrap_or_default().to_string_lossy())
         };
         let mut index = 0usize;
-        for m in mcap::io::MessageReader::new_with_options(source, opts) {
-            let m = m.map_err(|e| mcap_error(file, index, read.get(), &e))?;
+        let mut each = |m: &mcap::Message<'_>| {
             index += 1;
-            self.message(file, &prefix, index, &m)?;
-        }
-        Ok(())
+            self.message(file, &prefix, index, m)
+        };
+        read_messages(source, opts, &mut each).map_err(|e| match e {
+            Stop::Mcap(e, at) => mcap_error(file, at, read.get(), &e),
+            Stop::Import(e) => e,
+        })
     }
 
     fn message(&mut self, file: &Path, prefix: &str, index: usize, m: &mcap::Message<'_>) -> Result<(), ImportError> {
