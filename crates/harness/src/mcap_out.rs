@@ -148,6 +148,9 @@ fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
     };
     let pose_recovery = match &u.pose_recovery {
         None => String::new(),
+        Some(PoseRecovery::Recovered { .. }) if u.global_search.as_ref().is_some_and(|g| g.chosen) => {
+            "recovered_global".into()
+        }
         Some(PoseRecovery::Recovered { .. }) => "recovered".into(),
         Some(PoseRecovery::NotRecovered { reason }) => crate::jobs::update::refusal_reason(reason),
     };
@@ -225,6 +228,7 @@ mod tests {
             changed_cells: vec![change(0, F, O), change(1, U, O), change(2, O, F), change(3, U, F)],
             pose_recovery: None,
             registration: None,
+            global_search: None,
         };
         let m = step_message(&u);
         assert_eq!((m.verdict.as_str(), m.check_verdict.as_str(), m.outcome.as_str()), ("update", "lost", "processed"));

@@ -87,6 +87,7 @@ pub mod paper {
 /// The project's own additions, not in the paper: each names the failure it prevents.
 pub mod additions {
     pub mod free_pass;
+    pub mod global_search;
     pub mod grazing;
     pub mod hit_index;
     pub mod log_odds_baseline;
@@ -108,6 +109,7 @@ mod error;
 pub mod params;
 mod updater;
 
+pub use additions::global_search::{GlobalSearchParams, GlobalSearchReport};
 pub use additions::pose_tolerance::{PoseSigma, StepTolerance, ToleranceParams};
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};

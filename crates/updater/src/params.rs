@@ -5,6 +5,7 @@
 //! `docs/paper-vs-implementation.md` has one row per rule and one column per preset).
 
 use crate::UpdaterError;
+use crate::additions::global_search::GlobalSearchParams;
 use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
@@ -309,6 +310,11 @@ pub struct UpdaterParams {
     /// off (not written when off with its defaults).
     #[serde(skip_serializing_if = "ShiftCheckParams::is_default_off")]
     pub shift_check: ShiftCheckParams,
+    /// The global search when pose updating's local search finds no pose (a `mapkeeper`
+    /// addition; see the `global_search` module). Default off (not written when off with its
+    /// defaults).
+    #[serde(skip_serializing_if = "GlobalSearchParams::is_default_off")]
+    pub global_search: GlobalSearchParams,
     /// Registration before writing (a `mapkeeper` addition; see the `registration` module).
     /// Default off.
     pub registration: RegistrationParams,
@@ -415,6 +421,7 @@ impl UpdaterParams {
             border_interior_only: false,
             pose_updating: PoseUpdatingParams::default(),
             shift_check: ShiftCheckParams::default(),
+            global_search: GlobalSearchParams::default(),
             registration: RegistrationParams::default(),
             memory: MemoryParams::default(),
             tolerance: ToleranceParams::default(),
@@ -428,13 +435,15 @@ impl UpdaterParams {
     /// ambiguous) and the cross-world memory (established structure needs more evidence to go, a
     /// removed wall face hit again heals), and the shift check on alarm steps only (a Suspend or
     /// Lost of the change count is lifted when the scan fits `M_{i-1}` at the given pose and no
-    /// nearby pose fits better: a right pose in a stale world). Each is switchable by its own field;
-    /// `tests/additions.rs` shows the failure each addition prevents.
+    /// nearby pose fits better: a right pose in a stale world), and when pose updating's local
+    /// search finds no pose, a global search over the whole map and every heading. Each is
+    /// switchable by its own field; `tests/additions.rs` shows the failure each addition prevents.
     pub fn mapkeeper() -> Self {
         Self {
             registration: RegistrationParams { enabled: true, ..RegistrationParams::default() },
             memory: MemoryParams { enabled: true, ..MemoryParams::default() },
             shift_check: ShiftCheckParams { enabled: true, when: ShiftWhen::OnAlarm, ..ShiftCheckParams::default() },
+            global_search: GlobalSearchParams { enabled: true, ..GlobalSearchParams::default() },
             ..Self::mapkeeper_no_registration()
         }
     }
@@ -554,6 +563,7 @@ impl UpdaterParams {
         self.validate_evaluators_and_cells()?;
         self.pose_updating.validate()?;
         self.shift_check.validate().map_err(|e| bad("shift_check", e))?;
+        self.global_search.validate().map_err(|e| bad("global_search", e))?;
         self.registration.validate().map_err(|(field, e)| bad(field, e))?;
         self.memory.validate(self.buffer_size, self.change_threshold).map_err(|(field, e)| bad(field, e))?;
         self.tolerance.validate().map_err(|(field, e)| bad(field, e))?;
@@ -815,9 +825,15 @@ mod tests {
         assert_eq!(UpdaterParams { skip_changed_min_m: 0.0, ..m.clone() }.removal_hit_clearance_m, 0.20);
         assert!(m.registration.enabled && m.memory.enabled);
         assert!(m.shift_check.enabled && m.shift_check.when == ShiftWhen::OnAlarm);
+        assert!(m.global_search.enabled && !p.global_search.enabled && !r.global_search.enabled);
         let n = UpdaterParams::mapkeeper_no_registration();
-        let without =
-            UpdaterParams { registration: n.registration, memory: n.memory, shift_check: n.shift_check, ..m.clone() };
+        let without = UpdaterParams {
+            registration: n.registration,
+            memory: n.memory,
+            shift_check: n.shift_check,
+            global_search: n.global_search,
+            ..m.clone()
+        };
         assert_eq!(without, n);
         // `mapkeeper-shift` is `mapkeeper` with the shift check on every step.
         let s = UpdaterParams::mapkeeper_shift();

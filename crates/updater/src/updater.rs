@@ -4,6 +4,7 @@
 
 use crate::UpdaterError;
 use crate::additions::free_pass::evaluate_free_pass;
+use crate::additions::global_search::{GlobalSearch, GlobalSearchReport};
 use crate::additions::hit_index::HitIndex;
 use crate::additions::log_odds_baseline::LogOddsBaseline;
 use crate::additions::pose_tolerance::{PoseSigma, StepTolerance};
@@ -17,10 +18,10 @@ use crate::paper::gating::{GateReason, UpdateGate};
 use crate::paper::localisation_check::{Verdict, localisation_check};
 use crate::paper::pose_updating::{PoseRecovery, PoseUpdater};
 use crate::paper::unchanged_cells::evaluate_unchanged_beam;
-use crate::params::{UpdateMethod, UpdaterParams};
+use crate::params::{PoseUpdatingParams, UpdateMethod, UpdaterParams};
 use crate::support::beam_walk::BeamGeometry;
 use crate::support::votes::{Vote, ensure_buffers, merge_sorted_tail};
-use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
+use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster, angle_diff};
 use mapkeeper_sensor::LaserScan;
 
 /// What happened to one step.
@@ -71,6 +72,10 @@ pub struct StepReport {
     /// Registration before writing (when enabled and the step had valid beams): the refined
     /// pose or why it was refused. A refused step writes nothing.
     pub registration: Option<Registration>,
+    /// The global search, when it ran on this step (`global_search` on, and pose updating's
+    /// local search found no pose or a weak one): its candidates and work. `pose_recovery` is
+    /// then the answer of the check over its candidates and the local pose.
+    pub global_search: Option<GlobalSearchReport>,
 }
 
 impl StepReport {
@@ -87,6 +92,7 @@ impl StepReport {
             changed_cells: Vec::new(),
             pose_recovery: None,
             registration: None,
+            global_search: None,
         }
     }
 }
@@ -203,6 +209,13 @@ pub struct UpdaterStats {
     pub recoveries: u64,
     /// Pose recoveries that were refused.
     pub failed_recoveries: u64,
+    /// Global searches run (pose updating's local search had found no pose).
+    pub global_searches: u64,
+    /// …of which found a pose that passed the check where the local search had none or another
+    /// (counted in `recoveries` too).
+    pub global_recoveries: u64,
+    /// Blocks the global searches scored (their work).
+    pub global_nodes: u64,
     /// Cell state changes applied to `M_i`.
     pub cell_changes: u64,
     /// Registration before writing.
@@ -228,6 +241,8 @@ pub struct MapUpdater {
     /// The step's measured hit points (hit clearance of the removal vote).
     hits: HitIndex,
     pose_updater: PoseUpdater,
+    /// The global search when Lost (when on).
+    global: GlobalSearch,
     /// `M_{i-1}`'s distance field, for the shift check (when on).
     shift_field: Option<mapkeeper_grid::DistanceField>,
     /// Registration before writing (when on).
@@ -305,6 +320,7 @@ impl MapUpdater {
             vote_scratch: Vec::new(),
             hits: HitIndex::new(),
             pose_updater: PoseUpdater::new(),
+            global: GlobalSearch::new(),
             log_odds,
             last_good: None,
             last_attempt_ns: None,
@@ -387,6 +403,7 @@ impl MapUpdater {
             + size_of_val(self.current.cells())
             + self.cell_updater.cache_bytes()
             + self.pose_updater.cache_bytes()
+            + self.global.heap_bytes()
             + self.registrar.as_ref().map_or(0, Registrar::cache_bytes)
     }
 
@@ -477,7 +494,8 @@ impl MapUpdater {
             Verdict::Suspend => self.stats.suspends += 1,
             Verdict::Lost => {
                 self.stats.losts += 1;
-                report.pose_recovery = self.try_pose_updating(robot_in_map, robot_in_odom, scans, stamp_ns);
+                (report.pose_recovery, report.global_search) =
+                    self.try_pose_updating(robot_in_map, robot_in_odom, scans, stamp_ns);
             }
         }
         self.stats.cell_changes += report.changed_cells.len() as u64;
@@ -533,29 +551,54 @@ impl MapUpdater {
     }
 
     /// Pose updating (§4.6) on a Lost step, if enabled and due (the first Lost step of an
-    /// episode, then at most once per `retry_interval_s`).
+    /// episode, then at most once per `retry_interval_s`); then the global search if it is on
+    /// and the local search found no pose.
     fn try_pose_updating(
         &mut self,
         robot_in_map: Pose2,
         robot_in_odom: Pose2,
         scans: &[LaserScan],
         stamp_ns: u64,
-    ) -> Option<PoseRecovery> {
+    ) -> (Option<PoseRecovery>, Option<GlobalSearchReport>) {
         let p = &self.params.pose_updating;
         if !p.enabled {
-            return None;
+            return (None, None);
         }
         if let Some(last) = self.last_attempt_ns
             && (stamp_ns.saturating_sub(last) as f64) * 1e-9 < p.retry_interval_s
         {
-            return None;
+            return (None, None);
         }
         self.last_attempt_ns = Some(stamp_ns);
         let predicted = match self.last_good {
             Some((good_in_map, good_in_odom)) => good_in_map.compose(&good_in_odom.between(&robot_in_odom)),
             None => robot_in_map,
         };
-        let r = self.pose_updater.recover(&self.current, predicted, scans, self.params.max_range_m, p);
+        let mut r = self.pose_updater.recover(&self.current, predicted, scans, self.params.max_range_m, p);
+        let mut searched = None;
+        let g = &self.params.global_search;
+        let local = match &r {
+            PoseRecovery::Recovered { pose_in_map, fitness, .. } => {
+                (fitness.inlier_ratio < g.confident_inlier_ratio).then_some(Some(*pose_in_map))
+            }
+            PoseRecovery::NotRecovered { .. } => Some(None),
+        };
+        if g.enabled
+            && let Some(local) = local
+        {
+            let (mut found, answer) = self.global_recovery(scans, local);
+            let p = &self.params.pose_updating;
+            if let PoseRecovery::Recovered { pose_in_map: q, .. } = &answer
+                && local.is_none_or(|l| {
+                    l.distance(q) > p.ambiguity_distance_m || angle_diff(l.yaw, q.yaw).abs() > p.ambiguity_rotation_rad
+                })
+            {
+                self.stats.global_recoveries += 1;
+                found.chosen = true;
+            }
+            r = answer;
+            searched = Some(found);
+        }
         if let PoseRecovery::Recovered { pose_in_map, .. } = &r {
             self.stats.recoveries += 1;
             self.last_good = Some((*pose_in_map, robot_in_odom));
@@ -564,7 +607,32 @@ impl MapUpdater {
         } else {
             self.stats.failed_recoveries += 1;
         }
-        Some(r)
+        (Some(r), searched)
+    }
+
+    /// The global search over `M_i` with the points of the pose updating just run, its
+    /// candidates (and the local search's pose, if it found a weak one) checked as pose updating
+    /// checks its own, with the search's ambiguity margin.
+    fn global_recovery(&mut self, scans: &[LaserScan], local: Option<Pose2>) -> (GlobalSearchReport, PoseRecovery) {
+        let p = &self.params.pose_updating;
+        let g = &self.params.global_search;
+        let found = self.global.search(
+            &self.current,
+            self.pose_updater.source_points(),
+            g,
+            p.ambiguity_distance_m,
+            p.ambiguity_rotation_rad,
+        );
+        self.stats.global_searches += 1;
+        self.stats.global_nodes += found.nodes as u64;
+        let poses: Vec<Pose2> = local.into_iter().chain(found.peaks.iter().map(|&(q, _)| q)).collect();
+        let strict = PoseUpdatingParams {
+            ambiguity_ratio_margin: g.ambiguity_ratio_margin.max(p.ambiguity_ratio_margin),
+            min_inlier_ratio: g.min_inlier_ratio,
+            ..p.clone()
+        };
+        let answer = self.pose_updater.verify(&self.current, &poses, scans, self.params.max_range_m, &strict);
+        (found, answer)
     }
 
     /// Changed and unchanged cells evaluators, then the cells update, over the classified beams.

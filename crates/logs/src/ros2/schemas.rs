@@ -213,7 +213,7 @@ bool registration_ran\n\
 bool registration_accepted\n\
 float64 registration_shift_m\n\
 float64 registration_turn_deg\n\
-# Pose updating on Lost: empty (no attempt), recovered, or why it failed.\n\
+# Pose updating on Lost: empty (no attempt), recovered, recovered_global (a pose of the global search), or why it failed.\n\
 string pose_recovery\n",
     uses: &[&HEADER],
 };

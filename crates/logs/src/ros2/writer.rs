@@ -102,7 +102,8 @@ pub struct UpdaterStepMsg {
     pub cells_other: u32,
     /// Registration's correction `(accepted, shift m, turn rad)`, when it ran.
     pub registration: Option<(bool, f64, f64)>,
-    /// Pose updating's outcome (empty: no attempt; `recovered`; or why it refused).
+    /// Pose updating's outcome (empty: no attempt; `recovered`; `recovered_global`, a pose of the
+    /// global search; or why it refused).
     pub pose_recovery: String,
 }
 

@@ -12,10 +12,10 @@
 
 use super::ExperimentError;
 use super::recovery::{RecoveryParams, prepare, recovery_time, scores, tour_from, with_start};
-use super::run_events::RobotKidnap;
+use super::run_events::{RobotKidnap, TrackSample};
 use super::runner::{NoClock, RunInputs, run_world};
 use super::validation::Scores;
-use crate::stats::{frac, mean, median};
+use crate::stats::{frac, mean, median, percentile};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
@@ -209,8 +209,20 @@ pub struct RobotKidnapTrial {
     pub recovered_pose_updating: bool,
     /// Recovered within the window, by the filter alone.
     pub recovered_filter: bool,
+    /// Recovered by pose updating with a pose from the global search (`mapkeeper`): the last
+    /// pose handed over at or before the good stretch began came from it.
+    #[serde(default)]
+    pub recovered_global_search: bool,
     /// Kidnap to the start of the good stretch, seconds.
     pub recovery_s: Option<f64>,
+    /// The first Lost after the kidnap (the robot stops there) to the first right pose pose
+    /// updating handed over (error under the success criterion), seconds; `None`: none came.
+    #[serde(default)]
+    pub pose_found_s: Option<f64>,
+    /// The reference run's (no kidnap) final localiser error, metres: what "recovered" can
+    /// reach in this world at all.
+    #[serde(default)]
+    pub reference_final_error_m: Option<f64>,
     /// Poses from pose updating after the kidnap.
     pub pose_recoveries: usize,
     /// …of them wrong (error above the criterion).
@@ -254,6 +266,69 @@ pub struct KidnapRobotSummary {
     pub pose_recoveries: usize,
     /// Wrong poses accepted.
     pub wrong_pose_recoveries: usize,
+    /// Recovered with a pose from the global search (part of `recovered_rate_pose_updating`).
+    #[serde(default)]
+    pub recovered_rate_global_search: f64,
+    /// Trials in which pose updating handed over at least one wrong pose.
+    #[serde(default)]
+    pub wrong_recovery_rate: f64,
+    /// 90th percentile of the time from the kidnap to recovery, seconds.
+    #[serde(default)]
+    pub p90_recovery_s: Option<f64>,
+    /// Trials in which pose updating handed over a right pose (whatever the localiser did
+    /// with it afterwards).
+    #[serde(default)]
+    pub pose_found_rate: f64,
+    /// …within 5 s of the robot stopping at the first Lost.
+    #[serde(default)]
+    pub pose_found_5s_rate: f64,
+    /// Median and 90th percentile of the first Lost to the first right pose, seconds.
+    #[serde(default)]
+    pub median_pose_found_s: Option<f64>,
+    /// See `median_pose_found_s`.
+    #[serde(default)]
+    pub p90_pose_found_s: Option<f64>,
+    /// Reference runs (no kidnap) whose localiser ends farther off than the success criterion:
+    /// a kidnapped run there cannot count as recovered whatever pose updating does.
+    #[serde(default)]
+    pub reference_off_rate: f64,
+    /// Recovered / wrong / not, by the turn of the kidnap (≤ 45°, 45-90°, > 90°).
+    #[serde(default)]
+    pub by_turn: Vec<KidnapBin>,
+    /// …by the displacement (≤ 1.5 m, > 1.5 m).
+    #[serde(default)]
+    pub by_displacement: Vec<KidnapBin>,
+    /// …by the age of the world (W_k, k in two halves of the drawn range).
+    #[serde(default)]
+    pub by_world: Vec<KidnapBin>,
+}
+
+/// The outcome of the trials of one bin (robot moved only).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct KidnapBin {
+    /// What the bin holds, e.g. `turn > 90°`.
+    pub label: String,
+    /// Trials in the bin.
+    pub trials: usize,
+    /// Recovered within the window (pose updating or filter).
+    pub recovered: usize,
+    /// Trials with a wrong pose from pose updating.
+    pub wrong: usize,
+}
+
+fn bins(a: &[&RobotKidnapTrial], edges: &[(String, f64, f64)], key: fn(&RobotKidnapTrial) -> f64) -> Vec<KidnapBin> {
+    edges
+        .iter()
+        .map(|(label, lo, hi)| {
+            let t: Vec<&&RobotKidnapTrial> = a.iter().filter(|t| key(t) > *lo && key(t) <= *hi).collect();
+            KidnapBin {
+                label: label.clone(),
+                trials: t.len(),
+                recovered: t.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).count(),
+                wrong: t.iter().filter(|t| t.wrong_pose_recoveries > 0).count(),
+            }
+        })
+        .collect()
 }
 
 /// The whole result.
@@ -309,7 +384,10 @@ fn run_trial(
         detection_delay_s: None,
         recovered_pose_updating: false,
         recovered_filter: false,
+        recovered_global_search: false,
         recovery_s: None,
+        pose_found_s: None,
+        reference_final_error_m: final_chain_error(reference.trajectories.as_ref()),
         pose_recoveries: 0,
         wrong_pose_recoveries: 0,
         final_error_m: None,
@@ -335,11 +413,27 @@ fn run_trial(
     let by_pose = rec.recoveries.first().is_some_and(|r| t_r.is_some_and(|t| r.t_s <= t + 1e-9));
     out.recovered_pose_updating = within && by_pose;
     out.recovered_filter = within && !by_pose;
+    let last_before = t_r.and_then(|t| rec.recoveries.iter().rposition(|r| r.t_s <= t + 1e-9));
+    out.recovered_global_search =
+        out.recovered_pose_updating && last_before.is_some_and(|k| rec.recoveries_global.get(k) == Some(&true));
+    let right = |r: &&TrackSample| r.error_m < c.max_error_m && r.yaw_error_rad < c.max_yaw_error_rad;
+    out.pose_found_s = match (rec.first_lost_s, rec.recoveries.iter().find(right)) {
+        (Some(lost), Some(r)) => Some((r.t_s - lost).max(0.0)),
+        _ => None,
+    };
     out.pose_recoveries = rec.recoveries.len();
     out.wrong_pose_recoveries =
         rec.recoveries.iter().filter(|s| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad).count();
     out.final_error_m = track.last().map(|s| s.error_m);
     Ok(out)
+}
+
+/// The chain localiser's error at its last pose, against the truth at the same stamp.
+fn final_chain_error(t: Option<&mapkeeper_harness::Trajectories>) -> Option<f64> {
+    let t = t?;
+    let last = t.chain.last()?;
+    let truth = t.truth.iter().rev().find(|s| s.stamp_ns <= last.stamp_ns)?;
+    Some(last.pose.distance(&truth.pose))
 }
 
 /// Summary of the trials.
@@ -362,7 +456,47 @@ pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> Kidn
         map_damage_opdf_max: a.iter().map(|t| t.reference_scores.opdf - t.kidnap_scores.opdf).fold(0.0, f64::max),
         pose_recoveries: a.iter().map(|t| t.pose_recoveries).sum(),
         wrong_pose_recoveries: a.iter().map(|t| t.wrong_pose_recoveries).sum(),
+        recovered_rate_global_search: frac(a.iter().map(|t| t.recovered_global_search)),
+        pose_found_rate: frac(a.iter().map(|t| t.pose_found_s.is_some())),
+        pose_found_5s_rate: frac(a.iter().map(|t| t.pose_found_s.is_some_and(|s| s <= 5.0))),
+        median_pose_found_s: median(a.iter().filter_map(|t| t.pose_found_s).collect()),
+        p90_pose_found_s: percentile(a.iter().filter_map(|t| t.pose_found_s).collect(), 0.9),
+        reference_off_rate: frac(a.iter().map(|t| t.reference_final_error_m.is_some_and(|e| e >= 0.2))),
+        wrong_recovery_rate: frac(a.iter().map(|t| t.wrong_pose_recoveries > 0)),
+        p90_recovery_s: percentile(
+            a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
+            0.9,
+        ),
+        by_turn: bins(
+            &a,
+            &[
+                ("turn ≤ 45°".into(), -1.0, 45.0),
+                ("turn 45-90°".into(), 45.0, 90.0),
+                ("turn > 90°".into(), 90.0, 360.0),
+            ],
+            |t| t.draw.yaw_rad.abs().to_degrees(),
+        ),
+        by_displacement: bins(
+            &a,
+            &[("moved ≤ 1.5 m".into(), -1.0, 1.5), ("moved > 1.5 m".into(), 1.5, f64::INFINITY)],
+            |t| t.applied_displacement_m.unwrap_or(0.0),
+        ),
+        by_world: world_bins(&a),
     }
+}
+
+/// Two halves of the worlds the trials drew from.
+fn world_bins(a: &[&RobotKidnapTrial]) -> Vec<KidnapBin> {
+    let (lo, hi) = a.iter().fold((usize::MAX, 0), |(lo, hi), t| (lo.min(t.draw.world), hi.max(t.draw.world)));
+    if a.is_empty() {
+        return Vec::new();
+    }
+    let mid = lo + (hi - lo) / 2;
+    let edges = [
+        (format!("W_{lo}-W_{mid}"), lo as f64 - 0.5, mid as f64 + 0.5),
+        (format!("W_{}-W_{hi}", mid + 1), mid as f64 + 0.5, hi as f64 + 0.5),
+    ];
+    bins(a, &edges, |t| t.draw.world as f64)
 }
 
 /// Generates the worlds and runs every trial (in parallel, collected in order).

@@ -106,6 +106,9 @@ pub struct KidnapRecord {
     pub first_lost_s: Option<f64>,
     /// Every pose that pose updating returned at or after the kidnap, with its true error.
     pub recoveries: Vec<TrackSample>,
+    /// For each of `recoveries`: it came from the global search (`mapkeeper`), not from the
+    /// paper's local pose updating.
+    pub recoveries_global: Vec<bool>,
     /// Refused pose recoveries at or after the kidnap.
     pub failed_recoveries: u64,
     /// The chain localiser's error at every scan tick from the kidnap on.
@@ -205,6 +208,7 @@ impl Control for KidnapControl {
             lost_before: self.lost_seen,
             first_lost_s: None,
             recoveries: Vec::new(),
+            recoveries_global: Vec::new(),
             failed_recoveries: 0,
             track: Vec::new(),
         });
@@ -230,9 +234,11 @@ impl Control for KidnapControl {
         }
         if lost {
             rec.first_lost_s.get_or_insert(t_s);
-            match report.updater.as_ref().and_then(|u| u.pose_recovery.as_ref()) {
+            let u = report.updater.as_ref();
+            match u.and_then(|u| u.pose_recovery.as_ref()) {
                 Some(PoseRecovery::Recovered { pose_in_map, .. }) => {
-                    rec.recoveries.push(TrackSample::of(t_s, pose_in_map, &truth))
+                    rec.recoveries.push(TrackSample::of(t_s, pose_in_map, &truth));
+                    rec.recoveries_global.push(u.and_then(|u| u.global_search.as_ref()).is_some_and(|g| g.chosen));
                 }
                 Some(PoseRecovery::NotRecovered { .. }) => rec.failed_recoveries += 1,
                 None => {}

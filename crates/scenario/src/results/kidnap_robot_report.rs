@@ -21,7 +21,10 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "detection_delay_s",
     "recovered_pose_updating",
     "recovered_filter",
+    "recovered_global_search",
     "recovery_s",
+    "pose_found_s",
+    "reference_final_error_m",
     "pose_recoveries",
     "wrong_pose_recoveries",
     "final_error_m",
@@ -46,7 +49,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
             d.world,
             d.tour_position_m,
@@ -60,7 +63,10 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             opt(t.detection_delay_s),
             t.recovered_pose_updating,
             t.recovered_filter,
+            t.recovered_global_search,
             opt(t.recovery_s),
+            opt(t.pose_found_s),
+            opt(t.reference_final_error_m),
             t.pose_recoveries,
             t.wrong_pose_recoveries,
             opt(t.final_error_m),
@@ -109,13 +115,26 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
     let _ = writeln!(o, "| trials moved (a free target found) | {} of {} |", k.applied, k.trials);
     let _ = writeln!(o, "| said Lost after the kidnap | {} |", pc(k.detected_rate));
     let _ = writeln!(o, "| recovered by pose updating | {} |", pc(k.recovered_rate_pose_updating));
+    let _ = writeln!(o, "| …of which with a pose from the global search | {} |", pc(k.recovered_rate_global_search));
     let _ = writeln!(o, "| recovered by the filter alone | {} |", pc(k.recovered_rate_filter));
     let _ = writeln!(o, "| not recovered | {} |", pc(k.failed_rate));
+    let _ = writeln!(o, "| trials with a wrong pose from pose updating | {} |", pc(k.wrong_recovery_rate));
     let _ = writeln!(
         o,
-        "| median time to recover | {} |",
-        k.median_recovery_s.map_or_else(|| "–".into(), |v| format!("{v:.2} s"))
+        "| a right pose from pose updating, at all / within 5 s of stopping | {} / {} |",
+        pc(k.pose_found_rate),
+        pc(k.pose_found_5s_rate)
     );
+    let secs = |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{v:.2} s"));
+    let _ =
+        writeln!(o, "| time to recover, median / p90 | {} / {} |", secs(k.median_recovery_s), secs(k.p90_recovery_s));
+    let _ = writeln!(
+        o,
+        "| stopping to the first right pose, median / p90 | {} / {} |",
+        secs(k.median_pose_found_s),
+        secs(k.p90_pose_found_s)
+    );
+    let _ = writeln!(o, "| reference runs ending ≥ 0.2 m off (no kidnap) | {} |", pc(k.reference_off_rate));
     let _ = writeln!(o, "| false Lost (runs without kidnap) | {} |", pc(k.false_lost_rate));
     let _ = writeln!(
         o,
@@ -123,6 +142,19 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         k.map_damage.cc, k.map_damage.ms, k.map_damage.opdf, k.map_damage_opdf_max
     );
     let _ = writeln!(o, "| poses from pose updating / wrong | {} / {} |", k.pose_recoveries, k.wrong_pose_recoveries);
+    let _ = writeln!(o, "\n| trials moved | recovered | wrong pose | not recovered |\n|---|---|---|---|");
+    for b in k.by_turn.iter().chain(&k.by_displacement).chain(&k.by_world) {
+        let _ = writeln!(
+            o,
+            "| {} ({}) | {} | {} | {} |",
+            b.label,
+            b.trials,
+            b.recovered,
+            b.wrong,
+            b.trials.saturating_sub(b.recovered)
+        );
+    }
+    o.push('\n');
     o.push_str(&crate::results::claims::claims_md(&crate::results::claims::kidnap_claims(k)));
     o
 }

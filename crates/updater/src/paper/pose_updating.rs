@@ -255,6 +255,35 @@ impl PoseUpdater {
         self.decide(p)
     }
 
+    /// The scan points (robot frame) of the last [`PoseUpdater::recover`] call.
+    pub fn source_points(&self) -> &[Point2] {
+        &self.source
+    }
+
+    /// Checks poses found by another search (e.g. a global one) as pose updating checks its
+    /// own: each is registered to the cloud expected from it with the points of the last
+    /// [`PoseUpdater::recover`] call (which must have been given the same `scans`), and the best
+    /// must pass the fitness gate and the ambiguity test of `p`.
+    pub fn verify(
+        &mut self,
+        map: &OccupancyGrid,
+        candidates: &[Pose2],
+        scans: &[LaserScan],
+        max_range_m: f64,
+        p: &PoseUpdatingParams,
+    ) -> PoseRecovery {
+        self.checked.clear();
+        if self.source.len() < (p.min_points as usize).max(3) {
+            return PoseRecovery::NotRecovered {
+                reason: RecoveryFailure::TooFewPoints { source: self.source.len(), expected: 0 },
+            };
+        }
+        for &pose in candidates {
+            self.check(map, pose, scans, max_range_m, p);
+        }
+        self.decide(p)
+    }
+
     /// Heap bytes of the map-sized score grid of the correlative search: one byte per cell of
     /// `M_i`, allocated at the first search and reused (0 before any search).
     pub fn cache_bytes(&self) -> usize {

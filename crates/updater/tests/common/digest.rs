@@ -177,11 +177,16 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
 /// digests of the presets that did not change stay those pinned then. The fit's position sigma
 /// (`xy_sigma_m`, reported since the tolerances that follow the pose uncertainty) is left out
 /// too: it is a new figure of the same fit, not a change of what the updater does; so is the
-/// paper's check's verdict before the shift check (`check_verdict`).
+/// paper's check's verdict before the shift check (`check_verdict`). A global search that did
+/// not run (its report `None`, its counts 0) is left out as well.
 fn legacy(debug: String) -> String {
     const FIELD: &str = ", xy_sigma_m: ";
     let unused = format!(", registration: {:?}, heal_votes: 0", mapkeeper_updater::RegistrationStats::default());
-    let mut out = debug.replace(", registration: None", "").replace(&unused, "");
+    let mut out = debug
+        .replace(", registration: None", "")
+        .replace(&unused, "")
+        .replace(", global_search: None", "")
+        .replace(", global_searches: 0, global_recoveries: 0, global_nodes: 0", "");
     // Refusals were counted in an array then: `refused: [a, b, c, d]`.
     if let Some(at) = out.find("refused_too_few_points: ") {
         let end = out[at..].find(", writes_withheld").map_or(out.len(), |k| at + k);
