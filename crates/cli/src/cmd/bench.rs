@@ -182,6 +182,31 @@ fn run_updater(scene: &Scene, name: &str) -> anyhow::Result<usize> {
     Ok(processed)
 }
 
+/// Pose recovery at every 40th step of the scene with the robot 5 m ahead of and turned half a
+/// turn from where the estimate and the prediction say (a kidnap the local search cannot reach):
+/// each step is Lost, the local search fails and the global search runs. Returns the attempts;
+/// fails if the global search did not run or found no right pose on most of them.
+fn run_global_recovery(scene: &Scene, up: &mut MapUpdater) -> anyhow::Result<usize> {
+    let (mut attempts, mut searched, mut right) = (0, 0, 0);
+    for s in scene.steps.iter().step_by(40) {
+        let wrong = s.truth.compose(&Pose2::new(5.0, 0.0, std::f64::consts::PI));
+        let odom = s.frame.odometry.unwrap_or(s.truth);
+        up.reset_reference_pose(wrong, odom);
+        let r = up.process(wrong, odom, &s.frame.scans);
+        let Some(recovery) = r.pose_recovery else { continue };
+        attempts += 1;
+        searched += usize::from(r.global_search.is_some());
+        if let mapkeeper_updater::PoseRecovery::Recovered { pose_in_map, .. } = recovery {
+            right += usize::from(pose_in_map.distance(&s.truth) < 0.2);
+        }
+    }
+    anyhow::ensure!(
+        searched * 2 > attempts && right * 2 > attempts,
+        "global recovery bench: {attempts} attempts, {searched} global searches, {right} right poses"
+    );
+    Ok(attempts)
+}
+
 /// Rays from every 10th true pose of the scene in 1,082 directions, 30 m, to the first occupied
 /// or unknown cell; returns (rays, the sum of the ranges, to keep the work).
 fn run_traversal(caster: &RayCaster, scene: &Scene) -> (usize, f64) {
@@ -258,6 +283,7 @@ struct Keys {
     localisers: Vec<usize>,
     updaters: Vec<usize>,
     traversal: usize,
+    global: usize,
     /// (CPU row, wall row) per closed-loop preset.
     loops: Vec<(usize, usize)>,
 }
@@ -276,6 +302,12 @@ fn table_rows(table: &mut Table, with_loop: bool) -> Keys {
         .map(|n| table.add(format!("updater `{n}`: one processed dual-S300 step"), "ms", "steps/s", 1e-3))
         .collect();
     let traversal = table.add("grid traversal: `RayCaster::cast`, W_1 truth, 30 m".into(), "ns/ray", "M rays/s", 1e-9);
+    let global = table.add(
+        "pose recovery when Lost, `mapkeeper`, kidnapped 5 m + half a turn: one attempt (local, then global search)".into(),
+        "ms",
+        "attempts/s",
+        1e-3,
+    );
     let loops = if with_loop {
         LOOP_PRESETS
             .iter()
@@ -290,7 +322,7 @@ fn table_rows(table: &mut Table, with_loop: bool) -> Keys {
     } else {
         Vec::new()
     };
-    Keys { sim, localisers, updaters, traversal, loops }
+    Keys { sim, localisers, updaters, traversal, global, loops }
 }
 
 /// One repeat of every component row (not the loop).
@@ -317,6 +349,10 @@ fn measure_components(
     }
     let (t, (rays, _)) = timed(|| run_traversal(caster, scene));
     table.push(keys.traversal, t / rays as f64, rays as f64 / t / 1e6);
+    let mut up = MapUpdater::new(scene.map.clone(), UpdaterParams::mapkeeper())?;
+    let (t, attempts) = timed(|| run_global_recovery(scene, &mut up));
+    let attempts = attempts?.max(1);
+    table.push(keys.global, t / attempts as f64, attempts as f64 / t);
     Ok(())
 }
 
