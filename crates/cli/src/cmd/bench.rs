@@ -303,7 +303,8 @@ fn table_rows(table: &mut Table, with_loop: bool) -> Keys {
         .collect();
     let traversal = table.add("grid traversal: `RayCaster::cast`, W_1 truth, 30 m".into(), "ns/ray", "M rays/s", 1e-9);
     let global = table.add(
-        "pose recovery when Lost, `mapkeeper`, kidnapped 5 m + half a turn: one attempt (local, then global search)".into(),
+        "pose recovery when Lost, `mapkeeper`, kidnapped 5 m + half a turn: one attempt (local, then global search)"
+            .into(),
         "ms",
         "attempts/s",
         1e-3,

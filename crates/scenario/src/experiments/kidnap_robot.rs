@@ -231,6 +231,11 @@ pub struct RobotKidnapTrial {
     pub final_error_m: Option<f64>,
     /// Lost verdicts of the run without kidnap.
     pub reference_lost: u64,
+    /// …of them while its localiser was right (error under the success criterion): a
+    /// well-localised robot declared Lost, the false alarm proper. The others came while the
+    /// localiser had drifted off (a right call in a run without kidnap).
+    #[serde(default)]
+    pub reference_lost_right_pose: u64,
     /// The reference's map against G_k.
     pub reference_scores: Scores,
     /// The kidnapped run's map against G_k.
@@ -256,6 +261,10 @@ pub struct KidnapRobotSummary {
     pub detected_rate: f64,
     /// Reference runs (no kidnap) with any Lost.
     pub false_lost_rate: f64,
+    /// Reference runs with a Lost while the localiser was right (under the success
+    /// criterion): the false Lost of a well-localised robot.
+    #[serde(default)]
+    pub false_lost_right_pose_rate: f64,
     /// Median time from the kidnap to recovery, seconds.
     pub median_recovery_s: Option<f64>,
     /// Mean reference − kidnapped score against G_k, points (> 0: damage).
@@ -368,6 +377,7 @@ fn run_trial(
     rp.updater = updater.clone();
     rp.max_sim_time_s = d.kidnap_s + p.recovery_window_s + c.hold_s;
     rp.record_trajectories = true;
+    rp.record_timeline = true;
     let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
     let label = format!("kidnap-robot-{:05}", d.trial);
     let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
@@ -392,11 +402,18 @@ fn run_trial(
         wrong_pose_recoveries: 0,
         final_error_m: None,
         reference_lost: reference.updater.lost,
+        reference_lost_right_pose: reference
+            .timeline
+            .iter()
+            .filter(|t| t.verdict == mapkeeper_updater::Verdict::Lost)
+            .filter(|t| t.error_m < c.max_error_m && t.yaw_error_rad < c.max_yaw_error_rad)
+            .count() as u64,
         reference_scores,
         kidnap_scores: reference_scores,
     };
     let (Some(from), Some(to)) = (from, target) else { return Ok(out) };
     rp.record_trajectories = false;
+    rp.record_timeline = false;
     rp.robot_kidnap = Some(RobotKidnap { at_s: d.kidnap_s, to });
     let run = run_world(&inputs, &rp, seed, &label, &NoClock)?;
     out.kidnap_scores = scores(&run.map, g, &recovery.metrics)?;
@@ -449,6 +466,7 @@ pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> Kidn
         failed_rate: frac(a.iter().map(|t| !t.recovered_pose_updating && !t.recovered_filter)),
         detected_rate: frac(a.iter().map(|t| t.detected)),
         false_lost_rate: frac(trials.iter().map(|t| t.reference_lost > 0)),
+        false_lost_right_pose_rate: frac(trials.iter().map(|t| t.reference_lost_right_pose > 0)),
         median_recovery_s: median(
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
         ),

@@ -29,6 +29,7 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "wrong_pose_recoveries",
     "final_error_m",
     "reference_lost",
+    "reference_lost_right_pose",
     "reference_cc",
     "reference_ms",
     "reference_opdf",
@@ -49,7 +50,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
             d.world,
             d.tour_position_m,
@@ -71,6 +72,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             t.wrong_pose_recoveries,
             opt(t.final_error_m),
             t.reference_lost,
+            t.reference_lost_right_pose,
             t.reference_scores.cc,
             t.reference_scores.ms,
             t.reference_scores.opdf,
@@ -135,7 +137,12 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         secs(k.p90_pose_found_s)
     );
     let _ = writeln!(o, "| reference runs ending ≥ 0.2 m off (no kidnap) | {} |", pc(k.reference_off_rate));
-    let _ = writeln!(o, "| false Lost (runs without kidnap) | {} |", pc(k.false_lost_rate));
+    let _ = writeln!(
+        o,
+        "| runs without kidnap with a Lost: any / while the localiser was right (false Lost) | {} / {} |",
+        pc(k.false_lost_rate),
+        pc(k.false_lost_right_pose_rate)
+    );
     let _ = writeln!(
         o,
         "| map damage CC / MS / OPDF (points, mean) | {:.2} / {:.2} / {:.2} (OPDF max {:.2}) |",
