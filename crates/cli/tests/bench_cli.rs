@@ -22,8 +22,10 @@ fn bench_table_has_every_component_with_consistent_figures() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     let rows = rows(&json);
     let names: Vec<&str> = rows.iter().map(|r| r["what"].as_str().unwrap()).collect();
-    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 1;
+    // Simulator, localisers, updaters, traversal, and one pose-recovery attempt (global search).
+    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 2;
     assert_eq!(rows.len(), expected, "{names:?}");
+    assert!(names.iter().any(|n| n.starts_with("pose recovery when Lost")), "{names:?}");
     for preset in mapkeeper_updater::PRESET_NAMES.iter().chain(&mapkeeper_localiser::LOCALISER_PRESETS) {
         assert!(names.iter().any(|n| n.contains(&format!("`{preset}`"))), "no row for {preset}: {names:?}");
     }
