@@ -229,6 +229,7 @@ mod tests {
             pose_recovery: None,
             registration: None,
             global_search: None,
+            shift_check: None,
         };
         let m = step_message(&u);
         assert_eq!((m.verdict.as_str(), m.check_verdict.as_str(), m.outcome.as_str()), ("update", "lost", "processed"));

@@ -112,6 +112,7 @@ mod updater;
 pub use additions::global_search::{GlobalSearchParams, GlobalSearchReport};
 pub use additions::pose_tolerance::{PoseSigma, StepTolerance, ToleranceParams};
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
+pub use additions::shift_check::ShiftResult;
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
 pub use error::UpdaterError;
 pub use paper::cell_update::CellChange;

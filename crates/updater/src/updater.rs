@@ -9,6 +9,7 @@ use crate::additions::hit_index::HitIndex;
 use crate::additions::log_odds_baseline::LogOddsBaseline;
 use crate::additions::pose_tolerance::{PoseSigma, StepTolerance};
 use crate::additions::registration::{Refusal, Registrar, Registration};
+use crate::additions::shift_check::ShiftResult;
 use crate::additions::structure_memory::StructureMemory;
 use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
 use crate::paper::cell_buffers::CellBuffers;
@@ -76,6 +77,9 @@ pub struct StepReport {
     /// local search found no pose or a weak one): its candidates and work. `pose_recovery` is
     /// then the answer of the check over its candidates and the local pose.
     pub global_search: Option<GlobalSearchReport>,
+    /// The shift check's scores, when it ran on this step (`shift_check` on, and for
+    /// `on_alarm` only on the steps the paper's check raised an alarm).
+    pub shift_check: Option<ShiftResult>,
 }
 
 impl StepReport {
@@ -93,6 +97,7 @@ impl StepReport {
             pose_recovery: None,
             registration: None,
             global_search: None,
+            shift_check: None,
         }
     }
 }
@@ -467,7 +472,8 @@ impl MapUpdater {
         if let Some(r) = &registration {
             self.stats.registration.record(r);
         }
-        let (check_verdict, verdict) = self.verdict(counts.n_valid, counts.n_dc, pose, scans);
+        let (check_verdict, verdict, shift) = self.verdict(counts.n_valid, counts.n_dc, pose, scans);
+        report.shift_check = shift;
         report.check_verdict = Some(check_verdict);
         report.verdict = Some(verdict);
         if verdict != Verdict::Lost {
@@ -532,22 +538,30 @@ impl MapUpdater {
     }
 
     /// The localisation check (§4.2) alone, and with the shift check when on.
-    fn verdict(&self, n_valid: usize, n_dc: usize, pose: Pose2, scans: &[LaserScan]) -> (Verdict, Verdict) {
+    fn verdict(
+        &self,
+        n_valid: usize,
+        n_dc: usize,
+        pose: Pose2,
+        scans: &[LaserScan],
+    ) -> (Verdict, Verdict, Option<ShiftResult>) {
         let check = if self.params.localisation_check {
             localisation_check(n_valid, n_dc, self.params.d_eps_min, self.params.d_eps_max)
         } else {
             Verdict::Update
         };
         let mut verdict = check;
+        let mut shift = None;
         if let Some(field) = &self.shift_field
             && self.params.shift_check.when.runs_on(verdict)
         {
             let p = &self.params.shift_check;
-            if let Some(r) = crate::additions::shift_check::search(field, pose, scans, p) {
-                verdict = crate::additions::shift_check::combine(verdict, &r, p);
+            shift = crate::additions::shift_check::search(field, pose, scans, p);
+            if let Some(r) = &shift {
+                verdict = crate::additions::shift_check::combine(verdict, r, p);
             }
         }
-        (check, verdict)
+        (check, verdict, shift)
     }
 
     /// Pose updating (§4.6) on a Lost step, if enabled and due (the first Lost step of an

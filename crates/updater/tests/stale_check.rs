@@ -71,3 +71,26 @@ fn a_wrong_pose_in_a_stale_world_stays_an_alarm_for_mapkeeper() {
         assert_eq!(alarms(&v), 10, "{v:?}");
     }
 }
+
+#[test]
+fn the_step_report_carries_the_shift_check_where_it_ran() {
+    let (map, world) = stale_room();
+    let truth = Pose2::new(3.0, 3.0, 0.3);
+    let scans = s300_pair(&world, truth, 0);
+    // `paper` has no shift check; `mapkeeper` runs it on this alarm step: the given pose is
+    // the best in the search (the lining fits nowhere better) and fits.
+    let r = MapUpdater::new(map.clone(), UpdaterParams::paper()).unwrap().process(truth, truth, &scans);
+    assert_ne!(r.check_verdict, Some(Verdict::Update));
+    assert_eq!(r.shift_check, None);
+    let r = MapUpdater::new(map.clone(), UpdaterParams::mapkeeper()).unwrap().process(truth, truth, &scans);
+    assert_ne!(r.check_verdict, Some(Verdict::Update));
+    assert_eq!(r.verdict, Some(Verdict::Update));
+    let s = r.shift_check.unwrap();
+    assert!(s.given_m <= UpdaterParams::mapkeeper().shift_check.fit_ok_m, "{s:?}");
+    assert!(s.given_m - s.best_m < UpdaterParams::mapkeeper().shift_check.better_margin_m, "{s:?}");
+    // 0.58 m off, the search finds a better pose near the truth.
+    let est = Pose2::new(truth.x + 0.5, truth.y + 0.3, truth.yaw);
+    let r = MapUpdater::new(map, UpdaterParams::mapkeeper()).unwrap().process(est, truth, &scans);
+    let s = r.shift_check.unwrap();
+    assert!(s.best_pose.distance(&truth) < 0.25 && s.best_m < s.given_m, "{s:?}");
+}

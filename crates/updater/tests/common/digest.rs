@@ -178,7 +178,8 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
 /// (`xy_sigma_m`, reported since the tolerances that follow the pose uncertainty) is left out
 /// too: it is a new figure of the same fit, not a change of what the updater does; so is the
 /// paper's check's verdict before the shift check (`check_verdict`). A global search that did
-/// not run (its report `None`, its counts 0) is left out as well.
+/// not run (its report `None`, its counts 0) is left out as well, and the shift check's scores
+/// (`shift_check`) always.
 fn legacy(debug: String) -> String {
     const FIELD: &str = ", xy_sigma_m: ";
     let unused = format!(", registration: {:?}, heal_votes: 0", mapkeeper_updater::RegistrationStats::default());
@@ -192,6 +193,12 @@ fn legacy(debug: String) -> String {
         let end = out[at..].find(", writes_withheld").map_or(out.len(), |k| at + k);
         let counts: Vec<&str> = out[at..end].split(", ").filter_map(|f| f.split(": ").nth(1)).collect();
         out.replace_range(at..end, &format!("refused: [{}]", counts.join(", ")));
+    }
+    // The shift check's scores (reported since issue 33), a new figure of the same step: the
+    // report's last field.
+    if let Some(at) = out.find(", shift_check: ") {
+        let end = out.rfind(" }").filter(|&e| e > at).unwrap_or(out.len());
+        out.replace_range(at..end, "");
     }
     // The paper's check's own verdict (reported since the MCAP layer of the check's state): a new
     // figure of the same step, printed between `verdict` and `n_valid`.
