@@ -263,3 +263,60 @@ fn a_world_written_here_without_scenario_runs_in_generate_validate_run_and_recov
     // The tour recorded is the room's planned patrol (it starts at the room's robot_start).
     assert!(sum.contains("-3.5") && sum.contains("-2.3"), "the room's tour is not in the summary");
 }
+
+/// The robot-kidnap suite (issue 33 item 3) runs in the lab and on an imported map as in the
+/// warehouse: the world is named in the outputs, the tour is the world's, the robot is moved
+/// and the paired runs are counted; a world file that does not exist is refused naming the flag.
+#[test]
+fn kidnap_robot_runs_in_the_lab_and_on_an_imported_map() {
+    let dir = scratch("world-cli", "kidnap");
+    let yaml = write_room_map(&dir);
+    let room = dir.join("room.toml");
+    let out = mapkeeper(&["import-map", s(&yaml), "--out", s(&room)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut tours = Vec::new();
+    for (world, name) in [("lab", "lab".to_string()), (s(&room), room.display().to_string())] {
+        let k = dir.join(format!("k-{}", tours.len()));
+        let o = mapkeeper(&[
+            "experiment",
+            "kidnap-robot",
+            "--quick",
+            "--preset",
+            "mapkeeper",
+            "--world",
+            world,
+            "--out",
+            s(&k),
+            "--jobs",
+            "1",
+        ]);
+        assert!(o.status.success(), "{world}: {}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(stdout.contains(&format!("kidnap-robot: {name}, seed 41")), "{stdout}");
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(k.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(v["world"], name.as_str());
+        let kr = &v["kidnap_robot"];
+        assert!(kr["applied"].as_u64().unwrap() >= 1, "{world}: {kr}");
+        for f in ["false_lost_rate", "false_lost_right_pose_rate", "false_lost_well_localised_rate"] {
+            let r = kr[f].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&r), "{world}: {f} {kr}");
+        }
+        // Lost while well localised ⊆ while right ⊆ at all, run by run.
+        assert!(kr["false_lost_well_localised_rate"].as_f64() <= kr["false_lost_right_pose_rate"].as_f64(), "{kr}");
+        assert!(kr["false_lost_right_pose_rate"].as_f64() <= kr["false_lost_rate"].as_f64(), "{kr}");
+        let report = std::fs::read_to_string(k.join("report.md")).unwrap();
+        assert!(report.starts_with("# Real kidnaps") && report.contains(&format!("World `{name}`")), "{report}");
+        tours.push(v["recovery"]["tour"].clone());
+    }
+    // Each world drove its own tour, neither the warehouse's.
+    assert_ne!(tours[0], tours[1]);
+    let warehouse = mapkeeper_sim::Route::default_warehouse();
+    for t in &tours {
+        assert_ne!(t, &serde_json::to_value(&warehouse).unwrap());
+    }
+    let o = mapkeeper(&["experiment", "kidnap-robot", "--quick", "--world", s(&dir.join("none.toml"))]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--world") && err.contains("none.toml"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -103,18 +103,21 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --preset")?;
     let (default, total) = (default_out("kidnap-robot", args.seed, p.trials), p.trials);
+    let (w1, world) = site_world(&args.common, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
-        run_timed("kidnap-robot", &args.common, default, total, "trials", |w1, progress| {
+        run_timed("kidnap-robot", &args.common, &w1, default, total, "trials", |w1, progress| {
             Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
         })?;
     r.wall_time_s = wall_time_s;
+    r.world = world;
     write_kidnap_robot(&dir, &r)?;
     let out = dir.finish()?;
     let k = &r.kidnap_robot;
     outln!(
-        "kidnap-robot: seed {}, preset {}, {} trials ({} moved), {:.1} s wall: recovered by pose updating {:.1} %, by \
-         the filter {:.1} %, failed {:.1} %, false Lost {:.1} %, median recovery {}, map damage CC {:.2} MS {:.2} OPDF \
-         {:.2}",
+        "kidnap-robot: {}, seed {}, preset {}, {} trials ({} moved), {:.1} s wall: recovered by pose updating {:.1} %, \
+         by the filter {:.1} %, failed {:.1} %, Lost without kidnap {:.1} % (well localised {:.1} %), median recovery \
+         {}, map damage CC {:.2} MS {:.2} OPDF {:.2}",
+        r.world,
         r.seed,
         k.preset,
         k.trials,
@@ -124,6 +127,7 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
         100.0 * k.recovered_rate_filter,
         100.0 * k.failed_rate,
         100.0 * k.false_lost_rate,
+        100.0 * k.false_lost_well_localised_rate,
         k.median_recovery_s.map_or_else(|| "–".into(), |v| format!("{v:.2} s")),
         k.map_damage.cc,
         k.map_damage.ms,
@@ -187,15 +191,16 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --presets")?;
     let runs = p.trials * p.presets.len() * p.conditions().len() * VARIANTS.len();
-    let (mut r, wall_time_s, dir) =
-        run_timed("table1", &args.common, default_out("table1", args.seed, p.trials), runs, "runs", |w1, progress| {
-            Ok(run_table1_hold(w1, &file.recovery, &file.table1, args.seed, progress)?)
-        })?;
+    let default = default_out("table1", args.seed, p.trials);
+    let (w1, world) = site_world(&args.common, &mut file.recovery)?;
+    let (mut r, wall_time_s, dir) = run_timed("table1", &args.common, &w1, default, runs, "runs", |w1, progress| {
+        Ok(run_table1_hold(w1, &file.recovery, &file.table1, args.seed, progress)?)
+    })?;
     r.summary.wall_time_s = wall_time_s;
     write_table1_hold(&dir, &r)?;
     let out = dir.finish()?;
     outln!(
-        "table1: seed {}, {} trials, {} runs, localiser {}, {:.1} s wall",
+        "table1: {world}, seed {}, {} trials, {} runs, localiser {}, {:.1} s wall",
         args.seed,
         r.summary.params.trials,
         runs,
@@ -238,17 +243,39 @@ pub struct Common {
     /// Worker threads, 1 to 1024 (default: all cores).
     #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
     pub jobs: Option<usize>,
+    /// The world W_1: `warehouse` (the default), `lab`, or a world file (an imported map:
+    /// `mapkeeper import-map`); its tour and storage areas from the file, planned and derived
+    /// when absent.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub world: Option<PathBuf>,
+    /// Route file overriding the world's route (the tour).
+    #[arg(long, value_name = "FILE")]
+    pub route: Option<PathBuf>,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
 }
 
-/// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 = the default
-/// warehouse on the `--jobs` pool with a progress bar of `total` `unit`s; returns its result,
-/// the wall time in seconds and the folder to write into.
+/// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
+/// parameters' tour, exploration route and storage areas taken from it; and its name.
+fn site_world(c: &Common, recovery: &mut RecoveryParams) -> anyhow::Result<(World, String)> {
+    let Some((name, site)) = super::load_site(c.world.as_deref(), c.route.as_deref(), true)? else {
+        return Ok((World::default_warehouse(), "warehouse".into()));
+    };
+    recovery.tour = site.route;
+    recovery.exploration_route = site.exploration;
+    recovery.generator.storage_areas = site.storage;
+    recovery.validate().context("--world / --route")?;
+    Ok((site.world, name))
+}
+
+/// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 on the `--jobs`
+/// pool with a progress bar of `total` `unit`s; returns its result, the wall time in seconds
+/// and the folder to write into.
 fn run_timed<R: Send>(
     name: &str,
     c: &Common,
+    w1: &World,
     default: PathBuf,
     total: usize,
     unit: &str,
@@ -259,9 +286,8 @@ fn run_timed<R: Send>(
     let pool = super::thread_pool(c.jobs)?;
     let bar = pool.install(|| super::progress_bar(&format!("experiment {name}"), total as u64, unit, &out));
     let start = Instant::now();
-    let w1 = World::default_warehouse();
     let progress = || bar.inc(1);
-    let r = pool.install(|| work(&w1, &progress))?;
+    let r = pool.install(|| work(w1, &progress))?;
     bar.finish_and_clear();
     Ok((r, start.elapsed().as_secs_f64(), dir))
 }
@@ -351,15 +377,16 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --presets / --max-world")?;
     let (default, total) = (default_out("check-detection", args.seed, p.trials), p.trials * p.presets.len());
+    let (w1, world) = site_world(&args.common, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
-        run_timed("check-detection", &args.common, default, total, "runs", |w1, progress| {
+        run_timed("check-detection", &args.common, &w1, default, total, "runs", |w1, progress| {
             Ok(run_check_detection(w1, &file.recovery, &file.check_detection, args.seed, progress)?)
         })?;
     r.summary.wall_time_s = wall_time_s;
     write_check_detection(&dir, &r)?;
     let out = dir.finish()?;
     outln!(
-        "check-detection: seed {}, {} trials per preset, worlds W_2-W_{}, localiser {}, {:.1} s wall",
+        "check-detection: {world}, seed {}, {} trials per preset, worlds W_2-W_{}, localiser {}, {:.1} s wall",
         args.seed,
         r.summary.trials,
         r.summary.params.max_world,

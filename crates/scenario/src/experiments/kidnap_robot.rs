@@ -12,7 +12,7 @@
 
 use super::ExperimentError;
 use super::recovery::{RecoveryParams, prepare, recovery_time, scores, tour_from, with_start};
-use super::run_events::{RobotKidnap, TrackSample};
+use super::run_events::{RobotKidnap, TimelineSample, TrackSample};
 use super::runner::{NoClock, RunInputs, run_world};
 use super::validation::Scores;
 use crate::stats::{frac, mean, median, percentile};
@@ -54,6 +54,12 @@ pub struct KidnapRobotParams {
     pub route_length_m: f64,
     /// The target must have free cells of G_k within this radius, metres. Default 0.5.
     pub free_radius_m: f64,
+    /// A reference run's localiser counts as well localised at a step when its error is at
+    /// most this, metres (a Lost then is a false alarm proper). Default 0.05, the clean
+    /// tolerance of `experiment check-detection`.
+    pub well_localised_max_error_m: f64,
+    /// …and its heading error at most this, radians. Default 2° (0.0349).
+    pub well_localised_max_yaw_rad: f64,
 }
 
 impl Default for KidnapRobotParams {
@@ -71,6 +77,8 @@ impl Default for KidnapRobotParams {
             recovery_window_s: 20.0,
             route_length_m: 60.0,
             free_radius_m: 0.5,
+            well_localised_max_error_m: 0.05,
+            well_localised_max_yaw_rad: 2f64.to_radians(),
         }
     }
 }
@@ -99,6 +107,8 @@ impl KidnapRobotParams {
             ("kidnap_robot.kidnap_min_s", self.kidnap_min_s),
             ("kidnap_robot.kidnap_max_s", self.kidnap_max_s),
             ("kidnap_robot.free_radius_m", self.free_radius_m),
+            ("kidnap_robot.well_localised_max_error_m", self.well_localised_max_error_m),
+            ("kidnap_robot.well_localised_max_yaw_rad", self.well_localised_max_yaw_rad),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(invalid(name, format!("must be finite and ≥ 0, got {v}")));
@@ -231,11 +241,15 @@ pub struct RobotKidnapTrial {
     pub final_error_m: Option<f64>,
     /// Lost verdicts of the run without kidnap.
     pub reference_lost: u64,
-    /// …of them while its localiser was right (error under the success criterion): a
-    /// well-localised robot declared Lost, the false alarm proper. The others came while the
-    /// localiser had drifted off (a right call in a run without kidnap).
+    /// …of them while its localiser was right by the success criterion (error under 0.2 m
+    /// and 5° by default): a localiser that may still be off by a few degrees.
     #[serde(default)]
     pub reference_lost_right_pose: u64,
+    /// …of them while its localiser was well localised (`well_localised_max_error_m`,
+    /// `well_localised_max_yaw_rad`): a false alarm proper. The others came while the
+    /// localiser had drifted (a Lost that stops the robot, but not a false alarm).
+    #[serde(default)]
+    pub reference_lost_well_localised: u64,
     /// The reference's map against G_k.
     pub reference_scores: Scores,
     /// The kidnapped run's map against G_k.
@@ -261,10 +275,13 @@ pub struct KidnapRobotSummary {
     pub detected_rate: f64,
     /// Reference runs (no kidnap) with any Lost.
     pub false_lost_rate: f64,
-    /// Reference runs with a Lost while the localiser was right (under the success
-    /// criterion): the false Lost of a well-localised robot.
+    /// Reference runs with a Lost while the localiser was right by the success criterion.
     #[serde(default)]
     pub false_lost_right_pose_rate: f64,
+    /// Reference runs with a Lost while the localiser was well localised (within 0.05 m and
+    /// 2° by default): the false Lost of a well-localised robot, the false alarm proper.
+    #[serde(default)]
+    pub false_lost_well_localised_rate: f64,
     /// Median time from the kidnap to recovery, seconds.
     pub median_recovery_s: Option<f64>,
     /// Mean reference − kidnapped score against G_k, points (> 0: damage).
@@ -340,6 +357,10 @@ fn bins(a: &[&RobotKidnapTrial], edges: &[(String, f64, f64)], key: fn(&RobotKid
         .collect()
 }
 
+fn warehouse() -> String {
+    "warehouse".into()
+}
+
 /// The whole result.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KidnapRobotResults {
@@ -347,6 +368,9 @@ pub struct KidnapRobotResults {
     pub tool: String,
     /// Run seed.
     pub seed: u64,
+    /// W_1: `warehouse`, `lab` or the world file (set by the caller).
+    #[serde(default = "warehouse")]
+    pub world: String,
     /// Wall time (set by the caller).
     pub wall_time_s: f64,
     /// The summary.
@@ -402,12 +426,12 @@ fn run_trial(
         wrong_pose_recoveries: 0,
         final_error_m: None,
         reference_lost: reference.updater.lost,
-        reference_lost_right_pose: reference
-            .timeline
-            .iter()
-            .filter(|t| t.verdict == mapkeeper_updater::Verdict::Lost)
-            .filter(|t| t.error_m < c.max_error_m && t.yaw_error_rad < c.max_yaw_error_rad)
-            .count() as u64,
+        reference_lost_right_pose: lost_where(&reference.timeline, |t| {
+            t.error_m < c.max_error_m && t.yaw_error_rad < c.max_yaw_error_rad
+        }),
+        reference_lost_well_localised: lost_where(&reference.timeline, |t| {
+            t.error_m <= p.well_localised_max_error_m && t.yaw_error_rad <= p.well_localised_max_yaw_rad
+        }),
         reference_scores,
         kidnap_scores: reference_scores,
     };
@@ -445,6 +469,11 @@ fn run_trial(
     Ok(out)
 }
 
+/// Lost verdicts of a timeline given at steps where `at` holds (the localiser's error then).
+fn lost_where(timeline: &[TimelineSample], at: impl Fn(&TimelineSample) -> bool) -> u64 {
+    timeline.iter().filter(|t| t.verdict == mapkeeper_updater::Verdict::Lost && at(t)).count() as u64
+}
+
 /// The chain localiser's error at its last pose, against the truth at the same stamp.
 fn final_chain_error(t: Option<&mapkeeper_harness::Trajectories>) -> Option<f64> {
     let t = t?;
@@ -467,6 +496,7 @@ pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> Kidn
         detected_rate: frac(a.iter().map(|t| t.detected)),
         false_lost_rate: frac(trials.iter().map(|t| t.reference_lost > 0)),
         false_lost_right_pose_rate: frac(trials.iter().map(|t| t.reference_lost_right_pose > 0)),
+        false_lost_well_localised_rate: frac(trials.iter().map(|t| t.reference_lost_well_localised > 0)),
         median_recovery_s: median(
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
         ),
@@ -542,6 +572,7 @@ pub fn run_kidnap_robot(
     Ok(KidnapRobotResults {
         tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
         seed,
+        world: warehouse(),
         wall_time_s: 0.0,
         kidnap_robot: summarise_robot_kidnap(&p.preset, &trials),
         trials,
@@ -586,5 +617,30 @@ mod tests {
         );
         let dr = draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3);
         assert!((50..=100).contains(&dr.world) && (0.5..=3.0).contains(&dr.displacement_m));
+    }
+
+    #[test]
+    fn lost_is_split_by_how_far_off_the_localiser_was_then() {
+        let at = |verdict, error_m, yaw_deg: f64| TimelineSample {
+            t_s: 0.0,
+            verdict,
+            n_valid: 100,
+            n_dc: 95,
+            error_m,
+            yaw_error_rad: yaw_deg.to_radians(),
+            recovered: None,
+        };
+        use mapkeeper_updater::Verdict::{Lost, Suspend};
+        // A drifted localiser (0.15 m, 3.7°: right by the success criterion, not well
+        // localised), a well-localised one, one 0.3 m off, and a Suspend at a right pose.
+        let t = [at(Lost, 0.15, 3.7), at(Lost, 0.04, 1.5), at(Lost, 0.3, 0.5), at(Suspend, 0.01, 0.0)];
+        let p = KidnapRobotParams::default();
+        let c = super::super::recovery::SuccessCriterion::default();
+        assert_eq!(lost_where(&t, |s| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad), 2);
+        let well = |s: &TimelineSample| {
+            s.error_m <= p.well_localised_max_error_m && s.yaw_error_rad <= p.well_localised_max_yaw_rad
+        };
+        assert_eq!(lost_where(&t, well), 1);
+        assert_eq!(lost_where(&t[..1], well), 0);
     }
 }

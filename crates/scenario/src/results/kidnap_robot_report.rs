@@ -30,6 +30,7 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "final_error_m",
     "reference_lost",
     "reference_lost_right_pose",
+    "reference_lost_well_localised",
     "reference_cc",
     "reference_ms",
     "reference_opdf",
@@ -50,7 +51,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
             d.world,
             d.tour_position_m,
@@ -73,6 +74,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             opt(t.final_error_m),
             t.reference_lost,
             t.reference_lost_right_pose,
+            t.reference_lost_well_localised,
             t.reference_scores.cc,
             t.reference_scores.ms,
             t.reference_scores.opdf,
@@ -92,9 +94,10 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
     let _ = writeln!(o, "# Real kidnaps: the robot moved, odometry blind\n");
     let _ = writeln!(
         o,
-        "Seed {}, preset `{}`, localiser `{}`, {} trials in W_{}-W_{} on the map of W_1 ({:?}); the robot is moved \
+        "World `{}`, seed {}, preset `{}`, localiser `{}`, {} trials in W_{}-W_{} on the map of W_1 ({:?}); the robot is moved \
          {:.1}-{:.1} m and up to ±{:.0}° at {:.0}-{:.0} s into a drive; recovered = the localiser's error under {:.2} m \
          and {:.1}° from some time within {:.0} s of the kidnap to the end. Wall time {:.1} s.\n",
+        r.world,
         r.seed,
         k.preset,
         r.recovery.runner.localiser,
@@ -137,12 +140,7 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         secs(k.p90_pose_found_s)
     );
     let _ = writeln!(o, "| reference runs ending ≥ 0.2 m off (no kidnap) | {} |", pc(k.reference_off_rate));
-    let _ = writeln!(
-        o,
-        "| runs without kidnap with a Lost: any / while the localiser was right (false Lost) | {} / {} |",
-        pc(k.false_lost_rate),
-        pc(k.false_lost_right_pose_rate)
-    );
+    false_lost_row(&mut o, r);
     let _ = writeln!(
         o,
         "| map damage CC / MS / OPDF (points, mean) | {:.2} / {:.2} / {:.2} (OPDF max {:.2}) |",
@@ -164,6 +162,24 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
     o.push('\n');
     o.push_str(&crate::results::claims::claims_md(&crate::results::claims::kidnap_claims(k)));
     o
+}
+
+/// The row of the runs without kidnap that said Lost, split by how far off the localiser was.
+fn false_lost_row(o: &mut String, r: &KidnapRobotResults) {
+    let k = &r.kidnap_robot;
+    let pc = |v: f64| format!("{:.1} %", 100.0 * v);
+    let _ = writeln!(
+        o,
+        "| runs without kidnap with a Lost: any / while the localiser was right (< {:.2} m, < {:.0}°) / while it was \
+         well localised (≤ {:.2} m, ≤ {:.0}°: false Lost) | {} / {} / {} |",
+        r.recovery.success.max_error_m,
+        r.recovery.success.max_yaw_error_rad.to_degrees(),
+        r.params.well_localised_max_error_m,
+        r.params.well_localised_max_yaw_rad.to_degrees(),
+        pc(k.false_lost_rate),
+        pc(k.false_lost_right_pose_rate),
+        pc(k.false_lost_well_localised_rate)
+    );
 }
 
 /// Writes the folder's files into `dir`.
