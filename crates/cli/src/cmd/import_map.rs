@@ -14,7 +14,7 @@ unknown cell next to a free cell, and every free cell on the map's border, is se
 so the robot and its lidars stay inside what the map saw. The robot starts at the free cell farthest \
 from any obstacle. Storage areas are derived and a patrol route is planned as for any world without \
 them (docs/world-format.md); the world file holds both, so it can be edited and passed to validate, \
-generate, recover or run with --world.\n\nExample:\n  mapkeeper import-map site/map.yaml --out site.toml\n  \
+generate, recover, run or experiment with --world.\n\nExample:\n  mapkeeper import-map site/map.yaml --out site.toml\n  \
 mapkeeper validate --world site.toml --preset paper --worlds 10 --seeds 1")]
 pub struct Args {
     /// The map (ROS map_server YAML; its image PGM or PNG, trinary, scale or raw).

@@ -152,7 +152,7 @@ pub fn parse_pose(s: &str) -> Result<Pose2, String> {
     Ok(Pose2::new(v[0], v[1], v[2]))
 }
 
-/// `--world` and `--route` of `validate`, `generate`, `recover` and `run`: the world (an
+/// `--world` and `--route` of `validate`, `generate`, `recover`, `run` and the experiments: the world (an
 /// embedded world's name, `warehouse` or `lab`, or a world file) with its scenario resolved
 /// (storage areas and route from the file, derived or planned when absent; the route file
 /// overrides the world's route), and the name it goes by in the outputs. `None` when neither
