@@ -142,6 +142,8 @@ fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
         .map(|f| k[f].as_f64().unwrap())
         .sum();
     assert!((sum - 1.0).abs() < 1e-9, "{k}");
+    assert!(k["trials_reference_held"].as_u64().unwrap() <= applied, "{k}");
+    assert!((0.0..=1.0).contains(&k["recovered_rate_reference_held"].as_f64().unwrap()), "{k}");
     for m in ["cc", "ms", "opdf"] {
         assert!(k["map_damage"][m].is_number(), "{k}");
     }

@@ -318,6 +318,13 @@ pub struct KidnapRobotSummary {
     /// a kidnapped run there cannot count as recovered whatever pose updating does.
     #[serde(default)]
     pub reference_off_rate: f64,
+    /// Recovered (pose updating or filter) among the trials whose reference run ends under
+    /// 0.2 m: recovery where the localiser can hold a right pose in that world at all.
+    #[serde(default)]
+    pub recovered_rate_reference_held: f64,
+    /// Those trials.
+    #[serde(default)]
+    pub trials_reference_held: usize,
     /// Recovered / wrong / not, by the turn of the kidnap (≤ 45°, 45-90°, > 90°).
     #[serde(default)]
     pub by_turn: Vec<KidnapBin>,
@@ -486,6 +493,8 @@ fn final_chain_error(t: Option<&mapkeeper_harness::Trajectories>) -> Option<f64>
 pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> KidnapRobotSummary {
     let a: Vec<&RobotKidnapTrial> = trials.iter().filter(|t| t.applied).collect();
     let dmg = |f: fn(&Scores) -> f64| mean(a.iter().map(|t| f(&t.reference_scores) - f(&t.kidnap_scores)));
+    let held: Vec<&&RobotKidnapTrial> =
+        a.iter().filter(|t| t.reference_final_error_m.is_some_and(|e| e < 0.2)).collect();
     KidnapRobotSummary {
         preset: preset.to_string(),
         trials: trials.len(),
@@ -510,6 +519,8 @@ pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> Kidn
         median_pose_found_s: median(a.iter().filter_map(|t| t.pose_found_s).collect()),
         p90_pose_found_s: percentile(a.iter().filter_map(|t| t.pose_found_s).collect(), 0.9),
         reference_off_rate: frac(a.iter().map(|t| t.reference_final_error_m.is_some_and(|e| e >= 0.2))),
+        recovered_rate_reference_held: frac(held.iter().map(|t| t.recovered_pose_updating || t.recovered_filter)),
+        trials_reference_held: held.len(),
         wrong_recovery_rate: frac(a.iter().map(|t| t.wrong_pose_recoveries > 0)),
         p90_recovery_s: percentile(
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
@@ -642,5 +653,47 @@ mod tests {
         };
         assert_eq!(lost_where(&t, well), 1);
         assert_eq!(lost_where(&t[..1], well), 0);
+    }
+
+    #[test]
+    fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_ways() {
+        let sc = Scores { cc: 80.0, ms: 70.0, opdf: 90.0 };
+        let trial = |k: usize, recovered: bool, reference_final_error_m: f64, lost: [u64; 3]| RobotKidnapTrial {
+            draw: draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, k),
+            applied: true,
+            applied_displacement_m: Some(1.0),
+            detected: true,
+            detection_delay_s: Some(0.1),
+            recovered_pose_updating: recovered,
+            recovered_filter: false,
+            recovered_global_search: recovered,
+            recovery_s: recovered.then_some(2.0),
+            pose_found_s: recovered.then_some(1.0),
+            reference_final_error_m: Some(reference_final_error_m),
+            pose_recoveries: usize::from(recovered),
+            wrong_pose_recoveries: 0,
+            final_error_m: Some(0.05),
+            reference_lost: lost[0],
+            reference_lost_right_pose: lost[1],
+            reference_lost_well_localised: lost[2],
+            reference_scores: sc,
+            kidnap_scores: sc,
+        };
+        // Four trials: two whose reference run holds (< 0.2 m at its end), one recovered; two
+        // whose reference ends 0.3 m off, one recovered anyway. Lost without kidnap: one run at
+        // a well-localised step, one while 0.15 m off, one while 0.5 m off.
+        let t = [
+            trial(0, true, 0.05, [3, 3, 1]),
+            trial(1, false, 0.1, [0, 0, 0]),
+            trial(2, true, 0.3, [5, 2, 0]),
+            trial(3, false, 0.3, [4, 0, 0]),
+        ];
+        let s = summarise_robot_kidnap("mapkeeper", &t);
+        assert_eq!(s.trials_reference_held, 2);
+        assert!((s.recovered_rate_reference_held - 0.5).abs() < 1e-12);
+        assert!((s.reference_off_rate - 0.5).abs() < 1e-12);
+        assert!((s.false_lost_rate - 0.75).abs() < 1e-12);
+        assert!((s.false_lost_right_pose_rate - 0.5).abs() < 1e-12);
+        assert!((s.false_lost_well_localised_rate - 0.25).abs() < 1e-12);
     }
 }

@@ -140,6 +140,12 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         secs(k.p90_pose_found_s)
     );
     let _ = writeln!(o, "| reference runs ending ≥ 0.2 m off (no kidnap) | {} |", pc(k.reference_off_rate));
+    let _ = writeln!(
+        o,
+        "| recovered where the reference run ends < 0.2 m off | {} of {} |",
+        pc(k.recovered_rate_reference_held),
+        k.trials_reference_held
+    );
     false_lost_row(&mut o, r);
     let _ = writeln!(
         o,
