@@ -30,6 +30,7 @@
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
 //! | `support/votes.rs` | support: vote packing, radix sort and merge shared by the evaluators and the cells update |
+//! | `support/chessboard.rs` | support: the chessboard distance transform of pose updating's score grid and the global search's pyramid |
 //!
 //! All parameters are in [`UpdaterParams`]: presets `paper` (§4 read fairly, nothing added),
 //! `paper-strict` (§4 at its strictest), `authors` (the behaviour of the authors' ROS code),
@@ -102,6 +103,7 @@ pub mod additions {
 /// beam, and the packing and sorting of votes.
 pub mod support {
     pub mod beam_walk;
+    pub mod chessboard;
     pub mod votes;
 }
 

@@ -22,6 +22,7 @@
 //! The work is bounded: at most `max_nodes` blocks are scored per search (the best found by
 //! then are returned, and the report says the budget ran out).
 
+use crate::support::chessboard::chessboard_distance;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, angle_diff, wrap_angle};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
@@ -330,8 +331,7 @@ impl GlobalSearch {
         let reach = (p.tolerance_m / g.resolution_m()).ceil().clamp(1.0, 250.0) as u16;
         let mut d: Vec<u16> =
             map.cells().iter().map(|&c| if c == CellState::Occupied { 0 } else { reach + 1 }).collect();
-        chessboard_pass(&mut d, w, h, false);
-        chessboard_pass(&mut d, w, h, true);
+        chessboard_distance(&mut d, w, h);
         let base: Vec<u8> = d
             .iter()
             .map(|&x| if x > reach { 0 } else { (255 * u32::from(reach + 1 - x) / u32::from(reach + 1)) as u8 })
@@ -356,34 +356,6 @@ impl GlobalSearch {
                 }
             }
             self.levels.push(Level { pad, stride, rows, data });
-        }
-    }
-}
-
-/// One raster pass of the chessboard distance transform (forward, or backward when `back`).
-fn chessboard_pass(d: &mut [u16], w: usize, h: usize, back: bool) {
-    let idx = |x: usize, y: usize| y * w + x;
-    for yy in 0..h {
-        let y = if back { h - 1 - yy } else { yy };
-        for xx in 0..w {
-            let x = if back { w - 1 - xx } else { xx };
-            let mut m = d[idx(x, y)];
-            let (prev_x, prev_y) = if back { (x + 1 < w, y + 1 < h) } else { (x > 0, y > 0) };
-            let px = if back { x + 1 } else { x.wrapping_sub(1) };
-            let py = if back { y + 1 } else { y.wrapping_sub(1) };
-            if prev_x {
-                m = m.min(d[idx(px, y)] + 1);
-            }
-            if prev_y {
-                m = m.min(d[idx(x, py)] + 1);
-                if x > 0 {
-                    m = m.min(d[idx(x - 1, py)] + 1);
-                }
-                if x + 1 < w {
-                    m = m.min(d[idx(x + 1, py)] + 1);
-                }
-            }
-            d[idx(x, y)] = m;
         }
     }
 }

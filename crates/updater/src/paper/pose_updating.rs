@@ -10,6 +10,7 @@
 
 use crate::paper::icp::{Fitness, PointGrid, fitness, icp_from};
 use crate::params::PoseUpdatingParams;
+use crate::support::chessboard::chessboard_distance;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 use nalgebra::Matrix3;
@@ -445,46 +446,7 @@ impl PoseUpdater {
         self.score.clear();
         self.score.extend(map.cells().iter().map(|&c| if c == CellState::Occupied { 0 } else { far }));
         let d = &mut self.score;
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                let mut m = d[i];
-                if x > 0 {
-                    m = m.min(d[i - 1].saturating_add(1));
-                }
-                if y > 0 {
-                    let up = i - w;
-                    m = m.min(d[up].saturating_add(1));
-                    if x > 0 {
-                        m = m.min(d[up - 1].saturating_add(1));
-                    }
-                    if x + 1 < w {
-                        m = m.min(d[up + 1].saturating_add(1));
-                    }
-                }
-                d[i] = m;
-            }
-        }
-        for y in (0..h).rev() {
-            for x in (0..w).rev() {
-                let i = y * w + x;
-                let mut m = d[i];
-                if x + 1 < w {
-                    m = m.min(d[i + 1].saturating_add(1));
-                }
-                if y + 1 < h {
-                    let down = i + w;
-                    m = m.min(d[down].saturating_add(1));
-                    if x > 0 {
-                        m = m.min(d[down - 1].saturating_add(1));
-                    }
-                    if x + 1 < w {
-                        m = m.min(d[down + 1].saturating_add(1));
-                    }
-                }
-                d[i] = m;
-            }
-        }
+        chessboard_distance(d, w, h);
         for v in d.iter_mut() {
             *v = far.saturating_sub(*v);
         }
