@@ -150,6 +150,15 @@ fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
     let csv = std::fs::read_to_string(out.join("trials.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 3);
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for r in &rows {
+        assert_eq!(r.len(), header.len(), "{r:?}");
+        let at = |c: &str| r[header.iter().position(|h| *h == c).unwrap()].parse::<u64>().unwrap();
+        // Lost while well localised ⊆ while right ⊆ at all; well-localised steps ⊆ steps.
+        assert!(at("reference_lost_well_localised") <= at("reference_lost_right_pose"), "{r:?}");
+        assert!(at("reference_lost_right_pose") <= at("reference_lost"), "{r:?}");
+        assert!(at("reference_steps_well_localised") <= at("reference_steps") && at("reference_steps") > 0, "{r:?}");
+    }
     for r in rows.iter().filter(|r| r[7] == "true") {
         // The robot really moved, by 0.5-3 m, and the localiser (told nothing) was wrong after it.
         let d: f64 = r[8].parse().unwrap();

@@ -250,6 +250,13 @@ pub struct RobotKidnapTrial {
     /// localiser had drifted (a Lost that stops the robot, but not a false alarm).
     #[serde(default)]
     pub reference_lost_well_localised: u64,
+    /// Checked steps of the run without kidnap.
+    #[serde(default)]
+    pub reference_steps: u64,
+    /// …of them while its localiser was well localised: the
+    /// denominator of the per-step false-Lost rate.
+    #[serde(default)]
+    pub reference_steps_well_localised: u64,
     /// The reference's map against G_k.
     pub reference_scores: Scores,
     /// The kidnapped run's map against G_k.
@@ -282,6 +289,15 @@ pub struct KidnapRobotSummary {
     /// 2° by default): the false Lost of a well-localised robot, the false alarm proper.
     #[serde(default)]
     pub false_lost_well_localised_rate: f64,
+    /// Lost verdicts among all the checked steps of the runs without kidnap taken while the
+    /// localiser was well localised (a per-step false-alarm rate, as `check-detection`'s);
+    /// `None` without such a step.
+    #[serde(default)]
+    pub false_lost_well_localised_step_rate: Option<f64>,
+    /// Share of the checked steps of the runs without kidnap taken while the localiser was
+    /// well localised.
+    #[serde(default)]
+    pub reference_well_localised_share: Option<f64>,
     /// Median time from the kidnap to recovery, seconds.
     pub median_recovery_s: Option<f64>,
     /// Mean reference − kidnapped score against G_k, points (> 0: damage).
@@ -413,6 +429,9 @@ fn run_trial(
     let label = format!("kidnap-robot-{:05}", d.trial);
     let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
     let reference_scores = scores(&reference.map, g, &recovery.metrics)?;
+    let well_localised = |t: &TimelineSample| {
+        t.error_m <= p.well_localised_max_error_m && t.yaw_error_rad <= p.well_localised_max_yaw_rad
+    };
     let at_ns = (d.kidnap_s * 1e9).ceil() as u64;
     let from =
         reference.trajectories.as_ref().and_then(|t| t.truth.iter().find(|s| s.stamp_ns >= at_ns)).map(|s| s.pose);
@@ -436,9 +455,9 @@ fn run_trial(
         reference_lost_right_pose: lost_where(&reference.timeline, |t| {
             t.error_m < c.max_error_m && t.yaw_error_rad < c.max_yaw_error_rad
         }),
-        reference_lost_well_localised: lost_where(&reference.timeline, |t| {
-            t.error_m <= p.well_localised_max_error_m && t.yaw_error_rad <= p.well_localised_max_yaw_rad
-        }),
+        reference_lost_well_localised: lost_where(&reference.timeline, well_localised),
+        reference_steps: reference.timeline.len() as u64,
+        reference_steps_well_localised: reference.timeline.iter().filter(|t| well_localised(t)).count() as u64,
         reference_scores,
         kidnap_scores: reference_scores,
     };
@@ -476,6 +495,11 @@ fn run_trial(
     Ok(out)
 }
 
+/// `a / b`, `None` when `b` is 0.
+fn ratio(a: u64, b: u64) -> Option<f64> {
+    (b > 0).then(|| a as f64 / b as f64)
+}
+
 /// Lost verdicts of a timeline given at steps where `at` holds (the localiser's error then).
 fn lost_where(timeline: &[TimelineSample], at: impl Fn(&TimelineSample) -> bool) -> u64 {
     timeline.iter().filter(|t| t.verdict == mapkeeper_updater::Verdict::Lost && at(t)).count() as u64
@@ -506,6 +530,14 @@ pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> Kidn
         false_lost_rate: frac(trials.iter().map(|t| t.reference_lost > 0)),
         false_lost_right_pose_rate: frac(trials.iter().map(|t| t.reference_lost_right_pose > 0)),
         false_lost_well_localised_rate: frac(trials.iter().map(|t| t.reference_lost_well_localised > 0)),
+        false_lost_well_localised_step_rate: ratio(
+            trials.iter().map(|t| t.reference_lost_well_localised).sum(),
+            trials.iter().map(|t| t.reference_steps_well_localised).sum(),
+        ),
+        reference_well_localised_share: ratio(
+            trials.iter().map(|t| t.reference_steps_well_localised).sum(),
+            trials.iter().map(|t| t.reference_steps).sum(),
+        ),
         median_recovery_s: median(
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
         ),
@@ -676,6 +708,8 @@ mod tests {
             reference_lost: lost[0],
             reference_lost_right_pose: lost[1],
             reference_lost_well_localised: lost[2],
+            reference_steps: 100,
+            reference_steps_well_localised: 40,
             reference_scores: sc,
             kidnap_scores: sc,
         };
@@ -695,5 +729,8 @@ mod tests {
         assert!((s.false_lost_rate - 0.75).abs() < 1e-12);
         assert!((s.false_lost_right_pose_rate - 0.5).abs() < 1e-12);
         assert!((s.false_lost_well_localised_rate - 0.25).abs() < 1e-12);
+        // One Lost step among 4 × 40 well-localised steps of 4 × 100.
+        assert_eq!(s.false_lost_well_localised_step_rate, Some(1.0 / 160.0));
+        assert_eq!(s.reference_well_localised_share, Some(0.4));
     }
 }

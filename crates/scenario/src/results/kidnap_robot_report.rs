@@ -31,6 +31,8 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "reference_lost",
     "reference_lost_right_pose",
     "reference_lost_well_localised",
+    "reference_steps",
+    "reference_steps_well_localised",
     "reference_cc",
     "reference_ms",
     "reference_opdf",
@@ -51,7 +53,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
             d.world,
             d.tour_position_m,
@@ -75,6 +77,8 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             t.reference_lost,
             t.reference_lost_right_pose,
             t.reference_lost_well_localised,
+            t.reference_steps,
+            t.reference_steps_well_localised,
             t.reference_scores.cc,
             t.reference_scores.ms,
             t.reference_scores.opdf,
@@ -185,6 +189,13 @@ fn false_lost_row(o: &mut String, r: &KidnapRobotResults) {
         pc(k.false_lost_rate),
         pc(k.false_lost_right_pose_rate),
         pc(k.false_lost_well_localised_rate)
+    );
+    let opt_pc = |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{:.2} %", 100.0 * v));
+    let _ = writeln!(
+        o,
+        "| checked steps without kidnap: well localised / of these said Lost (per-step false Lost) | {} / {} |",
+        opt_pc(k.reference_well_localised_share),
+        opt_pc(k.false_lost_well_localised_step_rate)
     );
 }
 
