@@ -170,3 +170,22 @@ fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--preset"), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Without `--out`, a run writes `results/<command>-s<SEED>-<N>t-001` under the working folder,
+/// the next one `-002`: an earlier run is never overwritten.
+#[test]
+fn without_out_each_run_gets_the_next_numbered_folder() {
+    let dir = scratch("experiment", "default-out");
+    for k in 1..=2 {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
+            .args(["experiment", "kidnap-robot", "--quick", "--trials", "1", "--jobs", "1"])
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = dir.join(format!("results/kidnap-robot-s41-1t-{k:03}"));
+        assert!(out.join("summary.json").is_file(), "run {k}: {} missing", out.display());
+        assert!(String::from_utf8_lossy(&o.stdout).contains(&format!("kidnap-robot-s41-1t-{k:03}")));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

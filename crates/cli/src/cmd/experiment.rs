@@ -332,14 +332,7 @@ struct CheckDetectionFile {
 }
 
 fn default_out(stem: &str, seed: u64, trials: usize) -> PathBuf {
-    let mut k = 1;
-    loop {
-        let p = PathBuf::from(format!("results/{stem}-s{seed}-{trials}t-{k:03}"));
-        if !p.exists() {
-            return p;
-        }
-        k += 1;
-    }
+    super::numbered_out(&format!("{stem}-s{seed}-{trials}t"))
 }
 
 /// Runs the subcommand.

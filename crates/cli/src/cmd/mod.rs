@@ -152,6 +152,15 @@ pub fn parse_pose(s: &str) -> Result<Pose2, String> {
     Ok(Pose2::new(v[0], v[1], v[2]))
 }
 
+/// The default output folder of a command: `results/<stem>-NNN` with the first three-digit
+/// counter from 001 whose folder does not exist yet.
+pub fn numbered_out(stem: &str) -> std::path::PathBuf {
+    (1..)
+        .map(|k| std::path::PathBuf::from(format!("results/{stem}-{k:03}")))
+        .find(|p| !p.exists())
+        .unwrap_or_else(|| std::path::PathBuf::from(format!("results/{stem}")))
+}
+
 /// `--world` and `--route` of `validate`, `generate`, `recover`, `run` and the experiments: the world (an
 /// embedded world's name, `warehouse` or `lab`, or a world file) with its scenario resolved
 /// (storage areas and route from the file, derived or planned when absent; the route file

@@ -90,10 +90,7 @@ fn read(path: &Path, flags: &ReadingFlags) -> anyhow::Result<Dataset> {
 }
 
 fn default_out(seed: u64) -> PathBuf {
-    (1..)
-        .map(|k| PathBuf::from(format!("results/real-data-s{seed}-{k:03}")))
-        .find(|p| !p.exists())
-        .unwrap_or_else(|| PathBuf::from("results/real-data"))
+    super::numbered_out(&format!("real-data-s{seed}"))
 }
 
 /// Runs the subcommand.

@@ -183,12 +183,5 @@ fn print_table(r: &SensorRealismResult) {
 }
 
 fn default_out(seed: u64, worlds: usize) -> PathBuf {
-    let mut k = 1;
-    loop {
-        let p = PathBuf::from(format!("results/sensor-realism-s{seed}-{worlds}w-{k:03}"));
-        if !p.exists() {
-            return p;
-        }
-        k += 1;
-    }
+    super::numbered_out(&format!("sensor-realism-s{seed}-{worlds}w"))
 }

@@ -61,14 +61,7 @@ pub struct Args {
 }
 
 fn default_out(seed: u64, trials: usize) -> PathBuf {
-    let mut k = 1;
-    loop {
-        let p = PathBuf::from(format!("results/recover-s{seed}-{trials}t-{k:03}"));
-        if !p.exists() {
-            return p;
-        }
-        k += 1;
-    }
+    super::numbered_out(&format!("recover-s{seed}-{trials}t"))
 }
 
 fn print_kidnap(name: &str, k: &KidnapSummary) {

@@ -197,14 +197,7 @@ const DEFAULT_PRESETS: [&str; 2] = ["paper", "mapkeeper"];
 
 fn default_out(seed: u64, worlds: usize, shard: Option<Shard>) -> PathBuf {
     let part = shard.map(|s| format!("-shard{}of{}", s.index, s.count)).unwrap_or_default();
-    let mut k = 1;
-    loop {
-        let p = PathBuf::from(format!("results/validate-s{seed}-{worlds}w{part}-{k:03}"));
-        if !p.exists() {
-            return p;
-        }
-        k += 1;
-    }
+    super::numbered_out(&format!("validate-s{seed}-{worlds}w{part}"))
 }
 
 /// The output folders, made before anything runs: OUT itself, or for a sweep OUT (holding the
