@@ -103,7 +103,7 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --preset")?;
     let (default, total) = (default_out("kidnap-robot", args.seed, p.trials), p.trials);
-    let (w1, world) = site_world(&args.common, &mut file.recovery)?;
+    let (w1, world) = site_world(args.common.world.as_deref(), args.common.route.as_deref(), &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
         run_timed("kidnap-robot", &args.common, &w1, default, total, "trials", |w1, progress| {
             Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
@@ -192,7 +192,7 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     p.validate().context("--trials / --presets")?;
     let runs = p.trials * p.presets.len() * p.conditions().len() * VARIANTS.len();
     let default = default_out("table1", args.seed, p.trials);
-    let (w1, world) = site_world(&args.common, &mut file.recovery)?;
+    let (w1, world) = site_world(args.common.world.as_deref(), args.common.route.as_deref(), &mut file.recovery)?;
     let (mut r, wall_time_s, dir) = run_timed("table1", &args.common, &w1, default, runs, "runs", |w1, progress| {
         Ok(run_table1_hold(w1, &file.recovery, &file.table1, args.seed, progress)?)
     })?;
@@ -258,8 +258,12 @@ pub struct Common {
 
 /// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
 /// parameters' tour, exploration route and storage areas taken from it; and its name.
-fn site_world(c: &Common, recovery: &mut RecoveryParams) -> anyhow::Result<(World, String)> {
-    let Some((name, site)) = super::load_site(c.world.as_deref(), c.route.as_deref(), true)? else {
+pub(super) fn site_world(
+    world: Option<&std::path::Path>,
+    route: Option<&std::path::Path>,
+    recovery: &mut RecoveryParams,
+) -> anyhow::Result<(World, String)> {
+    let Some((name, site)) = super::load_site(world, route, true)? else {
         return Ok((World::default_warehouse(), "warehouse".into()));
     };
     recovery.tour = site.route;
@@ -370,7 +374,7 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --presets / --max-world")?;
     let (default, total) = (default_out("check-detection", args.seed, p.trials), p.trials * p.presets.len());
-    let (w1, world) = site_world(&args.common, &mut file.recovery)?;
+    let (w1, world) = site_world(args.common.world.as_deref(), args.common.route.as_deref(), &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
         run_timed("check-detection", &args.common, &w1, default, total, "runs", |w1, progress| {
             Ok(run_check_detection(w1, &file.recovery, &file.check_detection, args.seed, progress)?)

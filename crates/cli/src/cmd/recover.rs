@@ -6,7 +6,6 @@ use anyhow::Context;
 use mapkeeper_scenario::experiments::recovery::{KidnapSummary, Progress};
 use mapkeeper_scenario::results::recovery_report::write_recovery;
 use mapkeeper_scenario::{RecoveryParams, run_recovery};
-use mapkeeper_sim::World;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -92,16 +91,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_best_case {
         params.kidnap.best_case = false;
     }
-    let site = super::load_site(args.world.as_deref(), args.route.as_deref(), true)?;
-    let w1 = match site {
-        Some((_, site)) => {
-            params.tour = site.route;
-            params.exploration_route = site.exploration;
-            params.generator.storage_areas = site.storage;
-            site.world
-        }
-        None => World::default_warehouse(),
-    };
+    let (w1, _) = super::experiment::site_world(args.world.as_deref(), args.route.as_deref(), &mut params)?;
     params.validate().context("--trials / --no-best-case / --world")?;
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
     let dir = super::output_dir(&out, args.force)?;
