@@ -4,6 +4,7 @@
 
 use crate::kld::{BinKey, Bins};
 use mapkeeper_grid::{Pose2, angle_diff};
+use rustc_hash::FxHashMap;
 
 /// The weighted mean and covariance of the heaviest cluster.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,6 +26,8 @@ pub struct ClusterScratch {
     bins: Vec<(BinKey, u32, u32)>,
     parent: Vec<u32>,
     weight: Vec<f64>,
+    /// Bin key → index into `bins`, for the neighbour look-ups.
+    index: FxHashMap<BinKey, u32>,
 }
 
 fn find(parent: &mut [u32], mut i: u32) -> u32 {
@@ -36,21 +39,43 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
     i
 }
 
+/// Sorts the particles by bin (`s.keyed`: key, particle index), lists the occupied bins in key
+/// order (`s.bins`: key, range in `s.keyed`) and makes each bin its own root in `s.parent`.
+fn bin_particles(poses: &[Pose2], bins: &Bins, s: &mut ClusterScratch) {
+    s.keyed.clear();
+    s.keyed.extend(poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)));
+    s.keyed.sort_unstable();
+    s.bins.clear();
+    for (j, &(key, _)) in s.keyed.iter().enumerate() {
+        match s.bins.last_mut() {
+            Some(last) if last.0 == key => last.2 = j as u32 + 1,
+            _ => s.bins.push((key, j as u32, j as u32 + 1)),
+        }
+    }
+    s.parent.clear();
+    s.parent.extend(0..s.bins.len() as u32);
+}
+
 /// Joins every occupied bin with its occupied neighbours (26-connected, yaw wrapping) in the
-/// union-find `s.parent`, the smaller index as root.
+/// union-find `s.parent`, the smaller index as root. Touching is symmetric (yaw wrapping and the
+/// saturation at the ends of `i32` included), so each pair is looked up once, from its smaller
+/// key; the root of a cluster is its smallest bin index whatever the order of the unions, so the
+/// clusters and their roots are those of looking every pair up from both sides.
 fn link_neighbour_bins(s: &mut ClusterScratch, yaw_bins: i32) {
-    let nb = s.bins.len();
-    for b in 0..nb {
-        let (x, y, a) = s.bins[b].0;
+    s.index.clear();
+    s.index.extend(s.bins.iter().enumerate().map(|(b, e)| (e.0, b as u32)));
+    for b in 0..s.bins.len() {
+        let key = s.bins[b].0;
+        let (x, y, a) = key;
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for da in -1..=1 {
-                    if (dx, dy, da) == (0, 0, 0) {
+                    let n = (x.saturating_add(dx), y.saturating_add(dy), (a + da).rem_euclid(yaw_bins));
+                    if n <= key {
                         continue;
                     }
-                    let n = (x.saturating_add(dx), y.saturating_add(dy), (a + da).rem_euclid(yaw_bins));
-                    if let Ok(o) = s.bins.binary_search_by(|e| e.0.cmp(&n)) {
-                        let (ra, rb) = (find(&mut s.parent, b as u32), find(&mut s.parent, o as u32));
+                    if let Some(&o) = s.index.get(&n) {
+                        let (ra, rb) = (find(&mut s.parent, b as u32), find(&mut s.parent, o));
                         if ra != rb {
                             // Smaller index as root: deterministic.
                             let (lo, hi) = (ra.min(rb), ra.max(rb));
@@ -70,19 +95,8 @@ pub fn best_cluster(poses: &[Pose2], weights: &[f64], bins: &Bins, s: &mut Clust
     let uniform = !(total.is_finite() && total > 0.0);
     let w = |i: usize| if uniform { 1.0 } else { weights.get(i).copied().unwrap_or(0.0) };
 
-    s.keyed.clear();
-    s.keyed.extend(poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)));
-    s.keyed.sort_unstable();
-    s.bins.clear();
-    for (j, &(key, _)) in s.keyed.iter().enumerate() {
-        match s.bins.last_mut() {
-            Some(last) if last.0 == key => last.2 = j as u32 + 1,
-            _ => s.bins.push((key, j as u32, j as u32 + 1)),
-        }
-    }
+    bin_particles(poses, bins, s);
     let nb = s.bins.len();
-    s.parent.clear();
-    s.parent.extend(0..nb as u32);
     link_neighbour_bins(s, bins.yaw_bins());
     s.weight.clear();
     s.weight.resize(nb, 0.0);
@@ -170,6 +184,65 @@ mod tests {
         assert!((st.covariance[0][0] - 0.01).abs() < 1e-12);
         assert!((st.covariance[2][2] - 0.0025).abs() < 1e-9);
         assert!((st.covariance[0][2] - st.covariance[2][0]).abs() < 1e-15);
+    }
+
+    /// The linking of the first releases: every bin looks up all 26 neighbours by binary search.
+    fn link_from_both_sides(s: &mut ClusterScratch, yaw_bins: i32) {
+        for b in 0..s.bins.len() {
+            let (x, y, a) = s.bins[b].0;
+            for (dx, dy, da) in
+                (-1..=1).flat_map(|dx| (-1..=1).flat_map(move |dy| (-1..=1).map(move |da| (dx, dy, da))))
+            {
+                if (dx, dy, da) == (0, 0, 0) {
+                    continue;
+                }
+                let n = (x.saturating_add(dx), y.saturating_add(dy), (a + da).rem_euclid(yaw_bins));
+                if let Ok(o) = s.bins.binary_search_by(|e| e.0.cmp(&n)) {
+                    let (ra, rb) = (find(&mut s.parent, b as u32), find(&mut s.parent, o as u32));
+                    let (lo, hi) = (ra.min(rb), ra.max(rb));
+                    s.parent[hi as usize] = lo;
+                }
+            }
+        }
+    }
+
+    fn roots(s: &mut ClusterScratch) -> Vec<u32> {
+        (0..s.bins.len() as u32).map(|b| find(&mut s.parent, b)).collect()
+    }
+
+    #[test]
+    fn pairs_looked_up_once_give_the_clusters_of_looking_up_both_sides() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(7);
+        for case in 0..60 {
+            // Yaw bins from 1 (every heading one bin) to 36, spreads from one bin to many, poses
+            // across the ±π seam, and a few at the ends of i32 (saturated keys).
+            let yaw_rad = [7.0, 3.5, 2.2, 0.5, 10f64.to_radians()][case % 5];
+            let bins = Bins::new(0.5, yaw_rad);
+            let spread = [0.6, 2.0, 6.0][case % 3];
+            let n = 1 + (case * 37) % 400;
+            let mut poses: Vec<Pose2> = (0..n)
+                .map(|_| {
+                    Pose2::new(
+                        rng.random_range(-spread..spread),
+                        rng.random_range(-spread..spread),
+                        rng.random_range(-PI..PI),
+                    )
+                })
+                .collect();
+            if case % 7 == 0 {
+                poses.push(Pose2::new(1e12, 0.0, 0.0));
+                poses.push(Pose2::new(1e12, 0.4, 0.1));
+                poses.push(Pose2::new(-1e12, -0.2, 3.1));
+            }
+            let mut once = ClusterScratch::default();
+            bin_particles(&poses, &bins, &mut once);
+            link_neighbour_bins(&mut once, bins.yaw_bins());
+            let mut both = ClusterScratch::default();
+            bin_particles(&poses, &bins, &mut both);
+            link_from_both_sides(&mut both, bins.yaw_bins());
+            assert_eq!(roots(&mut once), roots(&mut both), "case {case}");
+        }
     }
 
     #[test]

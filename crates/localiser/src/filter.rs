@@ -16,9 +16,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
-use std::collections::HashSet;
 use std::f64::consts::PI;
-use std::hash::{BuildHasherDefault, DefaultHasher};
 
 /// A 3×3 covariance of (x m, y m, yaw rad), row-major.
 pub type Covariance3 = [[f64; 3]; 3];
@@ -126,7 +124,7 @@ struct Correction {
 
 /// The bins filled while drawing (only their count is read, so the order of a hash set does not
 /// matter; the hasher is fixed).
-type FilledBins = HashSet<BinKey, BuildHasherDefault<DefaultHasher>>;
+type FilledBins = rustc_hash::FxHashSet<BinKey>;
 
 /// The particle-filter localiser. Owns its map model, its particles and its `ChaCha8Rng`.
 #[derive(Debug)]
