@@ -504,10 +504,13 @@ impl Localiser {
                 inject = (1.0 - ratio).max(0.0);
             }
         }
-        self.refresh_estimate();
-
         self.sensor_updates_since_resample += 1;
         let resample = self.sensor_updates_since_resample >= self.params.resample_interval;
+        // The estimate of the weighted set, unless the resampled set's replaces it below (the
+        // resampling reads no estimate, so skipping it changes nothing).
+        if !(resample && self.params.estimate_from == EstimateFrom::ResampledSet) {
+            self.refresh_estimate();
+        }
         if resample {
             match self.params.resampler {
                 Resampler::SystematicKld => self.resample_kld(inject),
