@@ -37,6 +37,28 @@ fn bench_table_has_every_component_with_consistent_figures() {
         assert!(stdout.contains(what), "the printed table lacks {what}:\n{stdout}");
     }
     assert!(!names.iter().any(|n| n.contains("closed loop")), "--no-loop ran the loop: {names:?}");
+    filter_work_is_consistent(&stdout);
+}
+
+/// The table of what each localiser did: one row per preset, updates at most the frames, the
+/// particle counts within the preset's bounds, beams weighted on every update.
+fn filter_work_is_consistent(stdout: &str) {
+    let (_, work) = stdout.split_once("What each localiser did on the scene").expect("no filter-work table");
+    for preset in mapkeeper_localiser::LOCALISER_PRESETS {
+        let row = work
+            .lines()
+            .find(|l| l.starts_with(&format!("| `{preset}` |")))
+            .unwrap_or_else(|| panic!("no row for {preset}:\n{work}"));
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        let num = |i: usize| cells[i].parse::<usize>().unwrap_or_else(|_| panic!("{preset}: cell {i} of {row}"));
+        let (frames, updates) = (num(2), num(3));
+        let (median, max) = cells[4].split_once(" / ").unwrap();
+        let (median, max): (usize, usize) = (median.parse().unwrap(), max.parse().unwrap());
+        let p = mapkeeper_localiser::FilterParams::preset(preset).unwrap();
+        assert!(frames == 30 && updates >= 1 && updates <= frames, "{row}");
+        assert!(p.min_particles <= median && median <= max && max <= p.max_particles, "{row}");
+        assert!(num(5) > 0 && cells[6].ends_with(" ms"), "{row}");
+    }
 }
 
 #[test]

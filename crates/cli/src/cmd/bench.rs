@@ -158,18 +158,34 @@ fn simulate(
     Ok((source.sim_time_s(), out))
 }
 
-fn run_localiser(scene: &Scene, name: &str, seed: u64) -> anyhow::Result<usize> {
+/// What a localiser preset did over the scene: the same in every repeat (same scene, same seed).
+#[derive(Clone, Debug, Default)]
+struct FilterWork {
+    /// Frames handed to the filter (those with odometry).
+    frames: usize,
+    /// Particle count after each sensor update.
+    particles: Vec<usize>,
+    /// Beams used by each sensor update.
+    beams: Vec<usize>,
+}
+
+fn run_localiser(scene: &Scene, name: &str, seed: u64) -> anyhow::Result<FilterWork> {
     let mut loc = Localiser::new(&scene.map, FilterParams::preset(name)?, seed)?;
     let first = scene.steps.first().context("empty scene")?;
     let cov: Covariance3 = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.003]];
     loc.init_pose(first.truth, cov)?;
-    let mut updates = 0;
+    let mut work = FilterWork::default();
     for s in &scene.steps {
         if let Some(odo) = s.frame.odometry {
-            updates += usize::from(loc.update(odo, &s.frame.scans).sensor_update);
+            work.frames += 1;
+            let r = loc.update(odo, &s.frame.scans);
+            if r.sensor_update {
+                work.particles.push(r.particles);
+                work.beams.push(r.beams);
+            }
         }
     }
-    Ok(updates)
+    Ok(work)
 }
 
 fn run_updater(scene: &Scene, name: &str) -> anyhow::Result<usize> {
@@ -239,6 +255,8 @@ fn run_loop(scene: &Scene, m1: &OccupancyGrid, preset: &str, seed: u64) -> anyho
 struct Table {
     reference: Vec<f64>,
     rows: Vec<RowSpec>,
+    /// Per localiser preset (in `LOCALISER_PRESETS` order), what it did on the scene.
+    filters: Vec<FilterWork>,
 }
 
 struct RowSpec {
@@ -338,9 +356,9 @@ fn measure_components(
     let (t, recorded) = timed(|| simulate(&scene.w2, &scene.route, &scene.params, seed, n));
     recorded?;
     table.push(keys.sim, t / n as f64, n as f64 / t);
-    for (&key, name) in keys.localisers.iter().zip(LOCALISER_PRESETS) {
-        let (t, updates) = timed(|| run_localiser(scene, name, seed));
-        updates?;
+    for (i, (&key, name)) in keys.localisers.iter().zip(LOCALISER_PRESETS).enumerate() {
+        let (t, work) = timed(|| run_localiser(scene, name, seed));
+        table.filters[i] = work?;
         table.push(key, t / n as f64, n as f64 / t);
     }
     for (&key, name) in keys.updaters.iter().zip(PRESET_NAMES) {
@@ -369,7 +387,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let geometry = w1.default_map_geometry(p.resolution_m)?;
         Some(build_initial_map(&w1, &p.exploration_route, &geometry, &p.runner.sim, &p.mapping, args.seed)?.map)
     };
-    let mut table = Table { reference: Vec::new(), rows: Vec::new() };
+    let mut table = Table {
+        reference: Vec::new(),
+        rows: Vec::new(),
+        filters: vec![FilterWork::default(); LOCALISER_PRESETS.len()],
+    };
     let keys = table_rows(&mut table, m1.is_some());
     let caster = RayCaster::new(&scene.map, true);
     for r in 0..args.repeats {
@@ -387,6 +409,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let rows = finish(&table);
     print_table(&rows, &table, args.repeats, args.steps);
+    print_filter_work(&rows, &keys, &table.filters, scene.steps.len());
     if let Some(path) = &args.json {
         let json = serde_json::to_string_pretty(&rows).context("bench table")?;
         std::fs::write(path, json + "\n").with_context(|| format!("--json {}", path.display()))?;
@@ -438,6 +461,38 @@ fn print_table(rows: &[Row], table: &Table, repeats: usize, steps: usize) {
             r.throughput_unit
         );
     }
+}
+
+/// What each localiser did on the scene, beside ROS amcl's own behaviour: how many frames led to
+/// a sensor update (`update_min_d` / `update_min_a`), how many particles it carried after one
+/// (KLD sampling after convergence) and how many beams it weighted, and the CPU per update.
+fn print_filter_work(rows: &[Row], keys: &Keys, filters: &[FilterWork], steps: usize) {
+    outln!("\nWhat each localiser did on the scene (the same in every repeat):\n");
+    outln!(
+        "| localiser | frames | sensor updates | particles after an update: median / max | beams per update: median | CPU per update |"
+    );
+    outln!("|---|---|---|---|---|---|");
+    for ((&key, name), w) in keys.localisers.iter().zip(LOCALISER_PRESETS).zip(filters) {
+        let updates = w.particles.len();
+        let per_update = match rows.get(key) {
+            Some(r) if updates > 0 => format!("{:.3} ms", r.median * steps as f64 / updates as f64),
+            _ => "-".into(),
+        };
+        outln!(
+            "| `{name}` | {} | {updates} | {} / {} | {} | {per_update} |",
+            w.frames,
+            median_count(&w.particles),
+            w.particles.iter().max().copied().unwrap_or(0),
+            median_count(&w.beams),
+        );
+    }
+}
+
+/// The median of counts (the lower middle of an even count; 0 when empty).
+fn median_count(v: &[usize]) -> usize {
+    let mut v = v.to_vec();
+    v.sort_unstable();
+    v.get(v.len().saturating_sub(1) / 2).copied().unwrap_or(0)
 }
 
 /// Four significant digits, in scientific notation below 0.001.
