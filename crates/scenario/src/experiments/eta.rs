@@ -30,12 +30,13 @@ pub const RECENT: usize = 10;
 /// estimate replaces it with this run's own times as soon as worlds finish.
 pub fn prior_world_s(preset: &str, localiser: &str, route_m: f64) -> f64 {
     // amcl, 72 m: the ratios of paper (10 seeds × 100 worlds in 2,727 s on 2 cores) and mapkeeper
-    // (5 × 100 in 994 s), scaled to the default run of 2026-12-05 (both, 3 seeds, 600 worlds in
-    // 699 s on 2 cores: 2.3 s a world); paper-strict 15-24 min a seed (about 12 s a world).
+    // (5 × 100 in 994 s), scaled to the default run after issue 29's first round (both, 3 seeds,
+    // 600 worlds in 575 s on 2 cores: 1.9 s a world); paper-strict 15-24 min a seed before it
+    // (about 12 s a world; not measured since).
     let amcl = match preset {
-        "mapkeeper" | "mapkeeper-shift" => 2.8,
+        "mapkeeper" | "mapkeeper-shift" => 2.3,
         "paper-strict" => 12.0,
-        _ => 1.9,
+        _ => 1.6,
     };
     let localiser_factor = match localiser {
         "mapkeeper" => LOCALISER_MAPKEEPER_FACTOR,
