@@ -21,6 +21,7 @@ use super::ExperimentError;
 use super::recovery::{RecoveryParams, Setup, prepare, tour_from};
 use super::run_events::{PoseErrorHold, TimelineSample};
 use super::runner::{NoClock, RunInputs, run_world};
+use crate::experiments::invalid;
 use crate::stats::median;
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
@@ -81,10 +82,6 @@ impl Default for CheckDetectionParams {
             error_bins_m: vec![0.0, 0.05, 0.15, 0.3, 0.6, 1.0],
         }
     }
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 impl CheckDetectionParams {

@@ -10,6 +10,7 @@
 //! Never so within the run (ended by `max_sim_time_s` or the route's end): not converged.
 
 use crate::experiments::ExperimentError;
+use crate::experiments::invalid;
 use crate::experiments::runner::{RunInputs, RunnerParams, run_world};
 use crate::stats::median;
 use mapkeeper_grid::OccupancyGrid;
@@ -58,10 +59,6 @@ impl Default for ConvergenceParams {
             route: Route::default_warehouse(),
         }
     }
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 impl ConvergenceParams {

@@ -15,6 +15,7 @@ use super::recovery::{RecoveryParams, prepare, recovery_time, scores, tour_from,
 use super::run_events::{RobotKidnap, TimelineSample, TrackSample};
 use super::runner::{NoClock, RunInputs, run_world};
 use super::validation::Scores;
+use crate::experiments::invalid;
 use crate::stats::{frac, mean, median, percentile};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
@@ -81,10 +82,6 @@ impl Default for KidnapRobotParams {
             well_localised_max_yaw_rad: 2f64.to_radians(),
         }
     }
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 impl KidnapRobotParams {

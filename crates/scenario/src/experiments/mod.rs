@@ -64,3 +64,8 @@ pub enum ExperimentError {
         problem: String,
     },
 }
+
+/// The error for a parameter out of range: `name` is the field, `problem` what is wrong.
+pub(crate) fn invalid(name: &'static str, problem: String) -> ExperimentError {
+    ExperimentError::InvalidParam { name, problem }
+}

@@ -377,6 +377,17 @@ pub struct LostEpisode {
     pub end: LostEnd,
 }
 
+/// The updater's verdicts, counted (over a run, a trial or a comparison row).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VerdictCounts {
+    /// Update.
+    pub update: u64,
+    /// Suspend.
+    pub suspend: u64,
+    /// Lost.
+    pub lost: u64,
+}
+
 /// The reaction to Lost over a run, per run (summed over worlds in the validation).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default)]

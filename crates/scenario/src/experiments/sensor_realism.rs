@@ -10,6 +10,7 @@
 use super::ExperimentError;
 use super::runner::NoClock;
 use super::validation::{ValidationParams, WorldRow, run_seed};
+use crate::experiments::invalid;
 use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_sim::{SensorEffect, SensorRealism};
 use rayon::prelude::*;
@@ -49,10 +50,6 @@ impl Default for SensorRealismParams {
             configs,
         }
     }
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 /// The realism of a configuration name.

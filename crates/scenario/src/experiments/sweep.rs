@@ -4,6 +4,7 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::checkpoint::Checkpoints;
+use crate::experiments::invalid;
 use crate::experiments::runner::Clock;
 use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
 use rayon::prelude::*;
@@ -41,10 +42,6 @@ pub struct SweepPlan {
     pub params: Vec<ValidationParams>,
     /// This shard's jobs: (preset index, seed), preset by preset.
     pub jobs: Vec<(usize, u64)>,
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 impl SweepSpec {

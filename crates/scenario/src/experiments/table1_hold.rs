@@ -16,6 +16,7 @@ use super::recovery::{RecoveryParams, mean_scores, prepare, scores, tour_from, w
 use super::run_events::{Kidnap, PoseErrorHold};
 use super::runner::{NoClock, RunInputs, run_world};
 use super::validation::Scores;
+use crate::experiments::invalid;
 use crate::stats::{mean, paired_diff};
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_sim::World;
@@ -66,10 +67,6 @@ impl Default for Table1HoldParams {
             route_length_m: 0.0,
         }
     }
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 impl Table1HoldParams {

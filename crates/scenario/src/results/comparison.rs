@@ -6,7 +6,7 @@
 
 use crate::experiments::erosion::{ChangeClassSummary, RetentionSummary};
 use crate::experiments::pose_oracle::UpdaterPoses;
-use crate::experiments::run_events::LostCounts;
+use crate::experiments::run_events::{LostCounts, VerdictCounts};
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
 use crate::results::html::{Part, page_html, world_steppers};
@@ -28,17 +28,6 @@ pub struct LocMeans {
     pub on_m1_m: f64,
     /// The chain localiser on M_{i-1}.
     pub on_prev_m: f64,
-}
-
-/// Verdicts of the updater, summed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct VerdictCounts {
-    /// Update.
-    pub update: u64,
-    /// Suspend.
-    pub suspend: u64,
-    /// Lost.
-    pub lost: u64,
 }
 
 /// One row of the comparison: a preset over all its seeds (`seed` = `None`) or over one seed.

@@ -2,7 +2,7 @@
 
 use super::{Setup, frac, mean, mean_scores, median, recovery_time, scores, tour_from, with_start};
 use crate::experiments::ExperimentError;
-use crate::experiments::run_events::{Kidnap, TimelineSample, TrackSample};
+use crate::experiments::run_events::{Kidnap, TimelineSample, TrackSample, VerdictCounts};
 use crate::experiments::runner::{NoClock, RunInputs, WorldRun, run_world};
 use crate::experiments::validation::Scores;
 use mapkeeper_grid::metrics::map_metrics;
@@ -25,17 +25,6 @@ pub struct VerdictSegment {
     pub to_s: f64,
     /// Processed steps.
     pub steps: u32,
-}
-
-/// Verdict counts.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct VerdictCounts {
-    /// Update.
-    pub update: u64,
-    /// Suspend.
-    pub suspend: u64,
-    /// Lost.
-    pub lost: u64,
 }
 
 /// The demo's outcome (`summary.json` `demo`).

@@ -26,9 +26,10 @@ mod experiments;
 mod kidnap;
 mod params;
 
+pub use crate::experiments::run_events::VerdictCounts;
 pub use experiments::{
-    DemoSummary, LostRun, LostSummary, MetricFractions, Table1Run, Table1Summary, VerdictCounts, VerdictSegment,
-    run_demo, run_lost_robot, run_table1,
+    DemoSummary, LostRun, LostSummary, MetricFractions, Table1Run, Table1Summary, VerdictSegment, run_demo,
+    run_lost_robot, run_table1,
 };
 pub use kidnap::{
     BinSummary, KidnapSummary, KidnapTrial, MapCase, TrialDraw, draw_trial, run_kidnap_suite, run_kidnap_trial,

@@ -1,6 +1,7 @@
 //! Parameters of the robustness experiments (`docs/recovery.md`).
 
 use crate::experiments::ExperimentError;
+use crate::experiments::invalid;
 use crate::experiments::runner::RunnerParams;
 use crate::worlds::generator::GeneratorParams;
 use crate::worlds::mapping::MappingParams;
@@ -278,10 +279,6 @@ impl Default for RecoveryParams {
             kidnap: KidnapParams::default(),
         }
     }
-}
-
-fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
 }
 
 fn check_pos(name: &'static str, v: f64) -> Result<(), ExperimentError> {
