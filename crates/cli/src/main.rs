@@ -57,7 +57,7 @@ enum Command {
     Validate(cmd::validate::Args),
     /// The robustness experiments: localisation-check demo, Table 1, lost robot, kidnap suite.
     Recover(cmd::recover::Args),
-    /// One experiment of the paper's claims into a folder of its own (check-detection, table1, kidnap-robot).
+    /// One experiment of the paper's claims into a folder of its own (check-detection, table1, kidnap-robot, real-data, sensor-realism).
     Experiment(cmd::experiment::Args),
     /// How long the localiser presets take to correct a start error (time and distance).
     Converge(cmd::converge::Args),
