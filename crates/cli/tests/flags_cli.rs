@@ -6,6 +6,7 @@
 //! would start real work); they are only checked to pass parsing (a later unknown flag is
 //! then the error).
 #![allow(clippy::unwrap_used, clippy::too_many_lines)]
+#![allow(clippy::disallowed_methods)] // timeouts and unique scratch names: a test harness, not library code
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -15,6 +15,7 @@
 //! --preset NAME]` (default N = 1,000,000 processed dual scans, a memory line every K = 50,000,
 //! updater preset `mapkeeper`; any preset name of `UpdaterParams::preset`, e.g. `paper`). The first
 //! line (0 processed) is the RSS before the scene is built; `wall_s` is elapsed wall time.
+#![allow(clippy::disallowed_methods)] // an example times itself; the libraries read no clock
 #![allow(missing_docs, clippy::unwrap_used)]
 
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, RayCaster, RayStop};

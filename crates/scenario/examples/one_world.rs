@@ -1,5 +1,6 @@
 //! Times the pieces of one validation world (release build):
 //! `cargo run --release -p mapkeeper-scenario --example one_world`.
+#![allow(clippy::disallowed_methods)] // an example times itself; the libraries read no clock
 
 use mapkeeper_scenario::{
     Clock, GeneratorParams, MappingParams, RunInputs, RunnerParams, build_initial_map, generate_worlds, run_world,
