@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// An output could not be written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum OutputError {
     /// The output folder (or file) exists and is not empty, and replacing it was not asked for.
     #[error("{0}: exists and is not empty (use --force to replace it)")]

@@ -44,6 +44,7 @@ pub use traversal::{RayHit, RayStop, SegmentWalk, cast_ray, traverse, traverse_i
 
 /// Errors about grids themselves (file errors have their own type).
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum GridError {
     /// A grid needs at least one cell.
     #[error("grid has no cells ({width} × {height})")]

@@ -47,6 +47,7 @@ pub const PGM_UNKNOWN: u8 = 205;
 
 /// What went wrong reading or writing a map. Each variant names the file.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum MapIoError {
     /// The file could not be opened, read, written or renamed.
     #[error("{path}: {source}")]

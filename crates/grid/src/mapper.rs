@@ -36,6 +36,7 @@ use std::ops::ControlFlow;
 
 /// Errors of the mapper.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum MapperError {
     /// A parameter is out of its range.
     #[error("mapper parameter {name} = {value} is invalid: expected {expected}")]

@@ -45,6 +45,7 @@ pub mod erosion;
 
 /// Errors of the metrics.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum MetricsError {
     /// The two maps do not share a geometry ([`GridError::GeometryMismatch`]).
     #[error(transparent)]

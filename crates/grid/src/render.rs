@@ -67,6 +67,7 @@ pub const MAX_PIXELS: usize = 1 << 28;
 
 /// Errors of rendering and writing images.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum RenderError {
     /// The scale factor is zero or the scaled image would exceed [`MAX_PIXELS`].
     #[error(

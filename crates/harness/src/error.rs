@@ -4,6 +4,7 @@ use crate::source::SourceError;
 
 /// What can go wrong while running the loop.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum HarnessError {
     /// The source could not deliver a step.
     #[error(transparent)]

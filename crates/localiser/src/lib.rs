@@ -75,6 +75,7 @@ use mapkeeper_grid::Pose2;
 
 /// Everything that can go wrong when building or (re-)initialising a [`Localiser`].
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum LocaliserError {
     /// A parameter is out of its range (nothing is reset silently).
     #[error("parameter {name} = {value} is invalid: must be {requirement}")]

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 /// A log could not be read or turned into a sensor log.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ImportError {
     /// The file could not be opened or read.
     #[error("{path}: {source}")]

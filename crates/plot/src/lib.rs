@@ -88,6 +88,7 @@ fn colour(i: usize) -> RGBColor {
 
 /// Everything that can go wrong while writing a chart; each error names the output file.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlotError {
     /// Creating, writing or renaming the file failed.
     #[error("{}: cannot write the chart: {source}", path.display())]

@@ -8,6 +8,7 @@ use crate::worlds::WorldsError;
 
 /// Any error of the scenario crate.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ScenarioError {
     /// Generating worlds or M_1.
     #[error(transparent)]

@@ -45,6 +45,7 @@ pub struct Drive {
 
 /// What can go wrong while recording.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum RecordingError {
     /// The simulator refused the world or its parameters.
     #[error(transparent)]

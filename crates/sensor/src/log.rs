@@ -130,6 +130,7 @@ mod scan_json {
 /// What went wrong reading or writing a log. Every variant names the file; parse errors name
 /// the line (1-based).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum LogError {
     /// The file could not be opened, read or written.
     #[error("{path}: {source}")]

@@ -47,6 +47,7 @@ pub enum BeamValidity {
 
 /// A scan whose header is unusable as a whole.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum ScanError {
     /// The angle increment must be finite and non-zero.
     #[error("angle_increment_rad must be finite and non-zero, got {0}")]

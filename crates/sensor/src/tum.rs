@@ -16,6 +16,7 @@ pub struct StampedPose {
 
 /// What went wrong reading or writing a TUM file.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum TumError {
     /// The file could not be read or written.
     #[error("{path}: {source}")]

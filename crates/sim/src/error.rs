@@ -5,6 +5,7 @@ use std::path::PathBuf;
 /// Everything that can go wrong in the simulator crate. File errors name the file (or the
 /// origin string given for text), the entry and the problem.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SimError {
     /// A file could not be read or written.
     #[error("{path}: {source}")]

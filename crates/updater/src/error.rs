@@ -3,6 +3,7 @@
 /// What can go wrong building a [`crate::MapUpdater`] or choosing its parameters. Bad scans are
 /// not errors: they are counted as invalid in the [`crate::StepReport`].
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum UpdaterError {
     /// A parameter is out of range.
     #[error("invalid updater parameter '{field}': {reason}")]

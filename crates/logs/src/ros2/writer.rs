@@ -30,6 +30,7 @@ use std::path::{Path, PathBuf};
 
 /// A run could not be written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum McapWriteError {
     /// Creating, writing or renaming the file failed.
     #[error("{path}: {source}")]

@@ -25,6 +25,7 @@ use crate::worlds::WorldsError;
 
 /// What can go wrong while running an experiment.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ExperimentError {
     /// A parameter is out of range (checked once, at construction).
     #[error("parameter {name} is invalid: {problem}")]

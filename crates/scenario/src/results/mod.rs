@@ -21,6 +21,7 @@ use std::path::PathBuf;
 
 /// What can go wrong while writing or merging results.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ResultsError {
     /// An output could not be written (or exists and replacing it was not asked for).
     #[error(transparent)]

@@ -10,6 +10,7 @@ pub mod site;
 
 /// What can go wrong while generating worlds or building M_1.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum WorldsError {
     /// A parameter is out of range (checked once, at construction).
     #[error("parameter {name} is invalid: {problem}")]
