@@ -62,6 +62,21 @@ fn filter_work_is_consistent(stdout: &str) {
 }
 
 #[test]
+fn bench_json_is_not_overwritten_without_force() {
+    let dir = scratch("bench-cli", "json-exists");
+    let json = dir.join("bench.json");
+    std::fs::write(&json, "kept").unwrap();
+    let out = mapkeeper(&["bench", "--repeats", "1", "--steps", "10", "--no-loop", "--json", s(&json)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--json") && err.contains("--force") && !err.contains("recording the scene"), "{err}");
+    assert_eq!(std::fs::read_to_string(&json).unwrap(), "kept");
+    let out = mapkeeper(&["bench", "--repeats", "1", "--steps", "10", "--no-loop", "--json", s(&json), "--force"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(rows(&json).len() > 5);
+}
+
+#[test]
 fn bench_refuses_a_scene_longer_than_the_route() {
     let out = mapkeeper(&["bench", "--repeats", "1", "--steps", "100000", "--no-loop"]);
     assert!(!out.status.success());

@@ -47,9 +47,13 @@ pub struct Args {
     /// Skip the closed-loop rows (a whole world per preset per repeat: the slow part).
     #[arg(long)]
     pub no_loop: bool,
-    /// Also write the table as JSON to this file.
+    /// Also write the table as JSON to this file (written whole or not at all; an existing
+    /// file is refused before anything is measured, unless --force).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Replace an existing --json file.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// One recorded step of the scene.
@@ -379,6 +383,9 @@ fn measure_components(
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(path) = &args.json {
+        mapkeeper_grid::check_output_file(path, args.force).context("--json")?;
+    }
     errln!("bench: recording the scene ({} steps, seed {})", args.steps, args.seed);
     let scene = build_scene(args.seed, args.steps)?;
     let m1 = if args.no_loop {
@@ -414,7 +421,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     print_filter_work(&rows, &keys, &table.filters, scene.steps.len());
     if let Some(path) = &args.json {
         let json = serde_json::to_string_pretty(&rows).context("bench table")?;
-        std::fs::write(path, json + "\n").with_context(|| format!("--json {}", path.display()))?;
+        mapkeeper_grid::write_atomic(path, (json + "\n").as_bytes())
+            .with_context(|| format!("--json {}", path.display()))?;
     }
     Ok(())
 }
