@@ -23,6 +23,9 @@ pub struct ClusterStats {
 #[derive(Clone, Debug, Default)]
 pub struct ClusterScratch {
     keyed: Vec<(BinKey, u32)>,
+    /// The particles' bin keys, and their packed sort keys (see [`bin_particles`]).
+    keys: Vec<BinKey>,
+    packed: Vec<u64>,
     bins: Vec<(BinKey, u32, u32)>,
     parent: Vec<u32>,
     weight: Vec<f64>,
@@ -41,10 +44,27 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
 
 /// Sorts the particles by bin (`s.keyed`: key, particle index), lists the occupied bins in key
 /// order (`s.bins`: key, range in `s.keyed`) and makes each bin its own root in `s.parent`.
+///
+/// The sort is the costly part; when the keys' ranges fit in 32 bits, each (key, index) is packed
+/// into one `u64` whose order is the tuples' order (offsets from the smallest x and y, then the
+/// yaw bin, then the index), which sorts several times faster and gives the same sequence (every
+/// pair is distinct).
 fn bin_particles(poses: &[Pose2], bins: &Bins, s: &mut ClusterScratch) {
+    s.keys.clear();
+    s.keys.extend(poses.iter().map(|p| bins.key(p)));
     s.keyed.clear();
-    s.keyed.extend(poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)));
-    s.keyed.sort_unstable();
+    if let Some(pack) = Packing::fit(&s.keys, bins.yaw_bins()) {
+        s.packed.clear();
+        s.packed.extend(s.keys.iter().enumerate().map(|(i, k)| (pack.key(k) << 32) | i as u64));
+        s.packed.sort_unstable();
+        s.keyed.extend(s.packed.iter().map(|&v| {
+            let i = (v & 0xffff_ffff) as u32;
+            (s.keys[i as usize], i)
+        }));
+    } else {
+        s.keyed.extend(s.keys.iter().enumerate().map(|(i, &k)| (k, i as u32)));
+        s.keyed.sort_unstable();
+    }
     s.bins.clear();
     for (j, &(key, _)) in s.keyed.iter().enumerate() {
         match s.bins.last_mut() {
@@ -54,6 +74,34 @@ fn bin_particles(poses: &[Pose2], bins: &Bins, s: &mut ClusterScratch) {
     }
     s.parent.clear();
     s.parent.extend(0..s.bins.len() as u32);
+}
+
+/// An order-preserving packing of bin keys into 32 bits: x and y as offsets from their smallest
+/// value, then the yaw bin, each in as many bits as its range needs.
+struct Packing {
+    x0: i64,
+    y0: i64,
+    y_bits: u32,
+    a_bits: u32,
+}
+
+impl Packing {
+    /// The packing of `keys`, if their ranges fit in 32 bits (and there are at most 2^32 keys).
+    fn fit(keys: &[BinKey], yaw_bins: i32) -> Option<Self> {
+        let (mut x0, mut x1, mut y0, mut y1) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+        for &(x, y, _) in keys {
+            (x0, x1) = (x0.min(i64::from(x)), x1.max(i64::from(x)));
+            (y0, y1) = (y0.min(i64::from(y)), y1.max(i64::from(y)));
+        }
+        let bits = |span: i64| 64 - (span.max(0) as u64).leading_zeros();
+        let (x_bits, y_bits, a_bits) = (bits(x1 - x0), bits(y1 - y0), bits(i64::from(yaw_bins) - 1));
+        (u32::try_from(keys.len()).is_ok() && x_bits + y_bits + a_bits <= 32).then_some(Self { x0, y0, y_bits, a_bits })
+    }
+
+    fn key(&self, &(x, y, a): &BinKey) -> u64 {
+        let (dx, dy) = ((i64::from(x) - self.x0) as u64, (i64::from(y) - self.y0) as u64);
+        (dx << (self.y_bits + self.a_bits)) | (dy << self.a_bits) | a as u64
+    }
 }
 
 /// Joins every occupied bin with its occupied neighbours (26-connected, yaw wrapping) in the
@@ -203,6 +251,30 @@ mod tests {
                     s.parent[hi as usize] = lo;
                 }
             }
+        }
+    }
+
+    #[test]
+    fn the_packed_sort_gives_the_tuples_order() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(11);
+        for case in 0..40 {
+            let bins = Bins::new([0.5, 0.05, 2.0][case % 3], [10f64.to_radians(), 0.01, 7.0][case % 3]);
+            let spread = [0.3, 5.0, 80.0, 1e4][case % 4];
+            let mut poses: Vec<Pose2> = (0..1 + case * 13)
+                .map(|_| {
+                    let c = |r: &mut rand::rngs::ChaCha8Rng| r.random_range(-spread..spread);
+                    Pose2::new(c(&mut rng), c(&mut rng), rng.random_range(-PI..PI))
+                })
+                .collect();
+            if case % 5 == 0 {
+                poses.push(Pose2::new(-1e12, 1e12, 0.0)); // beyond i32: not packable
+            }
+            let mut s = ClusterScratch::default();
+            bin_particles(&poses, &bins, &mut s);
+            let mut want: Vec<(BinKey, u32)> = poses.iter().enumerate().map(|(i, p)| (bins.key(p), i as u32)).collect();
+            want.sort_unstable();
+            assert_eq!(s.keyed, want, "case {case}");
         }
     }
 
