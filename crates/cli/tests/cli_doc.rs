@@ -10,21 +10,8 @@
 
 mod common;
 
-use common::mapkeeper;
+use common::{help_commands as commands, mapkeeper};
 use std::path::PathBuf;
-
-/// The subcommands listed under "Commands:" (without `help`).
-fn commands(help: &str) -> Vec<String> {
-    let Some(section) = help.split("Commands:\n").nth(1) else { return Vec::new() };
-    section
-        .lines()
-        .take_while(|l| !l.trim().is_empty())
-        .filter(|l| l.starts_with("  ") && !l.starts_with("    "))
-        .filter_map(|l| l.split_whitespace().next())
-        .filter(|c| *c != "help")
-        .map(str::to_string)
-        .collect()
-}
 
 fn help(args: &[&str]) -> String {
     let mut all: Vec<&str> = args.to_vec();

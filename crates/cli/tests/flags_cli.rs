@@ -8,6 +8,9 @@
 #![allow(clippy::unwrap_used, clippy::too_many_lines)]
 #![allow(clippy::disallowed_methods)] // timeouts and unique scratch names: a test harness, not library code
 
+mod common;
+
+use common::help_commands as commands;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -418,19 +421,6 @@ fn help(cmd: Option<&str>) -> String {
     let r = run(&args);
     assert_eq!(r.code, Some(0), "{args:?}: {}", r.stderr);
     r.stdout
-}
-
-/// The subcommands listed under "Commands:" (without `help`).
-fn commands(help: &str) -> Vec<String> {
-    let section = help.split("Commands:\n").nth(1).expect("a Commands: section");
-    section
-        .lines()
-        .take_while(|l| !l.trim().is_empty())
-        .filter(|l| l.starts_with("  ") && !l.starts_with("    "))
-        .filter_map(|l| l.split_whitespace().next())
-        .filter(|c| *c != "help")
-        .map(str::to_string)
-        .collect()
 }
 
 /// The value-taking flags of a command's help: option lines `  -o, --out <OUT.png>` or

@@ -91,3 +91,16 @@ pub fn validate_args(args: &[&str]) -> Vec<String> {
     }
     v
 }
+
+/// The subcommands a `--help` lists under "Commands:" (without `help`); none without that section.
+pub fn help_commands(help: &str) -> Vec<String> {
+    let Some(section) = help.split("Commands:\n").nth(1) else { return Vec::new() };
+    section
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .filter(|l| l.starts_with("  ") && !l.starts_with("    "))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|c| *c != "help")
+        .map(str::to_string)
+        .collect()
+}
