@@ -86,9 +86,11 @@ struct Packing {
 }
 
 impl Packing {
-    /// The packing of `keys`, if their ranges fit in 32 bits (and there are at most 2^32 keys).
+    /// The packing of `keys`, if their ranges fit in 32 bits (and there are at most 2^32 keys);
+    /// none for no keys.
     fn fit(keys: &[BinKey], yaw_bins: i32) -> Option<Self> {
-        let (mut x0, mut x1, mut y0, mut y1) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+        let &(x, y, _) = keys.first()?;
+        let (mut x0, mut x1, mut y0, mut y1) = (i64::from(x), i64::from(x), i64::from(y), i64::from(y));
         for &(x, y, _) in keys {
             (x0, x1) = (x0.min(i64::from(x)), x1.max(i64::from(x)));
             (y0, y1) = (y0.min(i64::from(y)), y1.max(i64::from(y)));
@@ -276,6 +278,9 @@ mod tests {
             want.sort_unstable();
             assert_eq!(s.keyed, want, "case {case}");
         }
+        let mut s = ClusterScratch::default();
+        bin_particles(&[], &Bins::new(0.5, 0.2), &mut s);
+        assert!(s.keyed.is_empty() && s.bins.is_empty());
     }
 
     fn roots(s: &mut ClusterScratch) -> Vec<u32> {
