@@ -8,8 +8,9 @@ use crate::cluster::{ClusterScratch, best_cluster};
 use crate::kld::{BinKey, Bins, count_bins, kld_bound};
 use crate::likelihood_field::{BeamSet, LikelihoodField};
 use crate::motion_model::{OdometryDelta, sample_motion};
-use crate::params::{EstimateFrom, FilterParams, LidarUpdates, Resampler, UpdateGate};
+use crate::params::{BeamSelection, EstimateFrom, FilterParams, LidarUpdates, Resampler, UpdateGate};
 use crate::resample::{multinomial_draw, systematic_resample};
+use crate::scan_match::{Match, ScanMatcher};
 use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2, wrap_angle};
 use mapkeeper_sensor::LaserScan;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
@@ -112,6 +113,9 @@ pub struct UpdateReport {
     pub scans_skipped: usize,
     /// Probability with which resampling replaced a particle by a random one (augmented MCL).
     pub random_injection_prob: f64,
+    /// The scan-matching front end's match at this update, if it ran
+    /// ([`crate::ScanMatchParams`]); the particles moved by it when it was accepted.
+    pub scan_match: Option<Match>,
 }
 
 /// What one sensor update did (one per lidar with [`LidarUpdates::PerLidar`]).
@@ -154,6 +158,10 @@ pub struct Localiser {
     cumulative: Vec<f64>,
     filled: FilledBins,
     cluster: ClusterScratch,
+    /// The scan-matching front end (when enabled) and its beams.
+    matcher: Option<ScanMatcher>,
+    match_beams: BeamSet,
+    last_match: Option<Match>,
 }
 
 fn free_cells(map: &OccupancyGrid) -> Vec<u32> {
@@ -229,6 +237,9 @@ impl Localiser {
             cumulative: Vec::new(),
             filled: FilledBins::default(),
             cluster: ClusterScratch::default(),
+            matcher: params.scan_match.enabled.then(|| ScanMatcher::new(map, params.scan_match)),
+            match_beams: BeamSet::new(),
+            last_match: None,
         };
         l.init_global()?;
         Ok(l)
@@ -314,6 +325,9 @@ impl Localiser {
     /// particles and their weights are kept: the robot has not moved.
     pub fn set_map(&mut self, map: &OccupancyGrid) {
         self.field = LikelihoodField::new(map, &self.params);
+        if self.params.scan_match.enabled {
+            self.matcher = Some(ScanMatcher::new(map, self.params.scan_match));
+        }
         self.geometry = *map.geometry();
         self.free_cells = free_cells(map);
     }
@@ -373,6 +387,7 @@ impl Localiser {
             beams,
             scans_skipped,
             random_injection_prob: inject,
+            scan_match: self.last_match,
         }
     }
 
@@ -386,9 +401,13 @@ impl Localiser {
             return self.report(UpdateOutcome::InvalidOdometry, 0, 0, false, 0.0);
         }
         self.last_odom = Some(robot_in_odom);
+        self.last_match = None;
         let reference = self.odom_at_filter.unwrap_or(robot_in_odom);
-        let delta = OdometryDelta::between(&reference, &robot_in_odom);
-        if !(self.gate_open(&reference, &robot_in_odom, &delta) || self.force_update || self.odom_at_filter.is_none()) {
+        let odometry = OdometryDelta::between(&reference, &robot_in_odom);
+        if !(self.gate_open(&reference, &robot_in_odom, &odometry)
+            || self.force_update
+            || self.odom_at_filter.is_none())
+        {
             return self.report(UpdateOutcome::Gated, 0, 0, false, 0.0);
         }
 
@@ -398,7 +417,8 @@ impl Localiser {
             return self.report(UpdateOutcome::NoUsableBeams, 0, skipped, false, 0.0);
         }
 
-        // Prediction.
+        // Prediction, by the scan's match against the map where one is accepted.
+        let delta = self.matched_motion(&reference.between(&robot_in_odom), scans).unwrap_or(odometry);
         let (kin, alphas) = (self.params.kinematics, self.params.motion);
         for p in &mut self.particles {
             *p = sample_motion(kin, &delta, &alphas, p, &mut self.rng);
@@ -431,6 +451,32 @@ impl Localiser {
                 self.report(total.outcome, total.beams, skipped, total.resampled, total.inject)
             }
         }
+    }
+
+    /// The scan-matching front end: the increment from the last filter estimate to the scan's
+    /// match around that estimate moved by `odometry` (an increment in the robot frame), when the
+    /// front end is on, the filter is concentrated enough to have a pose to match from, and the
+    /// match is accepted. Records the match for the report.
+    fn matched_motion(&mut self, odometry: &Pose2, scans: &[LaserScan]) -> Option<OdometryDelta> {
+        let matcher = self.matcher.as_ref()?;
+        let sm = &self.params.scan_match;
+        let from = self.filter_estimate;
+        if from.position_variance_m2().sqrt() > sm.max_position_sd_m {
+            return None;
+        }
+        self.match_beams.clear();
+        for scan in scans.iter().filter(|s| s.validate().is_ok()) {
+            self.match_beams.add_scan(
+                scan,
+                sm.max_beams,
+                self.params.laser_max_range_m,
+                BeamSelection::EvenlyOverValid,
+            );
+        }
+        let predicted = from.pose_in_map.compose(odometry);
+        let m = matcher.match_scan(&predicted, self.match_beams.endpoints())?;
+        self.last_match = Some(m);
+        m.accepted.then(|| OdometryDelta::between(&from.pose_in_map, &m.pose_in_map))
     }
 
     /// Whether the odometry has moved enough since the last filter update (`update_gate`).

@@ -60,6 +60,7 @@ mod likelihood_field;
 pub mod motion_model;
 mod params;
 mod resample;
+mod scan_match;
 
 pub use cluster::{ClusterScratch, ClusterStats, best_cluster};
 pub use filter::{Covariance3, Degeneracy, Estimate, Localiser, Recovery, UpdateOutcome, UpdateReport};
@@ -70,6 +71,7 @@ pub use params::{
     MAX_PARTICLES_LIMIT, MotionParams, Resampler, UnknownCells, UpdateGate,
 };
 pub use resample::{multinomial_draw, systematic_resample};
+pub use scan_match::{COARSE_YAW_STEP_RAD, Match, ScanMatchParams, ScanMatcher};
 
 use mapkeeper_grid::Pose2;
 

@@ -183,6 +183,11 @@ impl BeamSet {
         self.endpoints_in_robot.is_empty()
     }
 
+    /// Every beam endpoint in the robot frame, `[x, y]` metres, in the order added.
+    pub fn endpoints(&self) -> &[[f64; 2]] {
+        &self.endpoints_in_robot
+    }
+
     /// Adds one endpoint given in the robot frame.
     pub fn push(&mut self, endpoint_in_robot: Point2) {
         self.endpoints_in_robot.push([endpoint_in_robot.x, endpoint_in_robot.y]);

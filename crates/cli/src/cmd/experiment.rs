@@ -229,7 +229,7 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
 /// The flags every experiment has.
 #[derive(clap::Args, Debug)]
 pub struct Common {
-    /// Localiser preset: amcl, mapkeeper or amcl-joint (docs/localiser.md).
+    /// Localiser preset: amcl, mapkeeper, mapkeeper-real or amcl-joint (docs/localiser.md).
     #[arg(long, value_name = "NAME", default_value = "amcl")]
     pub localiser: String,
     /// Parameter file (TOML): `[recovery]` (worlds, loop; docs/recovery.md) and the

@@ -1,5 +1,6 @@
 //! `mapkeeper localise`: the particle-filter localiser over a recorded sensor log.
 
+use super::log_input::{check_localiser, resolve_localiser};
 use super::{load_params, parse_pose};
 use anyhow::Context;
 use mapkeeper_grid::{Pose2, map_io};
@@ -44,8 +45,10 @@ pub struct Args {
     /// |yaw| ≤ 6.3 rad (a turn: a larger yaw is most likely in degrees).
     #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
     pub init: Option<Pose2>,
-    /// Localiser preset: mapkeeper, amcl or amcl-joint (docs/localiser.md). --params overrides its fields.
-    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
+    /// Localiser preset: auto (mapkeeper-real for an imported bag or CARMEN log, mapkeeper for
+    /// this project's own log.jsonl), mapkeeper, mapkeeper-real, amcl or amcl-joint
+    /// (docs/localiser.md). --params overrides its fields.
+    #[arg(long, value_name = "NAME", default_value = "auto")]
     pub localiser: String,
     /// TOML file overriding any FilterParams field of the preset (unknown keys are errors), e.g.
     /// `max_particles = 2000` or `[motion]` `alpha3 = 0.1`.
@@ -66,9 +69,11 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let preset = FilterParams::preset(&args.localiser).context("--localiser")?;
+    check_localiser(&args.localiser)?;
+    let (log, log_path, imported) = args.input.read_with_origin()?;
+    let localiser = resolve_localiser(&args.localiser, imported).to_string();
+    let preset = FilterParams::preset(&localiser).context("--localiser")?;
     let params = load_params(preset, args.params.as_deref(), FilterParams::validate)?;
-    let (log, log_path) = args.input.read()?;
     let source = LogSource::new(log, log_path.display().to_string(), ReplayOptions::default());
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
     let dir = super::output_dir(&args.out, args.force)?;
@@ -78,26 +83,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (r, init) = localise_log(source, &map, params, args.init, args.seed, &mut controls).context("localisation")?;
     let mcap = recorder.map(|r| r.finish(None)).transpose()?;
     let comment = format!(
-        "mapkeeper localise: localiser {}, seed {}, log {}, map {}, init {init}",
-        args.localiser,
+        "mapkeeper localise: localiser {localiser}, seed {}, log {}, map {}, init {init}",
         args.seed,
         log_path.display(),
         args.map.display()
     );
     write_tum_with_comment(&dir.file("estimate.tum")?, &comment, &r.estimates)?;
     dir.write("covariance.csv", r.covariance_csv.as_bytes())?;
-    let record = serde_json::json!({ "localiser": args.localiser, "seed": args.seed, "filter": params });
+    let record = serde_json::json!({ "localiser": localiser, "seed": args.seed, "filter": params });
     dir.write("params.json", format!("{}\n", serde_json::to_string_pretty(&record)?).as_bytes())?;
     let out = dir.finish()?;
     outln!(
         "{} updates ({} sensor updates, {} degenerate and recovered, {} without usable beams); \
-{} scan times before the first odometry skipped; init {init}; localiser {}; seed {}",
+{} scan times before the first odometry skipped; init {init}; localiser {localiser}; seed {}",
         r.updates,
         r.sensor_updates,
         r.degenerate,
         r.no_beams,
         r.no_odometry,
-        args.localiser,
         args.seed
     );
     if let Some((pos, yaw, n)) = r.rmse {

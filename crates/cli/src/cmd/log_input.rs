@@ -124,17 +124,60 @@ impl LogInput {
     /// Reads the log; prints what an import found on stderr. Returns the log and the path read
     /// (a folder's log.jsonl).
     pub fn read(&self) -> anyhow::Result<(SensorLog, PathBuf)> {
+        self.read_with_origin().map(|(log, path, _)| (log, path))
+    }
+
+    /// As [`LogInput::read`], and whether the log was imported from a recorded format (a ROS 1
+    /// or ROS 2 bag, a CARMEN log) rather than read as this project's own `log.jsonl`.
+    pub fn read_with_origin(&self) -> anyhow::Result<(SensorLog, PathBuf, bool)> {
         let Imported { log, report, path } = self.read_imported()?;
+        let imported = report.is_some();
         if let Some(r) = report {
             for line in r.lines() {
                 errln!("import: {line}");
             }
         }
-        Ok((log, path))
+        Ok((log, path, imported))
     }
 
     /// Reads the log with its import report.
     pub fn read_imported(&self) -> anyhow::Result<Imported> {
         Ok(read_log(&self.log, self.log_format, &self.options())?)
+    }
+}
+
+/// The `--localiser` value that picks the preset from the log: [`resolve_localiser`].
+pub const AUTO_LOCALISER: &str = "auto";
+
+/// `--localiser auto` is `mapkeeper-real` (the preset for real robots' logs, with the
+/// scan-matching front end) for an imported log, and `mapkeeper` (tuned for the simulator's two
+/// S300s) for this project's own `log.jsonl`; any other name is itself.
+pub fn resolve_localiser(name: &str, imported: bool) -> &str {
+    match (name, imported) {
+        (AUTO_LOCALISER, true) => "mapkeeper-real",
+        (AUTO_LOCALISER, false) => "mapkeeper",
+        (other, _) => other,
+    }
+}
+
+/// Checks a `--localiser` value before anything is read: `auto` or a known preset.
+pub fn check_localiser(name: &str) -> anyhow::Result<()> {
+    if name != AUTO_LOCALISER {
+        use anyhow::Context;
+        mapkeeper_localiser::FilterParams::preset(name).context("--localiser")?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod localiser_tests {
+    use super::*;
+
+    #[test]
+    fn auto_picks_by_origin_and_names_stand() {
+        assert_eq!(resolve_localiser("auto", true), "mapkeeper-real");
+        assert_eq!(resolve_localiser("auto", false), "mapkeeper");
+        assert_eq!(resolve_localiser("amcl", true), "amcl");
+        assert_eq!(resolve_localiser("mapkeeper", true), "mapkeeper");
     }
 }

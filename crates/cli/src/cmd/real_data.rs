@@ -9,7 +9,7 @@ use mapkeeper_harness::config::params_from_toml_str;
 use mapkeeper_harness::jobs::map::MapLogParams;
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_scenario::experiments::real_data::{
-    Dataset, LocaliserConfig, REAL_DATA_LOCALISER_TOML, RealDataParams, run_real_data,
+    Dataset, LocaliserConfig, ODOMETRY_TUNED_LOCALISER_TOML, RealDataParams, run_real_data,
 };
 use mapkeeper_scenario::results::real_data_report::write_real_data;
 use std::path::{Path, PathBuf};
@@ -27,10 +27,12 @@ const SHARED_LOGS: [&str; 3] = [
 #[command(after_help = "For each log (with reference poses: a CARMEN corrected log, or a bag with --truth-topic): \
 the map at the reference poses (0.05 m, no-return beams do not clear), the localiser from the first reference pose \
 with the raw odometry, the error against the reference (targets: RMSE <= 0.05 m, largest <= 0.25 m), where the \
-odometry contradicts the reference, and the updater over the log on its own map with the reference poses and with \
-the estimate. Two localiser configurations: `mapkeeper` (the preset as it is) and `real-data` (the preset with the \
-overrides of --params, by default crates/scenario/params/real_data_localiser.toml, tuned on the Intel log only). \
-Without --log: the three logs of ../shared/data/carmen/. Output in OUT (default results/real-data-s<SEED>-<counter>): \
+odometry contradicts the reference, how well the reference agrees with its own map (each scan matched from its \
+reference pose), and the updater over the log on its own map with the reference poses and with the estimate of \
+`mapkeeper-real`. Three localiser configurations: `mapkeeper` (the simulator's preset as it is), `odometry-tuned` (the \
+second release's configuration for real logs: crates/scenario/params/odometry_tuned_localiser.toml over `mapkeeper`, \
+no scan matching) and `mapkeeper-real` (the preset for real logs, with the scan-matching front end; --params \
+overrides its fields); both tuned on the Intel log only. Without --log: the three logs of ../shared/data/carmen/. Output in OUT (default results/real-data-s<SEED>-<counter>): \
 summary.json, report.md, and per log map.yaml, reference.tum, estimate_<config>.tum (TUM, for evo), errors_<config>.csv, \
 odometry_vs_reference.csv, changes_<preset>_<poses>.png. Definitions: docs/real-data.md.")]
 pub struct Args {
@@ -41,8 +43,8 @@ pub struct Args {
     /// How the logs are read (--log is taken from above).
     #[command(flatten)]
     pub reading: ReadingFlags,
-    /// TOML overriding any FilterParams field of the `mapkeeper` preset for the `real-data`
-    /// configuration (default: the embedded real_data_localiser.toml).
+    /// TOML overriding any FilterParams field of the `mapkeeper-real` configuration (its
+    /// scan matcher under `[scan_match]`).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
     /// Updater presets run over each log, comma-separated.
@@ -110,16 +112,13 @@ folder with ../shared beside it, or name logs with --log)"
         mapkeeper_updater::UpdaterParams::preset(p).with_context(|| format!("--presets: '{p}'"))?;
     }
     let base = FilterParams::preset("mapkeeper")?;
-    let tuned = match &args.params {
-        Some(p) => load_params(base, Some(p), FilterParams::validate)?,
-        None => params_from_toml_str(base, REAL_DATA_LOCALISER_TOML, FilterParams::validate)
-            .map_err(|e| anyhow::anyhow!("the embedded real_data_localiser.toml: {e}"))?,
-    };
-    let tuned_description = match &args.params {
-        Some(p) => format!("the mapkeeper preset with the overrides of {}", p.display()),
-        None => "the mapkeeper preset with the overrides of crates/scenario/params/real_data_localiser.toml (tuned on \
-the Intel log only)"
-            .into(),
+    let odometry_tuned = params_from_toml_str(base, ODOMETRY_TUNED_LOCALISER_TOML, FilterParams::validate)
+        .map_err(|e| anyhow::anyhow!("the embedded odometry_tuned_localiser.toml: {e}"))?;
+    let real_preset = FilterParams::preset("mapkeeper-real")?;
+    let logs_params = load_params(real_preset, args.params.as_deref(), FilterParams::validate)?;
+    let logs_description = match &args.params {
+        Some(p) => format!("the mapkeeper-real preset with the overrides of {}", p.display()),
+        None => "the mapkeeper-real preset: the scan-matching front end on (tuned on the Intel log only)".into(),
     };
     let params = RealDataParams {
         mapper: MapLogParams {
@@ -134,10 +133,18 @@ the Intel log only)"
                 description: "the mapkeeper preset as it is".into(),
                 params: base,
             },
-            LocaliserConfig { name: "real-data".into(), description: tuned_description, params: tuned },
+            LocaliserConfig {
+                name: "odometry-tuned".into(),
+                description: "the second release's configuration for real logs: the mapkeeper preset with the \
+overrides of crates/scenario/params/odometry_tuned_localiser.toml, odometry-driven (tuned on the Intel log only)"
+                    .into(),
+                params: odometry_tuned,
+            },
+            LocaliserConfig { name: "mapkeeper-real".into(), description: logs_description, params: logs_params },
         ],
         updater_presets: args.presets.clone(),
         seeds: (0..args.seeds as u64).map(|k| args.seed.wrapping_add(k)).collect(),
+        reference_fit: real_preset.scan_match,
     };
     let datasets = logs.iter().map(|p| read(p, &args.reading)).collect::<anyhow::Result<Vec<_>>>()?;
     let out = args.out.clone().unwrap_or_else(|| default_out(args.seed));

@@ -52,7 +52,7 @@ pub struct Args {
     /// A short setting for tests: 3 worlds, 1 seed, 15 m (unless given).
     #[arg(long)]
     pub quick: bool,
-    /// Localiser preset: amcl, mapkeeper or amcl-joint (docs/localiser.md).
+    /// Localiser preset: amcl, mapkeeper, mapkeeper-real or amcl-joint (docs/localiser.md).
     #[arg(long, value_name = "NAME", default_value = "amcl")]
     pub localiser: String,
     /// Parameter file (TOML) with a `[sensor_realism]` table (any of its fields; the flags

@@ -39,7 +39,7 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
-    /// Localiser preset of the chain localiser: mapkeeper, amcl or amcl-joint (docs/localiser.md); a
+    /// Localiser preset of the chain localiser: mapkeeper, mapkeeper-real, amcl or amcl-joint (docs/localiser.md); a
     /// --params file's `[runner.filter]` fields override it. Recorded in summary.json
     /// (`params.runner.localiser`, `params.runner.filter`) and report.md.
     #[arg(long, value_name = "NAME", default_value = "mapkeeper")]

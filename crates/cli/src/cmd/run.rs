@@ -41,9 +41,11 @@ pub struct Args {
     /// TOML file overriding any field of the updater preset (as `mapkeeper update --params`).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
-    /// Localiser preset of both localisers: mapkeeper, amcl or amcl-joint (docs/localiser.md); recorded
-    /// in run.json with its parameters.
-    #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
+    /// Localiser preset of both localisers: auto (mapkeeper in a world; on a --log, mapkeeper-real
+    /// for an imported bag or CARMEN log, mapkeeper for this project's own log.jsonl), mapkeeper,
+    /// mapkeeper-real, amcl or amcl-joint (docs/localiser.md); recorded in run.json with its
+    /// parameters.
+    #[arg(long, value_name = "NAME", default_value = "auto")]
     pub localiser: String,
     /// Run seed (any whole number from 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = super::seed, allow_hyphen_values = true)]
@@ -72,7 +74,8 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
+    let in_world = super::log_input::resolve_localiser(&args.localiser, false);
+    mapkeeper_localiser::FilterParams::preset(in_world).context("--localiser")?;
     let world_path = match (&args.world, &args.log) {
         (Some(w), _) => w.clone(),
         (None, Some(_)) if args.sensor.is_set() => {
@@ -99,7 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         record_trajectories: true,
         ..RunnerParams::default()
     };
-    params.set_localiser(&args.localiser).context("--localiser")?;
+    params.set_localiser(in_world).context("--localiser")?;
     params.updater_poses = args.poses.updater_poses()?;
     args.sensor.apply(&mut params.sim)?;
     let dir = super::output_dir(&args.out, args.force)?;

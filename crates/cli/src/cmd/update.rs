@@ -53,8 +53,10 @@ pub struct Args {
     /// updater its estimate: the paper's loop on recorded data. Writes OUT/poses.tum.
     #[arg(long, conflicts_with = "poses")]
     pub localise: bool,
-    /// With --localise: the localiser preset, mapkeeper, amcl or amcl-joint.
-    #[arg(long, value_name = "NAME", default_value = "mapkeeper", requires = "localise")]
+    /// With --localise: the localiser preset, auto (mapkeeper-real for an imported bag or
+    /// CARMEN log, mapkeeper for this project's own log.jsonl), mapkeeper, mapkeeper-real, amcl
+    /// or amcl-joint.
+    #[arg(long, value_name = "NAME", default_value = "auto", requires = "localise")]
     pub localiser: String,
     /// With --localise: TOML overriding any FilterParams field of the localiser preset.
     #[arg(long, value_name = "FILE.toml", requires = "localise")]
@@ -111,7 +113,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let sync_window_ns = sync_window_ns(args.sync_window_s)?;
     let params = load_updater_params(&args.preset, args.params.as_deref())?;
     let map = load_map(&args.map)?;
-    let (log, log_path) = args.input.read()?;
+    super::log_input::check_localiser(&args.localiser)?;
+    let (log, log_path, imported) = args.input.read_with_origin()?;
     let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, sync_window_ns, ..ReplayOptions::default() };
     let source = LogSource::new(log, log_path.display().to_string(), options);
     let poses = match (&args.poses, args.true_poses) {
@@ -122,7 +125,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         (None, true) => PoseInput::LoggedTruth,
         (None, false) if args.localise => {
-            let preset = mapkeeper_localiser::FilterParams::preset(&args.localiser).context("--localiser")?;
+            let localiser = super::log_input::resolve_localiser(&args.localiser, imported);
+            let preset = mapkeeper_localiser::FilterParams::preset(localiser).context("--localiser")?;
+            errln!("localiser: {localiser}");
             let params =
                 load_params(preset, args.localiser_params.as_deref(), mapkeeper_localiser::FilterParams::validate)?;
             PoseInput::Localise { params: Box::new(params), seed: args.seed, init: None }

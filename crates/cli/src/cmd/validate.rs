@@ -59,7 +59,7 @@ pub struct Args {
     /// (preset × seed); each preset's results go to `OUT/<preset>/` [default: paper,mapkeeper].
     #[arg(long, value_name = "P1,P2,…", conflicts_with = "preset", value_delimiter = ',')]
     pub presets: Option<Vec<String>>,
-    /// Localiser preset of the chain and baseline localisers: mapkeeper, amcl or amcl-joint
+    /// Localiser preset of the chain and baseline localisers: mapkeeper, mapkeeper-real, amcl or amcl-joint
     /// (docs/localiser.md); recorded in summary.json and report.md. The default, amcl, is the
     /// filter the paper ran.
     #[arg(long, value_name = "NAME", default_value = "amcl")]

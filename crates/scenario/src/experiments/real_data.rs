@@ -15,14 +15,15 @@ use mapkeeper_harness::jobs::localise::localise_log;
 use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
 use mapkeeper_harness::{DEFAULT_SYNC_WINDOW_NS, LogSource, NoClock, OdometryAt, ReplayOptions};
-use mapkeeper_localiser::FilterParams;
+use mapkeeper_localiser::{BeamSelection, BeamSet, FilterParams, ScanMatchParams, ScanMatcher};
 use mapkeeper_sensor::{SensorLog, StampedPose, interpolate};
 use mapkeeper_updater::UpdaterParams;
 use serde::Serialize;
 
-/// The overrides of the `real-data` localiser configuration (TOML over the `mapkeeper` preset;
-/// tuned on the Intel log only).
-pub const REAL_DATA_LOCALISER_TOML: &str = include_str!("../../params/real_data_localiser.toml");
+/// The overrides of the `odometry-tuned` localiser configuration, the second release's
+/// configuration for real logs (TOML over the `mapkeeper` preset; odometry-driven, no scan
+/// matching; tuned on the Intel log only).
+pub const ODOMETRY_TUNED_LOCALISER_TOML: &str = include_str!("../../params/odometry_tuned_localiser.toml");
 
 /// Position RMSE target, metres (issue 14).
 pub const TARGET_RMSE_M: f64 = 0.05;
@@ -69,6 +70,8 @@ pub struct RealDataParams {
     pub updater_presets: Vec<String>,
     /// The localiser seeds: each configuration runs once per seed on every log.
     pub seeds: Vec<u64>,
+    /// The scan matcher measuring how well the reference agrees with its own map.
+    pub reference_fit: ScanMatchParams,
 }
 
 /// The estimate's error against the reference.
@@ -134,6 +137,10 @@ pub struct UpdaterResult {
     pub to_free: usize,
     /// Other changes (to or from unknown).
     pub other_changes: usize,
+    /// With the localiser's poses: how many of the changed cells the reference-pose run of the
+    /// same preset changed the same way (the rest are owed to the estimate's error, or to what
+    /// only these poses saw). `None` for the reference-pose run itself.
+    pub same_as_reference: Option<usize>,
     /// The updated map.
     #[serde(skip)]
     pub map: Option<OccupancyGrid>,
@@ -155,6 +162,27 @@ pub struct Disagreement {
     pub series: Vec<(f64, f64)>,
 }
 
+/// How well the reference poses agree with the map built from them: each scan is matched against
+/// that map from its reference pose by the scan matcher of the `mapkeeper-real` localiser
+/// ([`ScanMatchParams`] as given). The distance each accepted match moves from the reference is
+/// the disagreement between the reference and its own map: a localiser that follows the map
+/// cannot agree with the reference much better than this.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ReferenceFit {
+    /// Scans with a reference pose and at least one usable beam.
+    pub scans: usize,
+    /// Of these, the scans whose match was accepted.
+    pub accepted: usize,
+    /// Median distance from the reference to the match, metres (accepted matches).
+    pub median_m: f64,
+    /// RMS distance, metres.
+    pub rms_m: f64,
+    /// 95th percentile, metres.
+    pub p95_m: f64,
+    /// RMS yaw difference, degrees.
+    pub yaw_rms_deg: f64,
+}
+
 /// One log's results.
 #[derive(Clone, Debug, Serialize)]
 pub struct DatasetResult {
@@ -172,6 +200,8 @@ pub struct DatasetResult {
     pub map_cells: (usize, usize, usize),
     /// Where odometry contradicts the reference.
     pub disagreement: Disagreement,
+    /// How well the reference agrees with the map built from it.
+    pub reference_fit: ReferenceFit,
     /// Each localiser configuration.
     pub localisers: Vec<LocaliserResult>,
     /// Each updater run.
@@ -217,6 +247,7 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
         .filter_map(|&t| interpolate(&truth, t).map(|pose| StampedPose { stamp_ns: t, pose }))
         .collect();
     let disagreement = disagreement(&reference, &odometry);
+    let reference_fit = reference_fit(&d.log, &truth, &map, params.reference_fit);
     let mut localisers = Vec::new();
     for c in &params.localisers {
         let mut r = LocaliserResult {
@@ -243,21 +274,8 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
         r.seeds_meeting_targets = r.by_seed.iter().filter(|e| e.targets_met).count();
         localisers.push(r);
     }
-    let mut updaters = Vec::new();
-    let update_options =
-        ReplayOptions { odometry_at: OdometryAt::Interpolated, sync_window_ns: DEFAULT_SYNC_WINDOW_NS, ..replay };
-    for preset in &params.updater_presets {
-        let up = UpdaterParams::preset(preset).map_err(|e| invalid(&d.name, e))?;
-        let mut inputs = vec![("reference".to_string(), PoseInput::LoggedTruth)];
-        if let Some(l) = localisers.last() {
-            inputs.push((l.localiser.clone(), PoseInput::Track(l.estimates.clone())));
-        }
-        for (poses, input) in inputs {
-            let r = update_log(source(update_options), map.clone(), up.clone(), input, &NoClock, &mut [])
-                .map_err(|e| invalid(&d.name, e))?;
-            updaters.push(updater_result(preset, &poses, &map, r.map, &r.stats)?);
-        }
-    }
+    let estimate = localisers.last().map(|l| (l.localiser.clone(), l.estimates.clone()));
+    let updaters = run_updaters(d, params, &map, estimate)?;
     let path_m = reference.windows(2).map(|w| w[0].pose.distance(&w[1].pose)).sum();
     let span = |v: &[u64]| v.last().zip(v.first()).map_or(0.0, |(b, a)| (b - a) as f64 * 1e-9);
     let g = map.geometry();
@@ -269,11 +287,52 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
         path_m,
         map_cells: (g.width(), g.height(), map.count(mapkeeper_grid::CellState::Occupied)),
         disagreement,
+        reference_fit,
         localisers,
         updaters,
         map: Some(map),
         reference,
     })
+}
+
+/// The updater presets over the log on its own map, given the reference poses and then (if any)
+/// the named estimate; the estimate's runs count the changes they share with the reference's.
+fn run_updaters(
+    d: &Dataset,
+    params: &RealDataParams,
+    map: &OccupancyGrid,
+    estimate: Option<(String, Vec<StampedPose>)>,
+) -> Result<Vec<UpdaterResult>, ExperimentError> {
+    let options = ReplayOptions {
+        odometry_at: OdometryAt::Interpolated,
+        sync_window_ns: DEFAULT_SYNC_WINDOW_NS,
+        ..ReplayOptions::default()
+    };
+    let mut updaters = Vec::new();
+    for preset in &params.updater_presets {
+        let up = UpdaterParams::preset(preset).map_err(|e| invalid(&d.name, e))?;
+        let mut inputs = vec![("reference".to_string(), PoseInput::LoggedTruth)];
+        if let Some((name, track)) = &estimate {
+            inputs.push((name.clone(), PoseInput::Track(track.clone())));
+        }
+        let mut reference_run: Option<OccupancyGrid> = None;
+        for (poses, input) in inputs {
+            let source = LogSource::new(d.log.clone(), d.source.clone(), options);
+            let r = update_log(source, map.clone(), up.clone(), input, &NoClock, &mut [])
+                .map_err(|e| invalid(&d.name, e))?;
+            let mut result = updater_result(preset, &poses, map, r.map, &r.stats)?;
+            match (&reference_run, &result.map) {
+                (Some(reference), Some(after)) => {
+                    result.same_as_reference =
+                        Some(same_changes(map, reference, after).map_err(|e| invalid(&d.name, e))?)
+                }
+                (None, Some(after)) => reference_run = Some(after.clone()),
+                _ => {}
+            }
+            updaters.push(result);
+        }
+    }
+    Ok(updaters)
 }
 
 fn updater_result(
@@ -297,8 +356,20 @@ fn updater_result(
         to_occupied,
         to_free,
         other_changes: diff.len() - to_occupied - to_free,
+        same_as_reference: None,
         map: Some(after),
     })
+}
+
+/// The cells `after` changed from `before` to the same state as `reference` did.
+fn same_changes(
+    before: &OccupancyGrid,
+    reference: &OccupancyGrid,
+    after: &OccupancyGrid,
+) -> Result<usize, mapkeeper_grid::GridError> {
+    let reference: std::collections::HashSet<(mapkeeper_grid::CellCoord, mapkeeper_grid::CellState)> =
+        before.diff(reference)?.into_iter().map(|(c, _, b)| (c, b)).collect();
+    Ok(before.diff(after)?.into_iter().filter(|(c, _, b)| reference.contains(&(*c, *b))).count())
 }
 
 /// The estimate's error against the reference interpolated at each estimate, and the series.
@@ -326,6 +397,40 @@ pub fn error_stats(estimates: &[StampedPose], truth: &[StampedPose]) -> (ErrorSt
         targets_met: !series.is_empty() && rmse_m <= TARGET_RMSE_M && max_m <= TARGET_MAX_M,
     };
     (stats, series)
+}
+
+/// Matches every scan of `log` against `map` from the reference pose at its time
+/// ([`ReferenceFit`]). The beams are chosen as the `mapkeeper-real` localiser chooses them
+/// (`max_beams` per lidar, evenly over the valid readings).
+pub fn reference_fit(log: &SensorLog, truth: &[StampedPose], map: &OccupancyGrid, sm: ScanMatchParams) -> ReferenceFit {
+    let matcher = ScanMatcher::new(map, sm);
+    let max_range = FilterParams::preset("mapkeeper-real").map_or(30.0, |p| p.laser_max_range_m);
+    let mut beams = BeamSet::new();
+    let (mut dist, mut yaw) = (Vec::new(), Vec::new());
+    let mut scans = 0;
+    for scan in log.scans() {
+        let Some(at) = interpolate(truth, scan.stamp_ns) else { continue };
+        beams.clear();
+        if scan.validate().is_err()
+            || beams.add_scan(scan, sm.max_beams, max_range, BeamSelection::EvenlyOverValid) == 0
+        {
+            continue;
+        }
+        scans += 1;
+        if let Some(m) = matcher.match_scan(&at, beams.endpoints()).filter(|m| m.accepted) {
+            dist.push(m.pose_in_map.distance(&at));
+            yaw.push(angle_diff(m.pose_in_map.yaw, at.yaw).to_degrees());
+        }
+    }
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    ReferenceFit {
+        scans,
+        accepted: dist.len(),
+        median_m: median(dist.clone()).unwrap_or(0.0),
+        rms_m: rms(&dist),
+        p95_m: percentile(dist.clone(), 0.95).unwrap_or(0.0),
+        yaw_rms_deg: rms(&yaw),
+    }
 }
 
 /// Compares the odometry increment with the reference increment between consecutive scans.

@@ -185,18 +185,52 @@ reference increments differ by more than ",
             g.longest_run_start_s
         );
     }
+    fit_table(&mut s, results);
     updater_table(&mut s, results);
     s
 }
 
+fn fit_table(s: &mut String, results: &[DatasetResult]) {
+    s.push_str(
+        "\nHow well each reference agrees with the map built from it (each scan matched against the map from its \
+reference pose by the scan matcher of `mapkeeper-real`; the distance the accepted matches move is a floor for any \
+map-based localiser scored against this reference):\n\n| log | scans | matches accepted | median (m) | RMS (m) | p95 (m) | \
+yaw RMS (°) |\n|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for d in results {
+        let f = &d.reference_fit;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} ({:.1} %) | {:.4} | {:.4} | {:.4} | {:.2} |",
+            d.name,
+            f.scans,
+            f.accepted,
+            100.0 * f.accepted as f64 / f.scans.max(1) as f64,
+            f.median_m,
+            f.rms_m,
+            f.p95_m,
+            f.yaw_rms_deg
+        );
+    }
+}
+
 fn updater_table(s: &mut String, results: &[DatasetResult]) {
     s.push_str("\nThe updater over each log on the log's own map (changes are transient: people, doors, or poses that \
-disagree with the map):\n\n| log | preset | poses | processed | Update | Suspend | Lost | cells → occupied | cells → free | other |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
+disagree with the map; with the localiser's poses, how many of its changes the reference-pose run made too):\n\n\
+| log | preset | poses | processed | Update | Suspend | Lost | cells → occupied | cells → free | other | same as with the reference |\n\
+|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for d in results {
         for u in &d.updaters {
+            let same = u.same_as_reference.map_or_else(
+                || "–".to_string(),
+                |k| {
+                    let all = u.to_occupied + u.to_free + u.other_changes;
+                    format!("{k} of {all}")
+                },
+            );
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {same} |",
                 d.name,
                 u.preset,
                 u.poses,
