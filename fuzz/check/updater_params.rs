@@ -177,6 +177,7 @@ fn scan(
         range_min_m: 0.05,
         range_max_m: 30.0,
         ranges_m,
+        sweep: None,
     }
 }
 

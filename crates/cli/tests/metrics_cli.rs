@@ -187,6 +187,7 @@ fn map_from_a_logged_room_run_matches_the_room() {
             range_min_m: 0.05,
             range_max_m: 30.0,
             ranges_m,
+            sweep: None,
         };
         w.write(&LogRecord::Scan(scan)).unwrap();
     }

@@ -43,6 +43,7 @@ fn scan(stamp_ns: u64, lidar_id: u32, robot: Pose2) -> LaserScan {
         range_min_m: 0.05,
         range_max_m: 20.0,
         ranges_m,
+        sweep: None,
     }
 }
 

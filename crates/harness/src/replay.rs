@@ -31,6 +31,9 @@ pub struct ReplayOptions {
     /// stamp is its latest scan's. 0: only scans with exactly the same stamp. Default 0 (`mapkeeper
     /// update` uses [`DEFAULT_SYNC_WINDOW_NS`]).
     pub sync_window_ns: u64,
+    /// Whether the jobs deskew the scans that carry a sweep timing (a bag's `time_increment`)
+    /// before the estimators see them ([`crate::Session::set_deskew`]). Default true.
+    pub deskew: bool,
 }
 
 /// The synchronisation window `mapkeeper update` groups the scans of unsynchronised lidars
@@ -39,7 +42,7 @@ pub const DEFAULT_SYNC_WINDOW_NS: u64 = 50_000_000;
 
 impl Default for ReplayOptions {
     fn default() -> Self {
-        Self { odometry_at: OdometryAt::LatestAtOrBefore, max_truth_gap_ns: u64::MAX, sync_window_ns: 0 }
+        Self { odometry_at: OdometryAt::LatestAtOrBefore, max_truth_gap_ns: u64::MAX, sync_window_ns: 0, deskew: true }
     }
 }
 
@@ -76,6 +79,11 @@ pub struct LogSource {
 }
 
 impl LogSource {
+    /// How the log is replayed.
+    pub fn options(&self) -> &ReplayOptions {
+        &self.options
+    }
+
     /// Replays `log` (named `name` in errors and reports). Records are ordered by stamp (stable
     /// within one stamp); scans are grouped into steps by [`ReplayOptions::sync_window_ns`].
     pub fn new(log: SensorLog, name: impl Into<String>, options: ReplayOptions) -> Self {

@@ -9,7 +9,7 @@ use crate::clock::Clock;
 use crate::source::SensorFrame;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_localiser::{Covariance3, Estimate, Localiser, UpdateReport};
-use mapkeeper_sensor::{StampedPose, interpolate};
+use mapkeeper_sensor::{StampedPose, constant_velocity, deskew, interpolate};
 use mapkeeper_updater::{MapUpdater, PoseSigma, StepOutcome, StepReport as UpdaterStep};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
@@ -157,7 +157,14 @@ pub struct Session<'c> {
     /// The pose the updater is given on the next step instead of the pose source's
     /// ([`Session::set_updater_pose_override`]).
     updater_pose: Option<Pose2>,
+    /// Whether scans with a sweep timing are deskewed ([`Session::set_deskew`]).
+    deskew: bool,
+    /// The last frame's odometry and its time (the motion over the next sweep).
+    last_odometry: Option<(u64, Pose2)>,
 }
+
+/// Odometry older than this gives no motion for deskewing, nanoseconds.
+const DESKEW_MAX_ODOMETRY_GAP_NS: u64 = 1_000_000_000;
 
 /// An offset of the pose the updater is given (an experiment holding the estimate wrong while
 /// the localiser itself runs on): the position moves by (`dx_m`, `dy_m`) in the map frame and
@@ -193,7 +200,36 @@ impl<'c> Session<'c> {
         baseline: Option<Baseline>,
         clock: &'c dyn Clock,
     ) -> Self {
-        Self { pose, updater, baseline, clock, bias: None, updater_pose: None }
+        Self { pose, updater, baseline, clock, bias: None, updater_pose: None, deskew: true, last_odometry: None }
+    }
+
+    /// Whether the scans that carry a sweep timing (`LaserScan::sweep`) are deskewed before
+    /// every estimator sees them (default true): each beam is moved to where it would have been
+    /// measured from the robot at the frame's time, the robot's motion over the sweep taken at
+    /// constant velocity from the last two odometry readings ([`mapkeeper_sensor::deskew`]).
+    /// Scans without timing, and frames without odometry now and less than a second before, are
+    /// left as they are. Observers still see the raw frame.
+    pub fn set_deskew(&mut self, on: bool) {
+        self.deskew = on;
+    }
+
+    /// The frame the estimators see: `frame` with its timed scans deskewed, when deskewing is
+    /// on and the motion is known; `None` to use `frame` as it is.
+    fn deskewed(&self, frame: &SensorFrame, before: Option<(u64, Pose2)>) -> Option<SensorFrame> {
+        if !self.deskew || frame.scans.iter().all(|s| s.sweep.is_none()) {
+            return None;
+        }
+        let (now, (before_ns, before)) = (frame.odometry?, before?);
+        if frame.stamp_ns.saturating_sub(before_ns) > DESKEW_MAX_ODOMETRY_GAP_NS {
+            return None;
+        }
+        let mut out = frame.clone();
+        for scan in &mut out.scans {
+            if let Some(at) = constant_velocity(before, before_ns, now, frame.stamp_ns, scan.stamp_ns) {
+                *scan = deskew(scan, at);
+            }
+        }
+        Some(out)
     }
 
     /// From the next step on, the pose the updater is given (and [`StepReport::pose_in_map`])
@@ -228,6 +264,12 @@ impl<'c> Session<'c> {
     /// that pose (or the override, [`Session::set_updater_pose_override`]; and the frame's
     /// odometry, or the pose where there is none), then the baseline.
     pub fn process(&mut self, frame: &SensorFrame) -> StepReport {
+        let before = self.last_odometry;
+        if let Some(o) = frame.odometry {
+            self.last_odometry = Some((frame.stamp_ns, o));
+        }
+        let deskewed = self.deskewed(frame, before);
+        let frame = deskewed.as_ref().unwrap_or(frame);
         let oracle = self.updater_pose.take();
         let (pose, localiser) = match &mut self.pose {
             PoseSource::Localiser(loc) => {
@@ -364,6 +406,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 20.0,
             ranges_m: vec![3.0; 301],
+            sweep: None,
         };
         SensorFrame { stamp_ns, odometry: Some(Pose2::new(0.3 * k as f64, 0.0, 0.0)), scans: vec![scan] }
     }
@@ -421,5 +464,33 @@ mod tests {
         let report = s.process(&SensorFrame { odometry: None, ..frame(1) });
         assert_eq!(report.skipped, Some(Skip::NoOdometry));
         assert_eq!(s.updater_pose_override(), None);
+    }
+
+    #[test]
+    fn timed_scans_are_deskewed_by_the_odometry_when_on_and_known() {
+        use mapkeeper_sensor::SweepTiming;
+        let timed = |k: u64| {
+            let mut f = frame(k);
+            // 0.3 m per 0.1 s along x: the first beam was measured 0.03 s (9 cm) before the last.
+            f.scans[0].sweep = Some(SweepTiming::ending_at_stamp(301, 1e-4));
+            f
+        };
+        let mut s = session(PoseSource::None);
+        let before = Some((frame(0).stamp_ns, frame(0).odometry.unwrap()));
+        let out = s.deskewed(&timed(1), before).expect("a timed scan with the motion known");
+        let (raw, fixed) = (&timed(1).scans[0], &out.scans[0]);
+        assert!(fixed.sweep.is_none());
+        // Beam 150 (straight ahead, measured 0.015 s early from 4.5 cm behind) now reads from the
+        // robot at the frame's time, 4.5 cm shorter; beam 295, measured at the end, barely moves.
+        let moved = |i: usize| raw.ranges_m[i] - fixed.ranges_m[i];
+        assert!((moved(150) - 0.045).abs() < 0.005, "{}", moved(150));
+        assert!(moved(295).abs() < 0.005, "{}", moved(295));
+        // Not without the motion, not for untimed scans, not when off.
+        assert!(s.deskewed(&timed(1), None).is_none());
+        assert!(s.deskewed(&frame(1), before).is_none());
+        let stale = Some((0, Pose2::IDENTITY));
+        assert!(s.deskewed(&SensorFrame { stamp_ns: 2_000_000_000, ..timed(1) }, stale).is_none());
+        s.set_deskew(false);
+        assert!(s.deskewed(&timed(1), before).is_none());
     }
 }

@@ -25,6 +25,7 @@ fn scan(stamp_ns: u64, lidar_id: u32) -> LaserScan {
         range_min_m: 0.05,
         range_max_m: 20.0,
         ranges_m: vec![2.0; 301],
+        sweep: None,
     }
 }
 

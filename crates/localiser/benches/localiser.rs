@@ -66,6 +66,7 @@ fn scans(map: &OccupancyGrid, robot: &Pose2) -> Vec<LaserScan> {
                 range_min_m: 0.1,
                 range_max_m: 29.9,
                 ranges_m,
+                sweep: None,
             }
         })
         .collect()

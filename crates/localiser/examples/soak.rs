@@ -132,6 +132,7 @@ fn dual_scan(caster: &RayCaster, robot: Pose2) -> [LaserScan; 2] {
             range_min_m: 0.05,
             range_max_m: 30.0,
             ranges_m,
+            sweep: None,
         }
     })
 }

@@ -36,7 +36,7 @@
 //!     .map(|i| cast_ray(&map, truth.position(), truth.yaw - std::f64::consts::PI + i as f64 * inc, 10.0, true).range_m as f32)
 //!     .collect();
 //! let scan = LaserScan { stamp_ns: 0, lidar_id: 0, lidar_in_robot: Pose2::IDENTITY,
-//!     angle_min_rad: -std::f64::consts::PI, angle_increment_rad: inc, range_min_m: 0.05, range_max_m: 10.0, ranges_m };
+//!     angle_min_rad: -std::f64::consts::PI, angle_increment_rad: inc, range_min_m: 0.05, range_max_m: 10.0, ranges_m, sweep: None };
 //!
 //! let mut params = FilterParams::default();
 //! params.min_particles = 200;

@@ -308,6 +308,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 10.0,
             ranges_m: vec![0.45],
+            sweep: None,
         };
         let mut beams = BeamSet::new();
         assert_eq!(beams.add_scan(&scan, 30, 30.0, BeamSelection::EvenlyOverValid), 1);
@@ -331,6 +332,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 30.0,
             ranges_m: ranges,
+            sweep: None,
         };
         let mut beams = BeamSet::new();
         // 9 valid beams (0,1,2,4,5,6,8,9,10); 3 evenly spaced: valid ranks 0, 4, 8 = beams 0, 5, 10.
@@ -359,6 +361,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 30.0,
             ranges_m: ranges,
+            sweep: None,
         };
         let mut beams = BeamSet::new();
         // step = (11 − 1) / (4 − 1) = 3: readings 0, 3, 6, 9 (none invalid).

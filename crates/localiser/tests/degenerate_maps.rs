@@ -29,6 +29,7 @@ fn scan(range_m: f32, stamp_ns: u64) -> LaserScan {
         range_min_m: 0.05,
         range_max_m: 30.0,
         ranges_m: vec![range_m; 360],
+        sweep: None,
     }
 }
 

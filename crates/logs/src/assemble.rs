@@ -13,7 +13,7 @@ use crate::options::{ImportOptions, OdometryFrom};
 use crate::report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 use crate::rigid::Rigid3;
 use mapkeeper_grid::Pose2;
-use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, TruePose};
+use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, SweepTiming, TruePose};
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 
@@ -37,6 +37,9 @@ pub struct RawScan {
     pub range_max_m: f32,
     /// One reading per beam, metres.
     pub ranges_m: Vec<f32>,
+    /// Time between beams, seconds, the first beam at the stamp (ROS `time_increment`); 0 when
+    /// unknown (CARMEN).
+    pub time_increment_s: f64,
     /// Where the message is in the file, for errors (`line 12`, `message 40`).
     pub place: String,
 }
@@ -188,11 +191,22 @@ impl Assembler {
             records.push((p.stamp_ns, 1, 0, LogRecord::Truth(p)));
         }
         let n_scans: usize = scan_records.iter().map(|r| r.3.len()).sum();
+        let (mut timed, mut untimed) = (0usize, BTreeMap::<String, (usize, String)>::new());
         for (id, mount, mirrored, scans) in scan_records {
             for s in scans {
-                let scan = to_scan(&self.path, s, id, mount, mirrored, epoch_ns)?;
+                let scan = to_scan(&self.path, s, id, mount, mirrored, epoch_ns, &mut untimed)?;
+                timed += usize::from(scan.sweep.is_some());
                 records.push((scan.stamp_ns, 2, id, LogRecord::Scan(scan)));
             }
+        }
+        if timed > 0 {
+            self.notes.push(format!(
+                "{timed} scans carry a time_increment: each beam's time is known, and the estimators deskew them \
+by the odometry over the sweep (docs/real-data.md)"
+            ));
+        }
+        for (topic, (count, why)) in untimed {
+            self.notes.push(format!("{topic}: the time_increment of {count} scans is ignored: {why}"));
         }
         records.sort_by_key(|r| (r.0, r.1, r.2));
         let duration_s = records.last().map_or(0.0, |r| r.0 as f64 * 1e-9);
@@ -460,7 +474,19 @@ fn to_scan(
     mount: Pose2,
     mirrored: bool,
     epoch_ns: u64,
+    untimed: &mut BTreeMap<String, (usize, String)>,
 ) -> Result<LaserScan, ImportError> {
+    let n = s.ranges_m.len();
+    let sweep = (s.time_increment_s != 0.0)
+        .then_some(SweepTiming { first_beam_s: 0.0, time_increment_s: s.time_increment_s })
+        .filter(|t| match t.check(n) {
+            Ok(()) => true,
+            Err(why) => {
+                let e = untimed.entry(s.topic.clone()).or_insert((0, why));
+                e.0 += 1;
+                false
+            }
+        });
     let (angle_min_rad, angle_increment_rad) =
         if mirrored { (-s.angle_min_rad, -s.angle_increment_rad) } else { (s.angle_min_rad, s.angle_increment_rad) };
     let scan = LaserScan {
@@ -472,6 +498,7 @@ fn to_scan(
         range_min_m: s.range_min_m,
         range_max_m: s.range_max_m,
         ranges_m: s.ranges_m,
+        sweep,
     };
     scan.validate()
         .map_err(|e| ImportError::parse(path, format!("{} ({})", s.place, s.topic), format!("scan: {e}")))?;
@@ -520,6 +547,7 @@ mod tests {
             range_min_m: 0.1,
             range_max_m: 20.0,
             ranges_m: vec![1.0; 5],
+            time_increment_s: 0.0,
             place: format!("message at {t}"),
         }
     }

@@ -453,6 +453,7 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
             range_min_m: 0.0,
             range_max_m: l.max_range.map_or(file_max, |m| m.min(file_max)),
             ranges_m: l.ranges.clone(),
+            time_increment_s: 0.0,
             place: format!("line {}", l.line),
         });
     }

@@ -110,6 +110,7 @@ fn mcap_seed(dir: &Path, name: &str, scans: u64) -> Vec<u8> {
             range_min_m: 0.05,
             range_max_m: 8.0,
             ranges_m: vec![1.0, 2.0, 3.0, 4.0, 5.0],
+            sweep: None,
         };
         w.scan(&s).unwrap();
         w.odometry(t, Pose2::new(0.1 * k as f64, 0.0, 0.0)).unwrap();

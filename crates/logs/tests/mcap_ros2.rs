@@ -4,7 +4,7 @@
 
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, angle_diff};
 use mapkeeper_logs::{ImportError, ImportOptions, LogFormat, McapRunWriter, StampFrom, detect_format, read_log, ros2};
-use mapkeeper_sensor::{LaserScan, SensorLog};
+use mapkeeper_sensor::{LaserScan, SensorLog, SweepTiming};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -50,6 +50,7 @@ fn lidar_scan(id: u32, k: u64) -> LaserScan {
             range_min_m: 0.05,
             range_max_m: 20.0,
             ranges_m: ranges,
+            sweep: None,
         }
     } else {
         // Upside down: the beams turn clockwise (a negative increment), facing back.
@@ -62,6 +63,7 @@ fn lidar_scan(id: u32, k: u64) -> LaserScan {
             range_min_m: 0.1,
             range_max_m: 12.5,
             ranges_m: ranges,
+            sweep: None,
         }
     }
 }
@@ -161,6 +163,37 @@ fn a_written_run_reads_back_the_same() {
     let imported = read_log(&path, None, &truth_options()).unwrap();
     assert_eq!(imported.log.records, log.records);
     assert_eq!(imported.path, path);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_scan_timing_in_the_ros_convention_reads_back_and_another_is_written_as_unknown() {
+    let dir = temp_dir("timing");
+    let path = dir.join("timed.mcap");
+    let mut w = McapRunWriter::create(&path).unwrap();
+    for k in 0..3 {
+        w.odometry(k * 100 * MS, Pose2::new(0.1 * k as f64, 0.0, 0.0)).unwrap();
+        // Lidar 0 stamps its first beam (ROS); lidar 1 its last (the simulator's convention).
+        let mut a = lidar_scan(0, k);
+        a.sweep = Some(SweepTiming { first_beam_s: 0.0, time_increment_s: 1.0 / 3600.0 });
+        let mut b = lidar_scan(1, k);
+        b.sweep = Some(SweepTiming::ending_at_stamp(b.ranges_m.len(), 1.0 / 3600.0));
+        w.scan(&a).unwrap();
+        w.scan(&b).unwrap();
+    }
+    w.finish().unwrap();
+    let (log, report) = ros2::read(&path, &ImportOptions::default()).unwrap();
+    for s in log.scans() {
+        match s.lidar_id {
+            0 => {
+                let t = s.sweep.expect("lidar 0's timing");
+                assert_eq!(t.first_beam_s, 0.0);
+                assert!((t.time_increment_s - 1.0 / 3600.0).abs() < 1e-9, "{t:?}");
+            }
+            _ => assert_eq!(s.sweep, None, "a timing stamped at the last beam is not written"),
+        }
+    }
+    assert!(report.notes.iter().any(|n| n.starts_with("3 scans carry a time_increment")), "{:?}", report.notes);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -340,10 +373,23 @@ fn tf_message(big_endian: bool, stamp_ns: u64, tfs: &[(&str, &str, [f64; 3], [f6
 }
 
 fn laser_scan(stamp_ns: u64, frame: &str, angle_min: f32, inc: f32, range_max: f32, ranges: &[f32]) -> Vec<u8> {
+    timed_laser_scan(stamp_ns, frame, angle_min, inc, range_max, ranges, 0.0)
+}
+
+/// As [`laser_scan`], with a `time_increment` (seconds per beam).
+fn timed_laser_scan(
+    stamp_ns: u64,
+    frame: &str,
+    angle_min: f32,
+    inc: f32,
+    range_max: f32,
+    ranges: &[f32],
+    time_increment: f32,
+) -> Vec<u8> {
     let mut c = Cdr::new(false);
     c.header(stamp_ns, frame);
     let angle_max = angle_min + inc * (ranges.len() as f32 - 1.0);
-    for v in [angle_min, angle_max, inc, 0.0, 0.1, 0.02, range_max] {
+    for v in [angle_min, angle_max, inc, time_increment, 0.1, 0.02, range_max] {
         c.f32(v);
     }
     c.u32(ranges.len() as u32);
@@ -426,6 +472,39 @@ fn upside_down_bag() -> Vec<Msg> {
         msgs.push(("/chatter", "std_msgs/msg/String", Cdr::new(false).string("hello").0.clone(), t + 20 * MS));
     }
     msgs
+}
+
+#[test]
+fn a_time_increment_is_read_and_an_impossible_one_is_ignored_with_a_note() {
+    let dir = temp_dir("time-increment");
+    let ranges = [1.0, 2.0, 3.0, 4.0, 5.0];
+    for (dt, timed) in [(1e-3f32, true), (0.5, false)] {
+        let mut msgs = upside_down_bag();
+        for m in msgs.iter_mut().filter(|m| m.0 == "/scan") {
+            let stamp = m.3 - 5 * MS;
+            m.2 = timed_laser_scan(stamp, "laser", -0.5, 0.25, 30.0, &ranges, dt);
+        }
+        let path = dir.join(format!("dt-{dt}.mcap"));
+        mcap_file(&path, None, &msgs);
+        let imported = read_log(&path, None, &ImportOptions::default()).unwrap();
+        let scans: Vec<&LaserScan> = imported.log.scans().collect();
+        assert_eq!(scans.len(), 10);
+        let notes = imported.report.unwrap().notes;
+        if timed {
+            for s in &scans {
+                let t = s.sweep.unwrap();
+                assert!(t.first_beam_s == 0.0 && (t.time_increment_s - 1e-3).abs() < 1e-9, "{t:?}");
+            }
+        } else {
+            // 4 × 0.5 s: a sweep of 2 s is not a lidar's; the scans are kept, their timing is not.
+            assert!(scans.iter().all(|s| s.sweep.is_none()));
+            assert!(
+                notes.iter().any(|n| n.starts_with("/scan: the time_increment of 10 scans is ignored")),
+                "{notes:?}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

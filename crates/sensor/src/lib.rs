@@ -17,6 +17,7 @@
 //!     range_min_m: 0.1,
 //!     range_max_m: 30.0,
 //!     ranges_m: vec![2.0, f32::INFINITY, 0.05],
+//!     sweep: None,
 //! };
 //! assert!(scan.validate().is_ok());
 //! assert_eq!(scan.validity(1), BeamValidity::NotFinite);
@@ -24,10 +25,12 @@
 //! ```
 #![warn(missing_docs)]
 
+mod deskew;
 mod log;
 mod scan;
 pub mod tum;
 
+pub use deskew::{MAX_SWEEP_S, SweepTiming, constant_velocity, deskew};
 pub use log::{
     LOG_FORMAT, LOG_VERSION, LogError, LogHeader, LogRecord, LogWriter, MAX_LINE_BYTES, OdometryReading, SensorLog,
     TruePose,

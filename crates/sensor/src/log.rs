@@ -123,6 +123,7 @@ mod scan_json {
             range_min_m: r.range_min_m,
             range_max_m: r.range_max_m,
             ranges_m: r.ranges_m.into_iter().map(|r| r.unwrap_or(f32::INFINITY)).collect(),
+            sweep: None,
         })
     }
 }
@@ -362,6 +363,7 @@ mod tests {
             range_min_m: 0.1,
             range_max_m: 30.0,
             ranges_m: vec![1.25, f32::INFINITY, f32::NAN, 0.0, 29.5],
+            sweep: None,
         };
         let mut meta = serde_json::Map::new();
         meta.insert("seed".into(), 7.into());

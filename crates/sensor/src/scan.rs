@@ -1,5 +1,6 @@
 //! Laser scans, in the shape of ROS `sensor_msgs/LaserScan` plus the lidar's mounting pose.
 
+use crate::deskew::SweepTiming;
 use mapkeeper_grid::{Point2, Pose2};
 use serde::{Deserialize, Serialize};
 
@@ -30,6 +31,11 @@ pub struct LaserScan {
     pub range_max_m: f32,
     /// One reading per beam, metres.
     pub ranges_m: Vec<f32>,
+    /// When each beam was measured, if known ([`SweepTiming`]: ROS `time_increment`, the
+    /// simulator's motion distortion); `None`: unknown, or every beam at the stamp. Absent from
+    /// a log line when `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<SweepTiming>,
 }
 
 /// Why a beam is or is not usable.
@@ -69,6 +75,9 @@ pub enum ScanError {
     /// Too many beams.
     #[error("scan has {0} beams, more than the limit of {MAX_BEAMS}")]
     TooManyBeams(usize),
+    /// The sweep timing is not finite or spans more than [`crate::MAX_SWEEP_S`].
+    #[error("{0}")]
+    BadSweep(String),
     /// The beams span more than a full turn.
     #[error("{beams} beams at {increment} rad span more than a full turn")]
     SpanTooLarge {
@@ -102,6 +111,9 @@ impl LaserScan {
         let span = self.angle_increment_rad.abs() * self.ranges_m.len().saturating_sub(1) as f64;
         if span > 2.0 * std::f64::consts::PI + 1e-6 {
             return Err(ScanError::SpanTooLarge { beams: self.ranges_m.len(), increment: self.angle_increment_rad });
+        }
+        if let Some(t) = &self.sweep {
+            t.check(self.ranges_m.len()).map_err(ScanError::BadSweep)?;
         }
         Ok(())
     }
@@ -178,6 +190,7 @@ mod tests {
             range_min_m: 0.1,
             range_max_m: 30.0,
             ranges_m: ranges,
+            sweep: None,
         }
     }
 

@@ -9,7 +9,7 @@ use crate::seeds::{SimRng, stream_rng};
 use crate::shape::Shape;
 use mapkeeper_grid::Point2;
 use mapkeeper_grid::Pose2;
-use mapkeeper_sensor::LaserScan;
+use mapkeeper_sensor::{LaserScan, SweepTiming};
 use rand::RngExt;
 use rand_distr::{Distribution, Normal};
 #[cfg(test)]
@@ -530,7 +530,7 @@ impl LidarSim {
         scratch: &mut Vec<Option<f64>>,
         history: Option<&PoseHistory>,
     ) -> LaserScan {
-        let ranges = if self.realism.is_some() {
+        let ranges: Vec<f32> = if self.realism.is_some() {
             self.realistic_true_ranges(scene, robot_in_map, stamp_ns, history, scratch);
             let Some(r) = self.realism.as_mut() else { unreachable!("checked above") };
             if r.cfg.mixed_pixels {
@@ -557,6 +557,13 @@ impl LidarSim {
         };
         let p = &self.params;
         let (angle_min_rad, angle_increment_rad) = p.scan_angles();
+        // With motion distortion the beams are measured one after the other, the last at the
+        // stamp (as a driver declares it; a latency, if on, is not known to the receiver).
+        let sweep = self
+            .realism
+            .as_ref()
+            .filter(|r| r.cfg.motion_distortion)
+            .map(|r| SweepTiming::ending_at_stamp(ranges.len(), r.beam_dt_ns * 1e-9));
         LaserScan {
             stamp_ns,
             lidar_id: self.id,
@@ -566,6 +573,7 @@ impl LidarSim {
             range_min_m: p.range_min_m as f32,
             range_max_m: p.range_max_m as f32,
             ranges_m: ranges,
+            sweep,
         }
     }
 }

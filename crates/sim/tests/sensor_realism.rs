@@ -193,3 +193,42 @@ fn motion_distortion_bends_the_scan_of_a_moving_robot() {
     // 1.5 m/s × 60 ms of sweep ≈ 9 cm; turning moves far points more.
     assert!(largest > 0.02, "largest first-beam shift {largest}");
 }
+
+#[test]
+fn a_distorted_scan_says_when_its_beams_were_measured_and_deskewing_undoes_the_bend() {
+    // Issue 30 item 4: with motion distortion each scan carries its sweep timing (the last beam
+    // at the stamp); deskewed by the robot's motion between steps (at constant velocity), its
+    // ranges come back to the undistorted ones, but for the re-binning to the beam layout.
+    let mut exact = SimParams::default();
+    for l in &mut exact.lidars {
+        l.noise = LidarNoise::none();
+    }
+    let distorted =
+        SimParams { realism: SensorRealism::with_effects(&[SensorEffect::MotionDistortion]), ..exact.clone() };
+    let (a, b) = (drive(exact, 4, 12), drive(distorted, 4, 12));
+    assert!(a.iter().flat_map(|o| &o.scans).all(|s| s.sweep.is_none()), "ideal scans are instantaneous");
+    let (mut raw_err, mut fixed_err) = (Vec::new(), Vec::new());
+    let mut before: Option<(u64, Pose2)> = None;
+    for (oa, ob) in a.iter().zip(&b) {
+        let now = (oa.truth.stamp_ns, ob.truth.pose_in_map);
+        for (sa, sb) in oa.scans.iter().zip(&ob.scans) {
+            let t = sb.sweep.expect("a distorted scan carries its timing");
+            assert!(t.beam_offset_s(sb.len() - 1).abs() < 1e-12 && t.time_increment_s > 0.0, "{t:?}");
+            let Some((before_ns, before_pose)) = before else { continue };
+            let at = mapkeeper_sensor::constant_velocity(before_pose, before_ns, now.1, now.0, sb.stamp_ns).unwrap();
+            let fixed = mapkeeper_sensor::deskew(sb, at);
+            for i in 0..sa.len() {
+                let (e, r, f) = (sa.ranges_m[i], sb.ranges_m[i], fixed.ranges_m[i]);
+                if e.is_finite() && r.is_finite() && f.is_finite() && e < 10.0 {
+                    raw_err.push((r - e).abs());
+                    fixed_err.push((f - e).abs());
+                }
+            }
+        }
+        before = Some(now);
+    }
+    let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+    let (raw, fixed) = (mean(&raw_err), mean(&fixed_err));
+    assert!(raw_err.len() > 10_000, "{} beams compared", raw_err.len());
+    assert!(fixed < 0.5 * raw, "mean range error {fixed:.4} m deskewed against {raw:.4} m raw");
+}

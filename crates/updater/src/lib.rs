@@ -64,6 +64,7 @@
 //!     range_min_m: 0.05,
 //!     range_max_m: 30.0,
 //!     ranges_m: vec![1.95; 4],
+//!     sweep: None,
 //! };
 //! let report = updater.process(robot, robot, &[scan]);
 //! assert_eq!(report.verdict, Some(Verdict::Update));

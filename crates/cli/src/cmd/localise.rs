@@ -62,6 +62,10 @@ pub struct Args {
     /// cloud; docs/real-data.md) for Foxglove or ros2 bag.
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
+    /// Give the estimators the scans as recorded: without it, scans with a known beam timing
+    /// (a bag's time_increment) are deskewed by the odometry over their sweep first.
+    #[arg(long)]
+    pub no_deskew: bool,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
@@ -74,7 +78,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let localiser = resolve_localiser(&args.localiser, imported).to_string();
     let preset = FilterParams::preset(&localiser).context("--localiser")?;
     let params = load_params(preset, args.params.as_deref(), FilterParams::validate)?;
-    let source = LogSource::new(log, log_path.display().to_string(), ReplayOptions::default());
+    let options = ReplayOptions { deskew: !args.no_deskew, ..ReplayOptions::default() };
+    let source = LogSource::new(log, log_path.display().to_string(), options);
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
     let dir = super::output_dir(&args.out, args.force)?;
 

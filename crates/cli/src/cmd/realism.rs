@@ -36,8 +36,10 @@ pub struct Args {
     #[arg(long, value_name = "METRES", value_parser = super::route_length, allow_hyphen_values = true)]
     pub route_length: Option<f64>,
     /// Configurations, comma-separated: ideal, realistic or effect names (mixed-pixels,
-    /// range-noise, motion-distortion, unsync, extrinsic-error, latency, legs). Default: ideal,
-    /// each effect, realistic. `ideal`, the reference, is always run.
+    /// range-noise, motion-distortion, unsync, extrinsic-error, latency, legs), each with `/raw`
+    /// appended to run it without deskewing the timed scans (e.g. motion-distortion/raw).
+    /// Default: ideal, each effect, realistic, motion-distortion/raw, realistic/raw. `ideal`, the
+    /// reference, is always run.
     #[arg(long, value_name = "C1,C2,…", value_delimiter = ',')]
     pub configs: Option<Vec<String>>,
     /// The world W_1: `warehouse` (default), `lab`, or a world file (as `validate --world`).

@@ -202,6 +202,7 @@ fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> {
         sync_window_s: 0.05,
         out: args.out.clone(),
         mcap: args.mcap.clone(),
+        no_deskew: false,
         force: args.force,
     })
 }

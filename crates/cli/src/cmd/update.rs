@@ -84,6 +84,10 @@ pub struct Args {
     /// verdict per scan, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
+    /// Give the estimators the scans as recorded: without it, scans with a known beam timing
+    /// (a bag's time_increment) are deskewed by the odometry over their sweep first.
+    #[arg(long)]
+    pub no_deskew: bool,
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
@@ -115,7 +119,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let map = load_map(&args.map)?;
     super::log_input::check_localiser(&args.localiser)?;
     let (log, log_path, imported) = args.input.read_with_origin()?;
-    let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, sync_window_ns, ..ReplayOptions::default() };
+    let options = ReplayOptions {
+        odometry_at: OdometryAt::Interpolated,
+        sync_window_ns,
+        deskew: !args.no_deskew,
+        ..ReplayOptions::default()
+    };
     let source = LogSource::new(log, log_path.display().to_string(), options);
     let poses = match (&args.poses, args.true_poses) {
         (Some(p), _) => {

@@ -131,6 +131,7 @@ pub fn localise_log(
         filter.init_pose(p, params.initial_covariance())?;
     }
     let mut session = Session::new(PoseSource::Localiser(Box::new(filter)), None, None, &NoClock);
+    session.set_deskew(source.options().deskew);
     let mut rec = Recorder::default();
     rec.run.covariance_csv.push_str("time_s,trace,lambda_max,particles,ess\n");
     crate::run(&mut source, &mut session, controls, &mut [&mut rec])?;

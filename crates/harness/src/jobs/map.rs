@@ -10,7 +10,7 @@ use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
 use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
-use mapkeeper_sensor::{BeamValidity, LaserScan};
+use mapkeeper_sensor::{BeamValidity, LaserScan, constant_velocity, deskew};
 
 /// What one beam contributes to a map.
 enum Beam {
@@ -138,25 +138,58 @@ pub struct TruthMapper {
     pub scans: u64,
     /// Beams integrated, by kind.
     pub beams: BeamCounts,
+    /// Whether scans with a sweep timing are deskewed by the true motion before they are
+    /// integrated (default true; [`TruthMapper::with_deskew`]).
+    pub deskew: bool,
+    /// The last step's true pose and time (the motion over the next sweep).
+    last_truth: Option<(u64, Pose2)>,
 }
 
 impl TruthMapper {
     /// A mapper over `geometry`.
     pub fn new(geometry: GridGeometry, params: MapperParams, stride: u64, clear_m: f64) -> Result<Self, HarnessError> {
         let mapper = LogOddsMapper::new(geometry, params).map_err(|e| HarnessError::Invalid(format!("mapper: {e}")))?;
-        Ok(Self { mapper, stride: stride.max(1), clear_m, steps: 0, scans: 0, beams: BeamCounts::default() })
+        Ok(Self {
+            mapper,
+            stride: stride.max(1),
+            clear_m,
+            steps: 0,
+            scans: 0,
+            beams: BeamCounts::default(),
+            deskew: true,
+            last_truth: None,
+        })
+    }
+
+    /// Whether timed scans (a moving lidar's sweep) are deskewed by the true motion between the
+    /// last two steps (at constant velocity) before they are integrated, as a survey would.
+    pub fn with_deskew(self, deskew: bool) -> Self {
+        Self { deskew, ..self }
     }
 }
 
 impl Observer for TruthMapper {
     fn on_step(&mut self, step: &Step, _report: &StepReport) {
         let Some(truth) = step.truth else { return };
+        let now = (step.frame.stamp_ns, truth.pose_in_map);
+        let before = self.last_truth.replace(now);
         self.steps += 1;
         if !self.steps.is_multiple_of(self.stride) {
             return;
         }
-        self.scans +=
-            integrate_frame(&mut self.mapper, &step.frame.scans, &truth.pose_in_map, self.clear_m, &mut self.beams);
+        let timed = self.deskew && step.frame.scans.iter().any(|s| s.sweep.is_some());
+        let deskewed: Option<Vec<LaserScan>> = before.filter(|_| timed).map(|(before_ns, before)| {
+            step.frame
+                .scans
+                .iter()
+                .map(|s| match constant_velocity(before, before_ns, now.1, now.0, s.stamp_ns) {
+                    Some(at) => deskew(s, at),
+                    None => s.clone(),
+                })
+                .collect()
+        });
+        let scans = deskewed.as_deref().unwrap_or(&step.frame.scans);
+        self.scans += integrate_frame(&mut self.mapper, scans, &truth.pose_in_map, self.clear_m, &mut self.beams);
     }
 }
 
@@ -293,6 +326,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 10.0,
             ranges_m: ranges,
+            sweep: None,
         }
     }
 

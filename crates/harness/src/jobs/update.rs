@@ -194,6 +194,7 @@ pub fn update_log(
     };
     let updater = MapUpdater::new(map, params)?;
     let mut session = Session::new(pose_source, Some(updater), None, clock);
+    session.set_deskew(source.options().deskew);
     let mut rows = Rows {
         csv: "time_s,outcome,verdict,n,n_invalid,n_dc,cells_changed,recovery,microseconds\n".into(),
         recovered: Vec::new(),

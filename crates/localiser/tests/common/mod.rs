@@ -79,6 +79,7 @@ pub fn scans(
                 range_min_m: 0.1,
                 range_max_m: 30.0,
                 ranges_m,
+                sweep: None,
             }
         })
         .collect()

@@ -576,6 +576,7 @@ the beams' angles are taken from angle_min and angle_increment"
             range_min_m: s.range_min,
             range_max_m: s.range_max.next_up(),
             ranges_m: s.ranges,
+            time_increment_s: f64::from(s.time_increment),
             place,
         });
     }

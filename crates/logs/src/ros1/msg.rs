@@ -159,6 +159,8 @@ pub struct Scan {
     pub angle_max: f32,
     /// Angle between beams, radians.
     pub angle_increment: f32,
+    /// Time between beams, seconds (0: unknown).
+    pub time_increment: f32,
     /// Smallest valid range, metres.
     pub range_min: f32,
     /// Largest valid range, metres (inclusive in ROS).
@@ -206,14 +208,14 @@ pub fn laser_scan(bytes: &[u8]) -> Result<Scan, String> {
     let angle_min = c.f32("angle_min")?;
     let angle_max = c.f32("angle_max")?;
     let angle_increment = c.f32("angle_increment")?;
-    c.f32("time_increment")?;
+    let time_increment = c.f32("time_increment")?;
     c.f32("scan_time")?;
     let range_min = c.f32("range_min")?;
     let range_max = c.f32("range_max")?;
     let ranges = c.f32_vec("ranges")?;
     c.f32_vec("intensities")?;
     c.end()?;
-    Ok(Scan { header, angle_min, angle_max, angle_increment, range_min, range_max, ranges })
+    Ok(Scan { header, angle_min, angle_max, angle_increment, time_increment, range_min, range_max, ranges })
 }
 
 fn placement(c: &mut Cursor<'_>, prefix: &str) -> Result<Placement, String> {

@@ -444,6 +444,7 @@ impl BagReader<'_> {
                     range_min_m: s.range_min,
                     range_max_m: s.range_max.next_up(),
                     ranges_m: s.ranges,
+                    time_increment_s: f64::from(s.time_increment),
                     place: format!("{prefix}message {index} (log_time {} ns)", m.log_time),
                 });
             }

@@ -30,6 +30,8 @@ pub struct LaserScan {
     pub angle_min: f32,
     /// `angle_increment`, radians.
     pub angle_increment: f32,
+    /// `time_increment`, seconds (0: unknown).
+    pub time_increment: f32,
     /// `range_min`, metres.
     pub range_min: f32,
     /// `range_max`, metres (inclusive).
@@ -81,7 +83,7 @@ pub fn laser_scan(buf: &[u8]) -> Result<LaserScan, CdrError> {
     let angle_min = r.f32("angle_min")?;
     let _angle_max = r.f32("angle_max")?;
     let angle_increment = r.f32("angle_increment")?;
-    let _time_increment = r.f32("time_increment")?;
+    let time_increment = r.f32("time_increment")?;
     let _scan_time = r.f32("scan_time")?;
     let range_min = r.f32("range_min")?;
     let range_max = r.f32("range_max")?;
@@ -90,7 +92,7 @@ pub fn laser_scan(buf: &[u8]) -> Result<LaserScan, CdrError> {
     for _ in 0..n {
         r.f32("intensities")?;
     }
-    Ok(LaserScan { header, angle_min, angle_increment, range_min, range_max, ranges })
+    Ok(LaserScan { header, angle_min, angle_increment, time_increment, range_min, range_max, ranges })
 }
 
 /// `nav_msgs/msg/Odometry` (the twist is read and dropped).

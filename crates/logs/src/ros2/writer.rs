@@ -177,7 +177,10 @@ impl McapRunWriter {
         w.f32(scan.angle_min_rad as f32);
         w.f32(angle_max as f32);
         w.f32(scan.angle_increment_rad as f32);
-        w.f32(0.0); // time_increment: unknown
+        // ROS stamps a scan at its first beam: a timing stamped elsewhere (the simulator's, at
+        // the last beam) is written as unknown rather than shifting the stamp.
+        let ros_timing = scan.sweep.filter(|t| t.first_beam_s == 0.0);
+        w.f32(ros_timing.map_or(0.0, |t| t.time_increment_s as f32)); // time_increment (0: unknown)
         w.f32(0.0); // scan_time: unknown
         w.f32(scan.range_min_m);
         // ROS's range_max is inclusive; the scan's limit is not.

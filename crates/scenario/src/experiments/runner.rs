@@ -104,6 +104,19 @@ pub struct RunnerParams {
     /// the baseline run and are scored as ever).
     #[serde(default, skip_serializing_if = "UpdaterPoses::is_localiser")]
     pub updater_poses: UpdaterPoses,
+    /// Whether scans with a sweep timing (the simulator's `motion-distortion` switch) are
+    /// deskewed by the odometry before the estimators see them
+    /// (`mapkeeper_harness::Session::set_deskew`). Default true (written only when false).
+    #[serde(default = "deskew_default", skip_serializing_if = "is_deskew_default")]
+    pub deskew: bool,
+}
+
+fn deskew_default() -> bool {
+    true
+}
+
+fn is_deskew_default(on: &bool) -> bool {
+    *on
 }
 
 /// How the fresh map of a run is made ([`RunnerParams::fresh_map`]).
@@ -141,6 +154,7 @@ impl Default for RunnerParams {
             pose_error: None,
             robot_kidnap: None,
             updater_poses: UpdaterPoses::Localiser,
+            deskew: true,
         }
     }
 }
@@ -410,6 +424,7 @@ pub fn run_world_with(
     let baseline = baseline(params, baseline_map, seed, label, start_est, cov)?;
     let updater = updater(params, prev_map, prev_memory)?;
     let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
+    session.set_deskew(params.deskew);
     let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), params.simulate_ahead);
     let mut score = LocScore::new(params.record_trajectories);
     let mut work = UpdaterWork::default();

@@ -30,9 +30,10 @@ pub struct SensorRealismParams {
     pub preset: String,
     /// Metres of the route driven in each world (the short setting), > 0. Default 60.
     pub route_length_m: f64,
-    /// The configurations: `ideal`, `realistic` or an effect's name (docs/simulator.md).
-    /// Default: ideal, each of the seven effects, realistic. `ideal` is added when missing (the
-    /// reference).
+    /// The configurations: `ideal`, `realistic` or an effect's name (docs/simulator.md), each
+    /// with the estimators deskewing timed scans (the default), or with `/raw` appended, without.
+    /// Default: ideal, each of the seven effects, realistic, then `motion-distortion/raw` and
+    /// `realistic/raw`. `ideal` is added when missing (the reference).
     pub configs: Vec<String>,
 }
 
@@ -41,6 +42,7 @@ impl Default for SensorRealismParams {
         let mut configs = vec!["ideal".to_string()];
         configs.extend(SensorEffect::ALL.iter().map(|e| e.name().to_string()));
         configs.push("realistic".into());
+        configs.extend([format!("motion-distortion{RAW_SUFFIX}"), format!("realistic{RAW_SUFFIX}")]);
         SensorRealismParams {
             worlds: 6,
             seeds: 3,
@@ -52,8 +54,17 @@ impl Default for SensorRealismParams {
     }
 }
 
-/// The realism of a configuration name.
+/// The suffix of a configuration run without deskewing.
+pub const RAW_SUFFIX: &str = "/raw";
+
+/// Whether the estimators deskew timed scans in a configuration (not with [`RAW_SUFFIX`]).
+pub fn config_deskews(name: &str) -> bool {
+    !name.ends_with(RAW_SUFFIX)
+}
+
+/// The realism of a configuration name (a [`RAW_SUFFIX`] aside).
 pub fn config_realism(name: &str) -> Result<SensorRealism, String> {
+    let name = name.strip_suffix(RAW_SUFFIX).unwrap_or(name);
     match name {
         "ideal" | "realistic" => SensorRealism::profile(name),
         effect => SensorEffect::parse(effect).map(|e| SensorRealism::with_effects(&[e])).map_err(|_| {
@@ -225,6 +236,8 @@ pub fn run_sensor_realism(
         .map(|&(c, seed)| {
             let mut q = vp.clone();
             q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
+            q.runner.deskew = config_deskews(&configs[c]);
+            q.mapping.deskew = config_deskews(&configs[c]);
             let run = run_seed(&q, seed, &NoClock, &|_| {})?;
             progress();
             Ok(run.rows.iter().map(RealismScores::of).collect())
@@ -282,7 +295,11 @@ mod tests {
     fn configurations_are_checked_and_ideal_comes_first() {
         let p = SensorRealismParams::default();
         p.validate().unwrap();
-        assert_eq!(p.run_configs().len(), 9);
+        assert_eq!(p.run_configs().len(), 11);
+        assert_eq!(p.run_configs()[9..], ["motion-distortion/raw", "realistic/raw"]);
+        assert!(!config_deskews("realistic/raw") && config_deskews("realistic"));
+        assert_eq!(config_realism("motion-distortion/raw").unwrap(), config_realism("motion-distortion").unwrap());
+        assert!(config_realism("fog/raw").is_err());
         assert_eq!(p.run_configs()[0], "ideal");
         let q = SensorRealismParams { configs: vec!["legs".into()], ..p.clone() };
         assert_eq!(q.run_configs(), ["ideal", "legs"]);

@@ -23,11 +23,24 @@ pub struct MappingParams {
     /// The run stops after this much simulated time even if the route is not done, seconds.
     /// Default 400.
     pub max_sim_time_s: f64,
+    /// Whether scans with a sweep timing (the simulator's `motion-distortion`) are deskewed by
+    /// the true motion before they are integrated, as a survey would. Default true (written
+    /// only when false).
+    #[serde(default = "deskew_default", skip_serializing_if = "is_deskew_default")]
+    pub deskew: bool,
+}
+
+fn deskew_default() -> bool {
+    true
+}
+
+fn is_deskew_default(on: &bool) -> bool {
+    *on
 }
 
 impl Default for MappingParams {
     fn default() -> Self {
-        Self { mapper: MapperParams::default(), scan_stride: 2, max_sim_time_s: 400.0 }
+        Self { mapper: MapperParams::default(), scan_stride: 2, max_sim_time_s: 400.0, deskew: true }
     }
 }
 
@@ -72,7 +85,8 @@ pub fn build_initial_map(
     seed: u64,
 ) -> Result<InitialMap, WorldsError> {
     params.validate()?;
-    let mut mapper = TruthMapper::new(*geometry, params.mapper, u64::from(params.scan_stride), 0.0)?;
+    let mut mapper =
+        TruthMapper::new(*geometry, params.mapper, u64::from(params.scan_stride), 0.0)?.with_deskew(params.deskew);
     let mut sim = Simulator::new(world, sim_params.clone(), stream_seed(seed, "mapping"))?;
     sim.set_route(route.points());
     let mut source = SimSource::new(sim, params.max_sim_time_s);

@@ -573,6 +573,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 30.0,
             ranges_m,
+            sweep: None,
         }
     }
 

@@ -253,6 +253,7 @@ mod tests {
                 range_min_m: 0.05,
                 range_max_m: 10.0,
                 ranges_m: ranges,
+                sweep: None,
             }
         };
         (field, scan)

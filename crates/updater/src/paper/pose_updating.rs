@@ -506,6 +506,7 @@ mod tests {
             range_min_m: 0.05,
             range_max_m: 20.0,
             ranges_m: ranges,
+            sweep: None,
         }
     }
 

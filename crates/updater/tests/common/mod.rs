@@ -91,6 +91,7 @@ pub fn synth_scan(world: &OccupancyGrid, robot: Pose2, lidar: &Lidar, stamp_ns: 
         range_min_m: 0.05,
         range_max_m,
         ranges_m,
+        sweep: None,
     }
 }
 
