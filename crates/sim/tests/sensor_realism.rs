@@ -165,17 +165,22 @@ fn a_robot_at_rest_sees_no_motion_distortion_or_latency() {
     assert_eq!(digest(&still), digest(&moving));
 }
 
-#[test]
-fn motion_distortion_bends_the_scan_of_a_moving_robot() {
-    // Along the route at speed, a distorted scan's hit points (placed with the stamp's pose, as
-    // the estimators do) lie off the ideal ones by up to the distance driven in one sweep.
+/// 12 s of the route with noiseless lidars, without and with motion distortion (seed 4).
+fn exact_and_distorted_drives() -> (Vec<StepOutput>, Vec<StepOutput>) {
     let mut exact = SimParams::default();
     for l in &mut exact.lidars {
         l.noise = LidarNoise::none();
     }
     let distorted =
         SimParams { realism: SensorRealism::with_effects(&[SensorEffect::MotionDistortion]), ..exact.clone() };
-    let (a, b) = (drive(exact, 4, 12), drive(distorted, 4, 12));
+    (drive(exact, 4, 12), drive(distorted, 4, 12))
+}
+
+#[test]
+fn motion_distortion_bends_the_scan_of_a_moving_robot() {
+    // Along the route at speed, a distorted scan's hit points (placed with the stamp's pose, as
+    // the estimators do) lie off the ideal ones by up to the distance driven in one sweep.
+    let (a, b) = exact_and_distorted_drives();
     let mut largest: f64 = 0.0;
     for (oa, ob) in a.iter().zip(&b) {
         for (sa, sb) in oa.scans.iter().zip(&ob.scans) {
@@ -199,13 +204,7 @@ fn a_distorted_scan_says_when_its_beams_were_measured_and_deskewing_undoes_the_b
     // Issue 30 item 4: with motion distortion each scan carries its sweep timing (the last beam
     // at the stamp); deskewed by the robot's motion between steps (at constant velocity), its
     // ranges come back to the undistorted ones, but for the re-binning to the beam layout.
-    let mut exact = SimParams::default();
-    for l in &mut exact.lidars {
-        l.noise = LidarNoise::none();
-    }
-    let distorted =
-        SimParams { realism: SensorRealism::with_effects(&[SensorEffect::MotionDistortion]), ..exact.clone() };
-    let (a, b) = (drive(exact, 4, 12), drive(distorted, 4, 12));
+    let (a, b) = exact_and_distorted_drives();
     assert!(a.iter().flat_map(|o| &o.scans).all(|s| s.sweep.is_none()), "ideal scans are instantaneous");
     let (mut raw_err, mut fixed_err) = (Vec::new(), Vec::new());
     let mut before: Option<(u64, Pose2)> = None;
