@@ -83,12 +83,7 @@ fn kidnap_robot(args: KidnapRobotArgs) -> anyhow::Result<()> {
     let mut base = KidnapRobotFile::default();
     base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
     if args.quick {
-        let k = &mut base.kidnap_robot;
-        k.trials = 3;
-        k.min_world = 2;
-        k.max_world = 3;
-        k.recovery_window_s = 6.0;
-        k.route_length_m = 15.0;
+        base.kidnap_robot = KidnapRobotParams::quick();
     }
     let mut file = load_params(base, args.common.params.as_deref(), |f: &KidnapRobotFile| {
         f.recovery.validate()?;
@@ -173,10 +168,7 @@ fn table1(args: Table1Args) -> anyhow::Result<()> {
     let mut base = Table1File::default();
     base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
     if args.quick {
-        base.table1.trials = 2;
-        base.table1.holds_s = vec![0.0, 2.0];
-        base.table1.route_length_m = 6.0;
-        base.table1.presets = vec!["paper".into()];
+        base.table1 = Table1HoldParams::quick();
     }
     let mut file = load_params(base, args.common.params.as_deref(), |f: &Table1File| {
         f.recovery.validate()?;
@@ -354,9 +346,7 @@ fn check_detection(args: CheckDetectionArgs) -> anyhow::Result<()> {
     let mut base = CheckDetectionFile::default();
     base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
     if args.quick {
-        base.check_detection.trials = 6;
-        base.check_detection.max_world = 4;
-        base.check_detection.window_s = 1.5;
+        base.check_detection = CheckDetectionParams::quick();
     }
     let mut file = load_params(base, args.common.params.as_deref(), |f: &CheckDetectionFile| {
         f.recovery.validate()?;

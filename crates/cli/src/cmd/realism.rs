@@ -83,10 +83,7 @@ struct File {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut base = File::default();
     if args.quick {
-        let q = &mut base.sensor_realism;
-        q.worlds = 3;
-        q.seeds = 1;
-        q.route_length_m = 15.0;
+        base.sensor_realism = SensorRealismParams::quick();
     }
     let mut file = super::load_params(base, args.params.as_deref(), |f: &File| f.sensor_realism.validate())?;
     let p = &mut file.sensor_realism;

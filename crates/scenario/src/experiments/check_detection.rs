@@ -85,6 +85,13 @@ impl Default for CheckDetectionParams {
 }
 
 impl CheckDetectionParams {
+    /// The short setting of `--quick`: 6 trials up to W_4, a 1.5 s window.
+    pub fn quick() -> Self {
+        Self { trials: 6, max_world: 4, window_s: 1.5, ..Self::default() }
+    }
+}
+
+impl CheckDetectionParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.presets.is_empty() {

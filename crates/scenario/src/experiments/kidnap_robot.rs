@@ -85,6 +85,13 @@ impl Default for KidnapRobotParams {
 }
 
 impl KidnapRobotParams {
+    /// The short setting of `--quick` (tests, a first look): 3 trials in W_2-W_3, 15 m, a 6 s window.
+    pub fn quick() -> Self {
+        Self { trials: 3, min_world: 2, max_world: 3, recovery_window_s: 6.0, route_length_m: 15.0, ..Self::default() }
+    }
+}
+
+impl KidnapRobotParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.trials == 0 {

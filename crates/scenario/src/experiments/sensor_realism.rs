@@ -54,6 +54,13 @@ impl Default for SensorRealismParams {
     }
 }
 
+impl SensorRealismParams {
+    /// The short setting of `--quick`: 3 worlds, 1 seed, 15 m.
+    pub fn quick() -> Self {
+        Self { worlds: 3, seeds: 1, route_length_m: 15.0, ..Self::default() }
+    }
+}
+
 /// The suffix of a configuration run without deskewing.
 pub const RAW_SUFFIX: &str = "/raw";
 

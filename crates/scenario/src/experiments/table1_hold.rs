@@ -70,6 +70,19 @@ impl Default for Table1HoldParams {
 }
 
 impl Table1HoldParams {
+    /// The short setting of `--quick`: 2 trials, holds of 0 and 2 s, 6 m, `paper` only.
+    pub fn quick() -> Self {
+        Self {
+            trials: 2,
+            holds_s: vec![0.0, 2.0],
+            route_length_m: 6.0,
+            presets: vec!["paper".into()],
+            ..Self::default()
+        }
+    }
+}
+
+impl Table1HoldParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.trials == 0 {
