@@ -1,0 +1,94 @@
+//! `mapkeeper experiment kidnap-robot`.
+
+use super::super::load_params;
+use super::{Common, MAX_TRIALS, default_out, run_timed, site_world};
+use anyhow::Context;
+use mapkeeper_scenario::RecoveryParams;
+use mapkeeper_scenario::experiments::kidnap_robot::{KidnapRobotParams, run_kidnap_robot};
+use mapkeeper_scenario::results::kidnap_robot_report::write_kidnap_robot;
+use serde::{Deserialize, Serialize};
+
+/// Arguments of `mapkeeper experiment kidnap-robot`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Each trial drives up to 60 m of the tour from a seeded place in a seeded world W_k (k = 50..100) on the map of W_1; at 3-6 s the robot itself is put 0.5-3 m away in free space, turned by up to ±180°, and its odometry does not see the move. Each trial is paired with the same run without the kidnap. Output in OUT (default results/kidnap-robot-s<SEED>-<N>t-<counter>): summary.json (kidnap_robot.{trials, recovered_rate_pose_updating, recovered_rate_filter, failed_rate, false_lost_rate, median_recovery_s, map_damage.{cc,ms,opdf}}), trials.csv, report.md. Definitions: docs/recovery.md, \"Real kidnaps\"."
+)]
+pub struct KidnapRobotArgs {
+    /// Trials, 1 to 100000 (default 100).
+    #[arg(long, value_name = "N", value_parser = super::super::count_in(1, MAX_TRIALS), allow_hyphen_values = true)]
+    pub trials: Option<usize>,
+    /// Run seed (any whole number from 0 to 2^64 − 1).
+    #[arg(long, value_name = "S", default_value_t = 41, value_parser = super::super::seed, allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Updater preset (default paper).
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
+    /// A short setting for tests: 3 trials (unless --trials is given), worlds W_2-W_3, a 6 s
+    /// recovery window, a 15 m drive.
+    #[arg(long)]
+    pub quick: bool,
+    /// The flags every experiment has.
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// The parameter file of `experiment kidnap-robot`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct KidnapRobotFile {
+    recovery: RecoveryParams,
+    kidnap_robot: KidnapRobotParams,
+}
+
+pub(super) fn run(args: KidnapRobotArgs) -> anyhow::Result<()> {
+    let mut base = KidnapRobotFile::default();
+    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
+    if args.quick {
+        base.kidnap_robot = KidnapRobotParams::quick();
+    }
+    let mut file = load_params(base, args.common.params.as_deref(), |f: &KidnapRobotFile| {
+        f.recovery.validate()?;
+        f.kidnap_robot.validate()
+    })?;
+    let p = &mut file.kidnap_robot;
+    if let Some(n) = args.trials {
+        p.trials = n;
+    }
+    if let Some(v) = args.preset {
+        p.preset = v;
+    }
+    p.validate().context("--trials / --preset")?;
+    let (default, total) = (default_out("kidnap-robot", args.seed, p.trials), p.trials);
+    let (w1, world) = site_world(args.common.world.as_deref(), args.common.route.as_deref(), &mut file.recovery)?;
+    let (mut r, wall_time_s, dir) =
+        run_timed("kidnap-robot", &args.common, &w1, default, total, "trials", |w1, progress| {
+            Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
+        })?;
+    r.wall_time_s = wall_time_s;
+    r.world = world;
+    write_kidnap_robot(&dir, &r)?;
+    let out = dir.finish()?;
+    let k = &r.kidnap_robot;
+    outln!(
+        "kidnap-robot: {}, seed {}, preset {}, {} trials ({} moved), {:.1} s wall: recovered by pose updating {:.1} %, \
+         by the filter {:.1} %, failed {:.1} %, Lost without kidnap {:.1} % (well localised {:.1} %), median recovery \
+         {}, map damage CC {:.2} MS {:.2} OPDF {:.2}",
+        r.world,
+        r.seed,
+        k.preset,
+        k.trials,
+        k.applied,
+        r.wall_time_s,
+        100.0 * k.recovered_rate_pose_updating,
+        100.0 * k.recovered_rate_filter,
+        100.0 * k.failed_rate,
+        100.0 * k.false_lost_rate,
+        100.0 * k.false_lost_well_localised_rate,
+        k.median_recovery_s.map_or_else(|| "–".into(), |v| format!("{v:.2} s")),
+        k.map_damage.cc,
+        k.map_damage.ms,
+        k.map_damage.opdf
+    );
+    outln!("wrote {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,135 @@
+//! `mapkeeper experiment NAME`: one experiment of the paper's claims per subcommand, each into a
+//! folder of its own with `summary.json`, CSV, figures and `report.md`; `--quick` runs a short
+//! setting (the tests use it). The wall clock is read here, not in the libraries. One file per
+//! experiment of the recovery family; `real-data` and `sensor-realism` are `cmd::real_data` and
+//! `cmd::realism`.
+
+mod check_detection;
+mod kidnap_robot;
+mod table1;
+
+pub use check_detection::CheckDetectionArgs;
+pub use kidnap_robot::KidnapRobotArgs;
+pub use table1::Table1Args;
+
+use anyhow::Context;
+use mapkeeper_grid::StagedDir;
+use mapkeeper_scenario::RecoveryParams;
+use mapkeeper_sim::World;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Largest `--trials`.
+const MAX_TRIALS: usize = 100_000;
+
+/// Arguments of `mapkeeper experiment`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    pub which: Which,
+}
+
+/// The experiments.
+#[derive(clap::Subcommand, Debug)]
+pub enum Which {
+    /// How well the localisation check sees a bad pose: detection rate, false alarms and
+    /// latency of each updater preset against injected pose errors in stale worlds.
+    CheckDetection(CheckDetectionArgs),
+    /// Table 1 for real: the pose held wrong for T s (or the localiser from a 0.7 m start) on
+    /// the whole tour of W_2; always-update / check / check without pose updating per preset.
+    Table1(Table1Args),
+    /// Real kidnaps: the robot itself moved 0.5-3 m and up to ±180° (odometry blind) in late,
+    /// stale worlds; recoveries by pose updating apart from the filter's own, map damage.
+    KidnapRobot(KidnapRobotArgs),
+    /// Real logs with reference poses (CARMEN, bags): the localiser's error against the
+    /// reference, where odometry contradicts it, the updater on each log's own map.
+    RealData(super::real_data::Args),
+    /// Each sensor-realism switch alone (and all of them) against the ideal lidars: map
+    /// quality and localisation of the validation chain on a short setting.
+    SensorRealism(super::realism::Args),
+}
+
+/// The flags every experiment has.
+#[derive(clap::Args, Debug)]
+pub struct Common {
+    /// Localiser preset: amcl, mapkeeper, mapkeeper-real or amcl-joint (docs/localiser.md).
+    #[arg(long, value_name = "NAME", default_value = "amcl")]
+    pub localiser: String,
+    /// Parameter file (TOML): `[recovery]` (worlds, loop; docs/recovery.md) and the
+    /// experiment's own table (`[check_detection]`, `[table1]` or `[kidnap_robot]`: any of its
+    /// fields).
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Worker threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
+    pub jobs: Option<usize>,
+    /// The world W_1: `warehouse` (the default), `lab`, or a world file (an imported map:
+    /// `mapkeeper import-map`); its tour and storage areas from the file, planned and derived
+    /// when absent.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub world: Option<PathBuf>,
+    /// Route file overriding the world's route (the tour).
+    #[arg(long, value_name = "FILE")]
+    pub route: Option<PathBuf>,
+    /// Replace an existing non-empty output folder.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
+/// parameters' tour, exploration route and storage areas taken from it; and its name.
+pub(super) fn site_world(
+    world: Option<&std::path::Path>,
+    route: Option<&std::path::Path>,
+    recovery: &mut RecoveryParams,
+) -> anyhow::Result<(World, String)> {
+    let Some((name, site)) = super::load_site(world, route, true)? else {
+        return Ok((World::default_warehouse(), "warehouse".into()));
+    };
+    recovery.tour = site.route;
+    recovery.exploration_route = site.exploration;
+    recovery.generator.storage_areas = site.storage;
+    recovery.validate().context("--world / --route")?;
+    Ok((site.world, name))
+}
+
+/// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 on the `--jobs`
+/// pool with a progress bar of `total` `unit`s; returns its result, the wall time in seconds
+/// and the folder to write into.
+fn run_timed<R: Send>(
+    name: &str,
+    c: &Common,
+    w1: &World,
+    default: PathBuf,
+    total: usize,
+    unit: &str,
+    work: impl FnOnce(&World, &(dyn Fn() + Sync)) -> anyhow::Result<R> + Send,
+) -> anyhow::Result<(R, f64, StagedDir)> {
+    let out = c.out.clone().unwrap_or(default);
+    let dir = super::output_dir(&out, c.force)?;
+    let pool = super::thread_pool(c.jobs)?;
+    let bar = pool.install(|| super::progress_bar(&format!("experiment {name}"), total as u64, unit, &out));
+    let start = Instant::now();
+    let progress = || bar.inc(1);
+    let r = pool.install(|| work(w1, &progress))?;
+    bar.finish_and_clear();
+    Ok((r, start.elapsed().as_secs_f64(), dir))
+}
+
+fn default_out(stem: &str, seed: u64, trials: usize) -> PathBuf {
+    super::numbered_out(&format!("{stem}-s{seed}-{trials}t"))
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.which {
+        Which::CheckDetection(a) => check_detection::run(a),
+        Which::Table1(a) => table1::run(a),
+        Which::KidnapRobot(a) => kidnap_robot::run(a),
+        Which::RealData(a) => super::real_data::run(a),
+        Which::SensorRealism(a) => super::realism::run(a),
+    }
+}
