@@ -1,0 +1,95 @@
+//! One repeat's work of each row of `mapkeeper bench` on the scene.
+
+use super::*;
+
+/// What a localiser preset did over the scene: the same in every repeat (same scene, same seed).
+#[derive(Clone, Debug, Default)]
+pub(super) struct FilterWork {
+    /// Frames handed to the filter (those with odometry).
+    pub(super) frames: usize,
+    /// Particle count after each sensor update.
+    pub(super) particles: Vec<usize>,
+    /// Beams used by each sensor update.
+    pub(super) beams: Vec<usize>,
+}
+
+pub(super) fn run_localiser(scene: &Scene, name: &str, seed: u64) -> anyhow::Result<FilterWork> {
+    let mut loc = Localiser::new(&scene.map, FilterParams::preset(name)?, seed)?;
+    let first = scene.steps.first().context("empty scene")?;
+    let cov: Covariance3 = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.003]];
+    loc.init_pose(first.truth, cov)?;
+    let mut work = FilterWork::default();
+    for s in &scene.steps {
+        if let Some(odo) = s.frame.odometry {
+            work.frames += 1;
+            let r = loc.update(odo, &s.frame.scans);
+            if r.sensor_update {
+                work.particles.push(r.particles);
+                work.beams.push(r.beams);
+            }
+        }
+    }
+    Ok(work)
+}
+
+pub(super) fn run_updater(scene: &Scene, name: &str) -> anyhow::Result<usize> {
+    let mut up = MapUpdater::new(scene.map.clone(), UpdaterParams::preset(name)?)?;
+    let mut processed = 0;
+    for s in &scene.steps {
+        let report = up.process(s.truth, s.frame.odometry.unwrap_or(s.truth), &s.frame.scans);
+        processed += usize::from(report.outcome == StepOutcome::Processed);
+    }
+    Ok(processed)
+}
+
+/// Pose recovery at every 40th step of the scene with the robot 5 m ahead of and turned half a
+/// turn from where the estimate and the prediction say (a kidnap the local search cannot reach):
+/// each step is Lost, the local search fails and the global search runs. Returns the attempts;
+/// fails if the global search did not run or found no right pose on most of them.
+pub(super) fn run_global_recovery(scene: &Scene, up: &mut MapUpdater) -> anyhow::Result<usize> {
+    let (mut attempts, mut searched, mut right) = (0, 0, 0);
+    for s in scene.steps.iter().step_by(40) {
+        let wrong = s.truth.compose(&Pose2::new(5.0, 0.0, std::f64::consts::PI));
+        let odom = s.frame.odometry.unwrap_or(s.truth);
+        up.reset_reference_pose(wrong, odom);
+        let r = up.process(wrong, odom, &s.frame.scans);
+        let Some(recovery) = r.pose_recovery else { continue };
+        attempts += 1;
+        searched += usize::from(r.global_search.is_some());
+        if let mapkeeper_updater::PoseRecovery::Recovered { pose_in_map, .. } = recovery {
+            right += usize::from(pose_in_map.distance(&s.truth) < 0.2);
+        }
+    }
+    anyhow::ensure!(
+        searched * 2 > attempts && right * 2 > attempts,
+        "global recovery bench: {attempts} attempts, {searched} global searches, {right} right poses"
+    );
+    Ok(attempts)
+}
+
+/// Rays from every 10th true pose of the scene in 1,082 directions, 30 m, to the first occupied
+/// or unknown cell; returns (rays, the sum of the ranges, to keep the work).
+pub(super) fn run_traversal(caster: &RayCaster, scene: &Scene) -> (usize, f64) {
+    let mut rays = 0;
+    let mut sum = 0.0;
+    for s in scene.steps.iter().step_by(10) {
+        for k in 0..1082 {
+            let angle = k as f64 * std::f64::consts::TAU / 1082.0;
+            sum += caster.cast(s.truth.position(), angle, 30.0).range_m;
+            rays += 1;
+        }
+    }
+    (rays, black_box(sum))
+}
+
+/// One closed-loop world with the default validation's runner for `preset`; (process CPU
+/// seconds, wall seconds, simulated seconds).
+pub(super) fn run_loop(scene: &Scene, m1: &OccupancyGrid, preset: &str, seed: u64) -> anyhow::Result<(f64, f64, f64)> {
+    let mut params = ValidationParams::new(2, preset)?;
+    params.runner.set_localiser("amcl")?;
+    let inputs = RunInputs { world: &scene.w2, route: &scene.route, prev_map: m1, baseline_map: m1, prev_memory: None };
+    let start = Instant::now();
+    let c0 = process_cpu_s();
+    let run = mapkeeper_scenario::run_world(&inputs, &params.runner, seed, "bench", &NoClock)?;
+    Ok((process_cpu_s() - c0, start.elapsed().as_secs_f64(), run.sim_time_s))
+}
