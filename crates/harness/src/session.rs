@@ -9,7 +9,7 @@ use crate::clock::Clock;
 use crate::source::SensorFrame;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_localiser::{Covariance3, Estimate, Localiser, UpdateReport};
-use mapkeeper_sensor::{StampedPose, constant_velocity, deskew, interpolate};
+use mapkeeper_sensor::{StampedPose, deskew_all, interpolate};
 use mapkeeper_updater::{MapUpdater, PoseSigma, StepOutcome, StepReport as UpdaterStep};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
@@ -219,17 +219,12 @@ impl<'c> Session<'c> {
         if !self.deskew || frame.scans.iter().all(|s| s.sweep.is_none()) {
             return None;
         }
-        let (now, (before_ns, before)) = (frame.odometry?, before?);
-        if frame.stamp_ns.saturating_sub(before_ns) > DESKEW_MAX_ODOMETRY_GAP_NS {
+        let (now, before) = (frame.odometry?, before?);
+        if frame.stamp_ns.saturating_sub(before.0) > DESKEW_MAX_ODOMETRY_GAP_NS {
             return None;
         }
-        let mut out = frame.clone();
-        for scan in &mut out.scans {
-            if let Some(at) = constant_velocity(before, before_ns, now, frame.stamp_ns, scan.stamp_ns) {
-                *scan = deskew(scan, at);
-            }
-        }
-        Some(out)
+        let scans = deskew_all(&frame.scans, before, (frame.stamp_ns, now));
+        Some(SensorFrame { stamp_ns: frame.stamp_ns, odometry: frame.odometry, scans })
     }
 
     /// From the next step on, the pose the updater is given (and [`StepReport::pose_in_map`])

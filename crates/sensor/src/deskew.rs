@@ -139,6 +139,19 @@ pub fn constant_velocity(
     })
 }
 
+/// Every scan of `scans` deskewed to the robot at `now` (time ns, pose), the motion over each
+/// sweep taken at constant velocity from `before` ([`constant_velocity`], [`deskew`]); a scan
+/// without timing, or with no motion to take (`before` not earlier than `now`), as it is.
+pub fn deskew_all(scans: &[LaserScan], before: (u64, Pose2), now: (u64, Pose2)) -> Vec<LaserScan> {
+    scans
+        .iter()
+        .map(|s| match constant_velocity(before.1, before.0, now.1, now.0, s.stamp_ns) {
+            Some(at) => deskew(s, at),
+            None => s.clone(),
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -30,7 +30,7 @@ mod log;
 mod scan;
 pub mod tum;
 
-pub use deskew::{MAX_SWEEP_S, SweepTiming, constant_velocity, deskew};
+pub use deskew::{MAX_SWEEP_S, SweepTiming, constant_velocity, deskew, deskew_all};
 pub use log::{
     LOG_FORMAT, LOG_VERSION, LogError, LogHeader, LogRecord, LogWriter, MAX_LINE_BYTES, OdometryReading, SensorLog,
     TruePose,

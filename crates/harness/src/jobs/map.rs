@@ -10,7 +10,7 @@ use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
 use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
-use mapkeeper_sensor::{BeamValidity, LaserScan, constant_velocity, deskew};
+use mapkeeper_sensor::{BeamValidity, LaserScan, deskew_all};
 
 /// What one beam contributes to a map.
 enum Beam {
@@ -178,16 +178,7 @@ impl Observer for TruthMapper {
             return;
         }
         let timed = self.deskew && step.frame.scans.iter().any(|s| s.sweep.is_some());
-        let deskewed: Option<Vec<LaserScan>> = before.filter(|_| timed).map(|(before_ns, before)| {
-            step.frame
-                .scans
-                .iter()
-                .map(|s| match constant_velocity(before, before_ns, now.1, now.0, s.stamp_ns) {
-                    Some(at) => deskew(s, at),
-                    None => s.clone(),
-                })
-                .collect()
-        });
+        let deskewed = before.filter(|_| timed).map(|before| deskew_all(&step.frame.scans, before, now));
         let scans = deskewed.as_deref().unwrap_or(&step.frame.scans);
         self.scans += integrate_frame(&mut self.mapper, scans, &truth.pose_in_map, self.clear_m, &mut self.beams);
     }

@@ -404,7 +404,7 @@ pub fn error_stats(estimates: &[StampedPose], truth: &[StampedPose]) -> (ErrorSt
 /// (`max_beams` per lidar, evenly over the valid readings).
 pub fn reference_fit(log: &SensorLog, truth: &[StampedPose], map: &OccupancyGrid, sm: ScanMatchParams) -> ReferenceFit {
     let matcher = ScanMatcher::new(map, sm);
-    let max_range = FilterParams::preset("mapkeeper-real").map_or(30.0, |p| p.laser_max_range_m);
+    let max_range = FilterParams::mapkeeper_real().laser_max_range_m;
     let mut beams = BeamSet::new();
     let (mut dist, mut yaw) = (Vec::new(), Vec::new());
     let mut scans = 0;
