@@ -1,6 +1,8 @@
 //! The local scale-out recipe `docs/scale-out/local-shards.sh`: a sweep run as shards through
 //! `xargs -P` and merged equals the unsharded sweep file for file, and a re-run after a killed
-//! shard runs only that shard.
+//! shard runs only that shard. The Slurm array task `docs/scale-out/slurm-array.sh`, run as
+//! Slurm runs each task (the scheduler itself is run by `docs/scale-out/slurm-single-node.sh`,
+//! outside the tests), shards and merges the same way.
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -97,5 +99,61 @@ fn shards_through_xargs_merge_into_the_unsharded_sweep_and_resume_skips_complete
         assert_eq!(o.status.code(), Some(2), "{}", text(&o));
         assert!(!dir.join("bad").exists());
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs `docs/scale-out/slurm-array.sh` with the environment Slurm gives array task `task`.
+fn slurm_task(task: Option<&str>, out: &Path) -> Output {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/scale-out/slurm-array.sh");
+    let mut c = Command::new("bash");
+    c.arg(script)
+        .env("MAPKEEPER", env!("CARGO_BIN_EXE_mapkeeper"))
+        .env("OUT", out)
+        .env("SHARDS", "2")
+        .env("VALIDATE_ARGS", SWEEP.join(" "))
+        .env("SLURM_CPUS_PER_TASK", "1")
+        .env_remove("SLURM_ARRAY_TASK_ID");
+    if let Some(k) = task {
+        c.env("SLURM_ARRAY_TASK_ID", k);
+    }
+    c.output().unwrap()
+}
+
+#[test]
+fn slurm_array_tasks_shard_the_sweep_and_a_resubmitted_task_skips_its_complete_shard() {
+    let dir = scratch("scale-out", "slurm");
+    let whole = dir.join("whole");
+    let mut args = vec!["validate"];
+    args.extend(SWEEP);
+    args.extend(["--out", s(&whole)]);
+    let o = Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(&args).output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+
+    let out = dir.join("sweep");
+    for k in ["1", "2"] {
+        let o = slurm_task(Some(k), &out);
+        assert!(o.status.success(), "{}", text(&o));
+        assert!(text(&o).contains(&format!("shard {k}/2")), "{}", text(&o));
+    }
+    // The dependent merge job's command.
+    let (a, b) = (out.join("shards/1"), out.join("shards/2"));
+    let o = Command::new(env!("CARGO_BIN_EXE_mapkeeper"))
+        .args(["merge", s(&a), s(&b), "--out", s(&out.join("all")), "--force"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(files(&out.join("all")), files(&whole), "merged Slurm shards differ from the unsharded sweep");
+
+    // A re-submitted task whose shard is complete exits at once, leaving it as it is.
+    let kept = files(&a);
+    let o = slurm_task(Some("1"), &out);
+    assert!(o.status.success() && text(&o).contains("shard 1/2: complete, skipped"), "{}", text(&o));
+    assert_eq!(files(&a), kept);
+
+    // Outside an array job: refused, nothing written.
+    let o = slurm_task(None, &dir.join("none"));
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("run as an array job"), "{}", text(&o));
+    assert!(!dir.join("none").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
