@@ -16,19 +16,21 @@
 //! | `paper/localisation_check.rs` | §4.2, eq. 6-8 |
 //! | `paper/changed_cells.rs` | §4.3: §4.3.1 (eq. 9, Fig. 10) and §4.3.2 (Fig. 11-13) |
 //! | `paper/unchanged_cells.rs` | §4.4 |
-//! | `paper/cell_buffers.rs` | the rolling buffers B_c of §4 (Fig. 6) and §4.5; the memory claim of §6 |
 //! | `paper/cell_update.rs` | §4.5 with border reconstruction (Fig. 14) |
 //! | `paper/pose_updating.rs` | §4.6 (its hypotheses, own-cloud check, correlative search and fitness gate are the project's: the paper accepts any registration) |
 //! | `paper/icp.rs` | §4.6's registration T(k) ("e.g. Iterative Closest Point"), here point-to-line |
 //! | `additions/removal_gates.rs` | project addition: with the pose a fraction of a cell off, removal votes from rays that graze a wall or clip a corner erode walls and free obstacle interiors |
 //! | `additions/grazing.rs` | project addition: the incidence test of the removal gates (a robot driving along a wall erodes it) |
-//! | `additions/hit_index.rs` | project addition: the hit clearance of the removal gates (edge cells of a wall hit by the same step voted "removed") |
 //! | `additions/free_pass.rs` | project addition: cells free in `M_{i-1}` got only "changed" votes, so new obstacles came out 2-4 cells thick |
 //! | `additions/shift_check.rs` | project addition (`mapkeeper` on alarm steps, `mapkeeper-shift` on every step): the change count cannot tell a wrong pose from a stale map; a nearby pose that fits better can |
 //! | `additions/registration.rs` | project addition: a yaw error of a fraction of a degree (AMCL on a stale map) is written into the map and erodes fixed walls; each step's pose is refined against `M_{i-1}` first, and a poor or ambiguous fit writes nothing |
 //! | `additions/structure_memory.rs` | project addition: long-standing structure was as easy to remove as yesterday's box, and an eroded wall face never came back; a cross-world memory of young cells and scars |
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
+//! | `support/cell_buffers.rs` | support: the rolling buffers B_c of §4 (Fig. 6) and §4.5; the memory claim of §6 |
+//! | `support/step_tolerance.rs` | support: [`StepTolerance`], a step's pose-uncertainty margins as the paper's tests apply them |
+//! | `support/removal_filter.rs` | support: the hook of §4.3.1's removal votes ([`support::removal_filter::RemovalFilter`]; the paper's `PassAll`, the project's removal gates) |
+//! | `support/hit_index.rs` | support: the step's hit points, bucketed (the removal gates' hit clearance) |
 //! | `support/votes.rs` | support: vote packing, radix sort and merge shared by the evaluators and the cells update |
 //! | `support/chessboard.rs` | support: the chessboard distance transform of pose updating's score grid and the global search's pyramid |
 //!
@@ -76,7 +78,6 @@
 /// The modules of the paper's §4, one per block of Fig. 5 / Fig. 6.
 pub mod paper {
     pub mod beam_classifier;
-    pub mod cell_buffers;
     pub mod cell_update;
     pub mod changed_cells;
     pub mod gating;
@@ -91,7 +92,6 @@ pub mod additions {
     pub mod free_pass;
     pub mod global_search;
     pub mod grazing;
-    pub mod hit_index;
     pub mod log_odds_baseline;
     pub mod pose_tolerance;
     pub mod registration;
@@ -104,7 +104,11 @@ pub mod additions {
 /// beam, and the packing and sorting of votes.
 pub mod support {
     pub mod beam_walk;
+    pub mod cell_buffers;
     pub mod chessboard;
+    pub mod hit_index;
+    pub mod removal_filter;
+    pub mod step_tolerance;
     pub mod votes;
 }
 

@@ -5,14 +5,13 @@
 use crate::UpdaterError;
 use crate::additions::free_pass::evaluate_free_pass;
 use crate::additions::global_search::{GlobalSearch, GlobalSearchReport};
-use crate::additions::hit_index::HitIndex;
 use crate::additions::log_odds_baseline::LogOddsBaseline;
 use crate::additions::pose_tolerance::{PoseSigma, StepTolerance};
 use crate::additions::registration::{Refusal, Registrar, Registration};
+use crate::additions::removal_gates::RemovalGates;
 use crate::additions::shift_check::ShiftResult;
 use crate::additions::structure_memory::StructureMemory;
 use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
-use crate::paper::cell_buffers::CellBuffers;
 use crate::paper::cell_update::{CellChange, CellUpdater};
 use crate::paper::changed_cells::evaluate_changed_beam_cast;
 use crate::paper::gating::{GateReason, UpdateGate};
@@ -21,6 +20,8 @@ use crate::paper::pose_updating::{PoseRecovery, PoseUpdater};
 use crate::paper::unchanged_cells::evaluate_unchanged_beam;
 use crate::params::{PoseUpdatingParams, UpdateMethod, UpdaterParams};
 use crate::support::beam_walk::BeamGeometry;
+use crate::support::cell_buffers::CellBuffers;
+use crate::support::hit_index::HitIndex;
 use crate::support::votes::{Vote, ensure_buffers, merge_sorted_tail};
 use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster, angle_diff};
 use mapkeeper_sensor::LaserScan;
@@ -673,7 +674,9 @@ impl MapUpdater {
                 let origin = self.classifier.lidars[b.lidar as usize].origin;
                 let beam = BeamGeometry::new(origin, b.hit, b.range_m);
                 let how = (&self.params, &self.step_tol);
-                evaluate_changed_beam_cast(&self.base, &beam, how, &self.hits, &mut self.votes);
+                let (map, params, hits) = (self.base.map(), &self.params, &self.hits);
+                let gates = |b: &BeamGeometry| RemovalGates::new(map, params, hits, b);
+                evaluate_changed_beam_cast(&self.base, &beam, how, gates, &mut self.votes);
             }
         }
         if !self.memory.is_empty() {
@@ -712,7 +715,7 @@ impl MapUpdater {
             self.base.map(),
             &mut self.current,
             &mut self.buffers,
-            (&self.params, &self.memory),
+            (&self.params, &|index| self.memory.is_established(index)),
             changes,
         );
     }

@@ -128,9 +128,10 @@ fn added_box_face_is_not_smeared_towards_the_robot() {
 fn a_withheld_vote_shadows_the_obstacle_behind_it() {
     use mapkeeper_grid::{GridGeometry, Point2};
     use mapkeeper_updater::StepTolerance;
-    use mapkeeper_updater::additions::hit_index::HitIndex;
+    use mapkeeper_updater::additions::removal_gates::RemovalGates;
     use mapkeeper_updater::paper::changed_cells::evaluate_changed_beam;
     use mapkeeper_updater::support::beam_walk::BeamGeometry;
+    use mapkeeper_updater::support::hit_index::HitIndex;
     for (gap, expect_votes_in_b) in [(1, false), (3, true)] {
         let g = GridGeometry::new(40, 80, 0.05, Pose2::IDENTITY).unwrap();
         let mut base = OccupancyGrid::filled(g, CellState::Free);
@@ -153,11 +154,12 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         let hit = Point2::new(1.02, 3.9);
         let z = origin.distance(hit);
         let mut votes = Vec::new();
+        let hits = HitIndex::new();
         evaluate_changed_beam(
             &base,
             &BeamGeometry::new(origin, hit, z),
             (&mapkeeper(), &StepTolerance::NONE),
-            &HitIndex::new(),
+            |b| RemovalGates::new(&base, &mapkeeper(), &hits, b),
             &mut votes,
         );
         let voted: Vec<CellCoord> = votes.iter().map(|v| g.coord((v >> 1) as usize)).collect();
@@ -171,7 +173,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
             &base,
             &BeamGeometry::new(origin, hit, z),
             (&UpdaterParams { removal_shadow: false, ..mapkeeper() }, &StepTolerance::NONE),
-            &HitIndex::new(),
+            |b| RemovalGates::new(&base, &UpdaterParams { removal_shadow: false, ..mapkeeper() }, &hits, b),
             &mut votes,
         );
         assert!(votes.iter().any(|v| (b0..=b0 + 15).contains(&g.coord((v >> 1) as usize).iy)), "gap {gap}");
@@ -181,7 +183,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
             &base,
             &BeamGeometry::new(origin, hit, z),
             (&without_additions(), &StepTolerance::NONE),
-            &HitIndex::new(),
+            |b| RemovalGates::new(&base, &without_additions(), &hits, b),
             &mut votes,
         );
         assert!(votes.iter().any(|v| (20..=35).contains(&g.coord((v >> 1) as usize).iy)));

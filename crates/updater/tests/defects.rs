@@ -7,8 +7,8 @@ mod common;
 use common::digest::moved as placed;
 use common::{fill_rect, room, scan360};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2};
-use mapkeeper_updater::paper::cell_buffers::CellBuffers;
 use mapkeeper_updater::support::beam_walk::BeamGeometry;
+use mapkeeper_updater::support::cell_buffers::CellBuffers;
 use mapkeeper_updater::{MapUpdater, PoseRecovery, StepOutcome, UpdaterParams, Verdict};
 
 fn changed(a: &OccupancyGrid, b: &OccupancyGrid) -> usize {

@@ -10,12 +10,12 @@ mod common;
 use common::{fill_rect, room, scan360};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, cast_ray};
 use mapkeeper_updater::StepTolerance;
-use mapkeeper_updater::additions::hit_index::HitIndex;
 use mapkeeper_updater::paper::beam_classifier::{ScanRays, detects_change};
-use mapkeeper_updater::paper::cell_buffers::CellBuffers;
 use mapkeeper_updater::paper::cell_update::CellUpdater;
 use mapkeeper_updater::paper::changed_cells::evaluate_changed_beam;
 use mapkeeper_updater::support::beam_walk::BeamGeometry;
+use mapkeeper_updater::support::cell_buffers::CellBuffers;
+use mapkeeper_updater::support::removal_filter::PassAll;
 use mapkeeper_updater::support::votes::vote;
 use mapkeeper_updater::{MapUpdater, StepOutcome, UpdaterParams, Verdict};
 
@@ -72,7 +72,7 @@ fn fig10_final_chunk_is_skipped() {
             &base,
             &BeamGeometry::new(origin, hit, hit.x - origin.x),
             (p, &StepTolerance::NONE),
-            &HitIndex::new(),
+            |_| PassAll,
             &mut votes,
         );
         decode(&votes, 60)
@@ -100,7 +100,7 @@ fn fig10_final_chunk_is_skipped() {
         &base,
         &BeamGeometry::new(origin, hit, z),
         (&p0, &StepTolerance::NONE),
-        &HitIndex::new(),
+        |_| PassAll,
         &mut votes,
     );
     assert!(decode(&votes, 60).contains(&(CellCoord::new(40, 5), true)));
@@ -124,7 +124,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
             &base,
             &BeamGeometry::new(origin, hit, hit.x - origin.x),
             (&p, &StepTolerance::NONE),
-            &HitIndex::new(),
+            |_| PassAll,
             &mut votes,
         );
         let c = g.world_to_cell(hit).unwrap();
@@ -150,7 +150,7 @@ fn fig11_to_13_added_and_removed_told_apart_with_and_without_pose_error() {
         &base,
         &BeamGeometry::new(origin, hit, hit.x - origin.x),
         (&p_direct, &StepTolerance::NONE),
-        &HitIndex::new(),
+        |_| PassAll,
         &mut votes,
     );
     assert!(votes.contains(&vote(g.index(g.world_to_cell(hit).unwrap()).unwrap(), true)));
@@ -177,14 +177,7 @@ fn fig14_border_reconstruction() {
     for step in 1..=7 {
         let mut votes = vec![vote(idx, true)];
         let mut changes = Vec::new();
-        up.apply(
-            &mut votes,
-            &base,
-            &mut current,
-            &mut buffers,
-            (&p, &mapkeeper_updater::StructureMemory::default()),
-            &mut changes,
-        );
+        up.apply(&mut votes, &base, &mut current, &mut buffers, (&p, &|_| false), &mut changes);
         if step < 7 {
             assert!(changes.is_empty(), "step {step}");
         } else {

@@ -14,8 +14,8 @@
 //! from p_i to its cell's centre, so the walk would otherwise vote it both ways.
 
 use crate::UpdaterParams;
-use crate::paper::cell_buffers::TileProbe;
 use crate::support::beam_walk::{BeamGeometry, buffered_cells_before_chunk};
+use crate::support::cell_buffers::TileProbe;
 use crate::support::votes::{Vote, vote};
 use mapkeeper_grid::{CellState, OccupancyGrid};
 
@@ -48,7 +48,7 @@ pub fn evaluate_free_pass(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::paper::cell_buffers::CellBuffers;
+    use crate::support::cell_buffers::CellBuffers;
     use mapkeeper_grid::{CellCoord, GridGeometry, Point2, Pose2, traverse};
     use std::ops::ControlFlow;
 

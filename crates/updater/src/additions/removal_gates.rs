@@ -7,7 +7,7 @@
 //! it, and a robot driving along a wall erodes it. The gates (each off in `paper` and `authors`,
 //! which leaves §4.3.1 as written; on in `mapkeeper`):
 //!
-//! - **hit clearance** (`removal_hit_clearance_m`, [`crate::additions::hit_index`]): no vote for
+//! - **hit clearance** (`removal_hit_clearance_m`, [`crate::support::hit_index`]): no vote for
 //!   a cell whose centre lies within the clearance of a hit of the same step;
 //! - **grazing incidence** (`removal_min_incidence_rad`, [`crate::additions::grazing`]): no vote
 //!   when the ray meets the cell's wall, or a free face of the cell, flatter than the minimum;
@@ -22,8 +22,9 @@
 
 use crate::UpdaterParams;
 use crate::additions::grazing;
-use crate::additions::hit_index::HitIndex;
 use crate::support::beam_walk::BeamGeometry;
+use crate::support::hit_index::HitIndex;
+use crate::support::removal_filter::RemovalFilter;
 use mapkeeper_grid::{CellCoord, OccupancyGrid, Point2};
 
 /// Free cells in a row a ray must cross after a withheld vote before it votes again.
@@ -120,5 +121,84 @@ impl<'a> RemovalGates<'a> {
             self.shadowed = true;
         }
         withheld
+    }
+}
+
+impl RemovalFilter for RemovalGates<'_> {
+    #[inline]
+    fn in_shadow(&mut self, c: CellCoord) -> bool {
+        RemovalGates::in_shadow(self, c)
+    }
+
+    /// The core offset first, then the grazing gate and the hit clearance.
+    #[inline]
+    fn passes(&mut self, c: CellCoord, centre: Point2) -> bool {
+        self.near_core(centre) && !self.withholds(c, centre)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::paper::changed_cells::{evaluate_changed_beam, evaluate_changed_beam_cast};
+    use crate::support::step_tolerance::StepTolerance;
+    use mapkeeper_grid::{CellState, GridGeometry, Pose2, RayCaster};
+
+    /// The changed evaluator's two walks (the plain one and the caster's, which skips open
+    /// stretches) give the same votes through the gates.
+    #[test]
+    fn gated_caster_walk_gives_the_votes_of_a_gated_full_walk() {
+        // A room with box outlines (occupied border, unknown inside) and scattered cells.
+        let g = GridGeometry::new(240, 180, 0.05, Pose2::new(-1.0, 0.5, 0.2)).unwrap();
+        let mut m = OccupancyGrid::filled(g, CellState::Free);
+        for k in 0..240 {
+            m.set(CellCoord::new(k, 0), CellState::Occupied);
+            m.set(CellCoord::new(k, 179), CellState::Occupied);
+        }
+        for (x0, y0) in [(40, 30), (150, 100), (90, 140), (200, 20)] {
+            for ix in x0..x0 + 24 {
+                for iy in y0..y0 + 20 {
+                    let edge = ix == x0 || iy == y0 || ix == x0 + 23 || iy == y0 + 19;
+                    m.set(CellCoord::new(ix, iy), if edge { CellState::Occupied } else { CellState::Unknown });
+                }
+            }
+        }
+        for k in 0..60 {
+            m.set(CellCoord::new((k * 37) % 240, (k * 53) % 180), CellState::Occupied);
+        }
+        let caster = RayCaster::new(&m, true);
+        let params = UpdaterParams::paper();
+        let mut n_votes = 0;
+        // A hit index holding some of the rays' end points: the gates run on both paths.
+        let mut hits = HitIndex::new();
+        hits.rebuild(
+            params.removal_hit_clearance_m,
+            (0..720).step_by(3).map(|k| {
+                let origin = g.grid_to_world(20.0 + (k % 7) as f64 * 25.3, 10.0 + (k % 5) as f64 * 31.7);
+                let a = k as f64 * 0.5f64.to_radians() + 0.001;
+                let z = 1.0 + (k % 13) as f64;
+                Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin())
+            }),
+        );
+        for k in 0..720 {
+            let origin = g.grid_to_world(20.0 + (k % 7) as f64 * 25.3, 10.0 + (k % 5) as f64 * 31.7);
+            let a = k as f64 * 0.5f64.to_radians() + 0.001;
+            let z = 1.0 + (k % 13) as f64;
+            let hit = Point2::new(origin.x + z * a.cos(), origin.y + z * a.sin());
+            let (mut want, mut got) = (Vec::new(), Vec::new());
+            let beam = BeamGeometry::new(origin, hit, z);
+            let tol = StepTolerance::NONE;
+            evaluate_changed_beam(&m, &beam, (&params, &tol), |b| RemovalGates::new(&m, &params, &hits, b), &mut want);
+            evaluate_changed_beam_cast(
+                &caster,
+                &beam,
+                (&params, &tol),
+                |b| RemovalGates::new(&m, &params, &hits, b),
+                &mut got,
+            );
+            assert_eq!(got, want, "ray {k}");
+            n_votes += want.len();
+        }
+        assert!(n_votes > 1000, "the rays must cross obstacles ({n_votes} votes)");
     }
 }

@@ -16,7 +16,7 @@
 //! next beam of the scan ([`ScanHints`]).
 
 use crate::UpdaterParams;
-use crate::additions::pose_tolerance::StepTolerance;
+use crate::support::step_tolerance::StepTolerance;
 use mapkeeper_grid::{CellCoord, CellState, FreeDiscs, Point2, Pose2, RayCaster, RayDir, RayStop};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
@@ -504,7 +504,7 @@ fn mark_square(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::paper::cell_buffers::CellBuffers;
+    use crate::support::cell_buffers::CellBuffers;
     use mapkeeper_grid::{GridGeometry, traverse};
     use std::ops::ControlFlow;
 

@@ -15,9 +15,8 @@
 //! it, it becomes free without growing spurious borders.
 
 use crate::UpdaterParams;
-use crate::additions::structure_memory::StructureMemory;
-use crate::paper::cell_buffers::{CellBuffers, RollingBuffer};
 use crate::params::{FlagRule, RevertRule};
+use crate::support::cell_buffers::{CellBuffers, RollingBuffer};
 use crate::support::votes::Vote;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
@@ -73,15 +72,17 @@ impl CellUpdater {
 
     /// Reduces `votes` (sorted in place), pushes one flag per cell into `buffers`, applies the
     /// flip rule to `current` (`M_i`) and appends every state change to `changes`. With the
-    /// memory on (`params.memory`), an established occupied cell of `memory` needs
-    /// `memory.established_removal_threshold` flags to become free.
+    /// memory on (`params.memory`), an occupied cell for which `established` (asked with the
+    /// cell's index) holds needs `params.memory.established_removal_threshold` flags to become
+    /// free (the `mapkeeper` addition's structure memory plugs in there; the paper's presets
+    /// keep it off).
     pub fn apply(
         &mut self,
         votes: &mut [Vote],
         base: &OccupancyGrid,
         current: &mut OccupancyGrid,
         buffers: &mut CellBuffers,
-        (params, memory): (&UpdaterParams, &StructureMemory),
+        (params, established): (&UpdaterParams, &dyn Fn(u32) -> bool),
         changes: &mut Vec<CellChange>,
     ) {
         votes.sort_unstable();
@@ -117,12 +118,11 @@ impl CellUpdater {
             let base_state = base.cells()[idx];
             let target = flipped(base_state);
             let now = current.cells()[idx];
-            let threshold =
-                if params.memory.enabled && base_state == CellState::Occupied && memory.is_established(index) {
-                    params.memory.established_removal_threshold.max(params.change_threshold)
-                } else {
-                    params.change_threshold
-                };
+            let threshold = if params.memory.enabled && base_state == CellState::Occupied && established(index) {
+                params.memory.established_removal_threshold.max(params.change_threshold)
+            } else {
+                params.change_threshold
+            };
             if now != target {
                 if self.support(buffer, cell, base, buffers, params) >= threshold {
                     current.cells_mut()[idx] = target;

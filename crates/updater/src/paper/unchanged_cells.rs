@@ -7,15 +7,15 @@
 //!
 //! Only cells that already hold a buffer are voted on: an "unchanged" flag in a cell without a
 //! buffer would create a buffer without a "changed" flag, which is dropped at once
-//! (see [`crate::paper::cell_buffers`]). The walk along the beam starts near the first tile
+//! (see [`crate::support::cell_buffers`]). The walk along the beam starts near the first tile
 //! holding a buffer and crosses tiles without buffers at once
 //! ([`crate::support::beam_walk::buffered_cells_before_chunk`]); the votes are those of a plain
 //! cell-by-cell walk (test below).
 
 use crate::UpdaterParams;
-use crate::paper::cell_buffers::TileProbe;
 use crate::params::UnchangedHitRule;
 use crate::support::beam_walk::{BeamGeometry, buffered_cells_before_chunk};
+use crate::support::cell_buffers::TileProbe;
 use crate::support::votes::{Vote, vote};
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
 
@@ -83,7 +83,7 @@ pub fn evaluate_unchanged_beam(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::paper::cell_buffers::CellBuffers;
+    use crate::support::cell_buffers::CellBuffers;
     use mapkeeper_grid::{CellCoord, GridGeometry, Point2, Pose2, traverse};
     use std::ops::ControlFlow;
 

@@ -2,7 +2,7 @@
 //! along it that visits only cells holding a buffer. Shared by the unchanged cells evaluator
 //! (§4.4), the changed cells evaluator (§4.3) and the free-pass votes (a project addition).
 
-use crate::paper::cell_buffers::{CellBuffers, TileProbe};
+use crate::support::cell_buffers::{CellBuffers, TileProbe};
 use mapkeeper_grid::{CellCoord, GridGeometry, Point2, SegmentWalk};
 
 /// One measured beam: the segment from its lidar's position to the hit point p_i, and its
@@ -44,7 +44,7 @@ const TILE_EXIT_MARGIN: f64 = 1e-9;
 /// Calls `visit(cell, index)` for every cell that holds a buffer, in the order the traversal
 /// from the beam's origin towards its hit point visits them, up to p_th (`skip_m` before the
 /// hit). `first_buffer_m`: no cell closer than this to the origin along the beam holds a buffer (0 if
-/// unknown; see [`crate::paper::beam_classifier::Beam::walk_from_m`]), so the walk starts about there;
+/// unknown; see `Beam::walk_from_m` of the beam classifier), so the walk starts about there;
 /// tiles without buffers are crossed without visiting their cells. The same cells as a plain
 /// cell-by-cell walk filtered by the probe (tests in `paper::unchanged_cells` and `additions::free_pass`).
 pub fn buffered_cells_before_chunk(

@@ -2,7 +2,7 @@
 //! plain sort groups a cell's votes and the cells update (§4.5) reduces them in one pass. Shared
 //! by the evaluators of §4.3 and §4.4, the free-pass votes and the cells update.
 
-use crate::paper::cell_buffers::CellBuffers;
+use crate::support::cell_buffers::CellBuffers;
 use mapkeeper_grid::CellCoord;
 
 /// A vote of one beam on one cell during a step, packed as `index << 1 | changed`.

@@ -1,7 +1,7 @@
 //! The measured hit points of one step, bucketed for "is there a hit within r of this point?"
 //! queries.
 //!
-//! Serves only the hit clearance of the removal vote ([`crate::additions::removal_gates`], a
+//! Serves only the hit clearance of the removal vote (`additions::removal_gates`, a
 //! project addition, see `UpdaterParams::removal_hit_clearance_m`): a cell that a
 //! detected-change ray crosses is not
 //! voted "removed" when some beam of the same step hit a surface within the clearance of the
