@@ -1,0 +1,59 @@
+//! `--resume`: the jobs a killed run finished, and whether OUT already holds this run.
+
+use super::Args;
+use anyhow::Context;
+use mapkeeper_scenario::SweepPlan;
+use mapkeeper_scenario::experiments::checkpoint::Checkpoints;
+use std::path::Path;
+
+/// The jobs a killed run had finished (with --resume; in job order, `None`: to run), or none,
+/// discarding what an interrupted run left (without --resume).
+pub(super) fn finished_jobs(
+    plan: &SweepPlan,
+    checkpoints: &Checkpoints,
+    out: &Path,
+    resume: bool,
+) -> anyhow::Result<Vec<Option<mapkeeper_scenario::SeedRun>>> {
+    if resume {
+        let done = plan.load_checkpoints(checkpoints)?;
+        let n = done.iter().flatten().count();
+        outln!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
+        return Ok(done);
+    }
+    let n = checkpoints.count();
+    if n > 0 {
+        errln!(
+            "mapkeeper: note: {}: discarded {n} finished job(s) of an interrupted run (--resume keeps them)",
+            checkpoints.dir().display()
+        );
+    }
+    checkpoints.remove()?;
+    Ok(vec![None; plan.jobs.len()])
+}
+
+/// Whether OUT holds the finished outputs of this very run (each preset's summary.json with
+/// the same parameters, and for a sweep the comparison): `validate --resume` then has nothing
+/// to do. An OUT that holds another run's results is an error.
+pub(super) fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, args: &Args) -> anyhow::Result<bool> {
+    if !out.join("summary.json").is_file() {
+        return Ok(false);
+    }
+    for p in plan.groups() {
+        let dir = if sweep { out.join(&plan.presets[p]) } else { out.to_path_buf() };
+        let file = dir.join("summary.json");
+        let text = std::fs::read_to_string(&file).with_context(|| format!("--resume: {}", file.display()))?;
+        let json: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("--resume: {}", file.display()))?;
+        // As the run writes them: with the bags it was asked for.
+        let mut params = plan.params[p].clone();
+        params.mcap_worlds.clone_from(&args.mcap_worlds);
+        let (want, want_shard) = (serde_json::to_value(&params)?, serde_json::to_value(args.shard)?);
+        if json.get("params") != Some(&want) || json.get("shard").unwrap_or(&serde_json::Value::Null) != &want_shard {
+            anyhow::bail!(
+                "--resume: {} holds a run with other parameters or another shard than these flags (use another --out)",
+                file.display()
+            );
+        }
+    }
+    Ok(true)
+}
