@@ -116,6 +116,10 @@ fn the_updater_writes_its_run_as_mcap_with_verdicts_and_maps() {
     let run = dir.join("run");
     let out = ok(&["run", "--log", s(&sim), "--map", s(&map), "--preset", "mapkeeper", "--out", s(&run)]);
     assert!(out.contains("processed"), "{out}");
+    // Lost is handled as in the simulated runs; the episodes' file is written even when empty.
+    assert!(out.contains("lost handling: "), "{out}");
+    let lost = std::fs::read_to_string(run.join("lost.csv")).unwrap();
+    assert!(lost.starts_with("start_s,end_s,attempts,end\n"), "{lost}");
     let poses = tum(&run.join("poses.tum"));
     let truth = tum(&sim.join("truth.tum"));
     assert!(poses.len() > 20, "{} poses", poses.len());

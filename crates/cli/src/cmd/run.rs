@@ -22,7 +22,7 @@ pub struct Args {
     pub world: Option<PathBuf>,
     /// Instead of a world: a recorded log (any format `--log` takes: jsonl, MCAP, ROS 1 bag,
     /// CARMEN): the chain localiser and the updater run over it on MAP, as `mapkeeper update
-    /// --localise` (output: map.yaml, poses.tum, scans.csv, recovered.tum, recoveries.csv).
+    /// --localise` (output: map.yaml, poses.tum, scans.csv, recovered.tum, recoveries.csv, lost.csv).
     #[arg(long, value_name = "PATH", conflicts_with_all = ["world", "route", "baseline_map"])]
     pub log: Option<PathBuf>,
     /// The map to localise on and update (ROS map_server YAML).

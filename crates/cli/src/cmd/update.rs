@@ -24,7 +24,9 @@ Robot pose per step (the localiser's estimate), linearly interpolated at the sca
 --poses FILE.tum   a TUM trajectory (t x y z qx qy qz qw, '#' comments), e.g. from a localiser;\n  \
 --true-poses       the log's truth records;\n  \
 --localise         the chain localiser (--localiser) run over the log on the map being updated \
-(from the log's first true pose, else globally), its estimate written to OUT/poses.tum;\n  \
+(from the log's first true pose, else globally), its estimate written to OUT/poses.tum; a pose that \
+pose updating recovers after a Lost verdict is handed back to it (and to the updater), the episodes \
+written to OUT/lost.csv;\n  \
 (none of these)    the log's odometry, aligned so that the first odometry pose coincides with the \
 first true pose if the log has truth records, otherwise with the map frame's origin (0, 0, 0).\n\
 Odometry (for the update gating and pose updating) always comes from the log's odom records; \
@@ -154,6 +156,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     dir.write("recoveries.csv", r.recoveries_csv.as_bytes())?;
     if args.localise {
         write_tum(&dir.file("poses.tum")?, &r.poses)?;
+        dir.write("lost.csv", mapkeeper_harness::lost::episodes_csv(&r.lost_episodes).as_bytes())?;
     }
     let out = dir.finish()?;
     let s = r.stats;
@@ -172,6 +175,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         s.failed_recoveries,
         out.display()
     );
+    if args.localise {
+        outln!("lost handling: {}", r.lost);
+    }
     if let Some(p) = mcap {
         outln!("wrote {}", p.display());
     }

@@ -4,6 +4,7 @@
 use crate::HarnessError;
 use crate::clock::Clock;
 use crate::driver::{Control, Observer};
+use crate::lost::{DEFAULT_LOST_WAIT_S, LostCounts, LostEpisode, LostPolicy};
 use crate::replay::LogSource;
 use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
@@ -50,6 +51,12 @@ pub struct UpdateRun {
     pub recoveries_csv: String,
     /// The pose the updater was given at each step that had one.
     pub poses: Vec<StampedPose>,
+    /// With the localiser ([`PoseInput::Localise`]): the Lost episodes and what ended them. A
+    /// pose that pose updating recovers is handed back to the localiser and the updater, as in
+    /// the simulated runs ([`LostPolicy`]; a log has no robot to stop). Empty otherwise.
+    pub lost: LostCounts,
+    /// The episodes, in order.
+    pub lost_episodes: Vec<LostEpisode>,
 }
 
 /// The columns of `recoveries.csv`: one row per step on which pose updating ran; `result` is
@@ -180,6 +187,7 @@ pub fn update_log(
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scan records", source.name())));
     }
+    let mut lost = None;
     let pose_source = match poses {
         PoseInput::Localise { params: filter_params, seed, init } => {
             let filter_params = *filter_params;
@@ -188,6 +196,7 @@ pub fn update_log(
             if let Some(p) = init.or(first_truth) {
                 filter.init_pose(p, filter_params.initial_covariance())?;
             }
+            lost = Some(LostPolicy::new(true, DEFAULT_LOST_WAIT_S, filter_params.initial_covariance()));
             PoseSource::Localiser(Box::new(filter))
         }
         other => PoseSource::Track(pose_track(&source, other)?),
@@ -201,7 +210,14 @@ pub fn update_log(
         recoveries: RECOVERIES_CSV_HEADER.into(),
         poses: Vec::new(),
     };
-    crate::run(&mut source, &mut session, controls, &mut [&mut rows])?;
+    // The caller's controls (a recorder, say) see each step before the policy acts on it.
+    let mut all: Vec<&mut dyn Control> = controls.iter_mut().map(|c| &mut **c as &mut dyn Control).collect();
+    if let Some(l) = lost.as_mut() {
+        all.push(l);
+    }
+    crate::run(&mut source, &mut session, &mut all, &mut [&mut rows])?;
+    drop(all);
+    let (lost, lost_episodes) = lost.map(LostPolicy::finish).unwrap_or_default();
     let out = session.finish()?;
     let Some(u) = out.updater else { return Err(HarnessError::Invalid("the session lost its updater".into())) };
     Ok(UpdateRun {
@@ -211,5 +227,7 @@ pub fn update_log(
         recovered_poses: rows.recovered,
         recoveries_csv: rows.recoveries,
         poses: rows.poses,
+        lost,
+        lost_episodes,
     })
 }

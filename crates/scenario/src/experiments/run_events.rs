@@ -6,8 +6,8 @@
 
 use crate::experiments::ExperimentError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
+pub use mapkeeper_harness::lost::{LostCounts, LostEnd, LostEpisode, LostPolicy};
 use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, Step, StepReport};
-use mapkeeper_localiser::Covariance3;
 use mapkeeper_updater::{PoseRecovery, Verdict};
 use serde::{Deserialize, Serialize};
 
@@ -348,35 +348,6 @@ impl Control for PoseErrorControl {
     }
 }
 
-/// How a Lost episode ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LostEnd {
-    /// Pose updating returned a pose; the chain localiser was re-initialised there.
-    Recovered,
-    /// A processed step said Update or Suspend again before any recovery.
-    Cleared,
-    /// No recovery within `lost_wait_s`: the robot resumed without a new pose.
-    GaveUp,
-    /// The run ended during the episode.
-    RunEnded,
-}
-
-/// One Lost episode: from the Lost verdict that opened it to its end.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LostEpisode {
-    /// The stamp of the Lost step that opened it, nanoseconds.
-    pub start_ns: u64,
-    /// The stamp of the step that ended it (the last step seen, with [`LostEnd::RunEnded`]).
-    pub end_ns: u64,
-    /// Whether the robot was stopped for it (`stop_on_lost` and a source that drives a robot).
-    pub stopped: bool,
-    /// Attempts of pose updating in it (steps whose report has `pose_recovery`).
-    pub attempts: u64,
-    /// How it ended.
-    pub end: LostEnd,
-}
-
 /// The updater's verdicts, counted (over a run, a trial or a comparison row).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct VerdictCounts {
@@ -386,173 +357,6 @@ pub struct VerdictCounts {
     pub suspend: u64,
     /// Lost.
     pub lost: u64,
-}
-
-/// The reaction to Lost over a run, per run (summed over worlds in the validation).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct LostCounts {
-    /// Lost episodes (a Lost verdict while no episode was open).
-    pub episodes: u64,
-    /// Attempts of pose updating (steps with `pose_recovery`, recovered or refused).
-    pub attempts: u64,
-    /// Episodes ended by a recovered pose.
-    pub recoveries: u64,
-    /// Episodes ended by Update or Suspend before any recovery.
-    pub cleared: u64,
-    /// Episodes given up after `lost_wait_s` without a recovered pose.
-    pub give_ups: u64,
-    /// Time the robot stood stopped for Lost, nanoseconds of simulated time.
-    pub stopped_ns: u64,
-}
-
-impl LostCounts {
-    /// [`LostCounts::stopped_ns`] in seconds.
-    pub fn stopped_s(&self) -> f64 {
-        self.stopped_ns as f64 / 1e9
-    }
-
-    /// The sum of two runs' counts.
-    pub fn add(&self, o: &Self) -> Self {
-        Self {
-            episodes: self.episodes + o.episodes,
-            attempts: self.attempts + o.attempts,
-            recoveries: self.recoveries + o.recoveries,
-            cleared: self.cleared + o.cleared,
-            give_ups: self.give_ups + o.give_ups,
-            stopped_ns: self.stopped_ns + o.stopped_ns,
-        }
-    }
-}
-
-/// The reaction to a Lost verdict (the paper stops the robot until pose updating is done): on
-/// Lost, stop the robot (at once) and keep feeding the scans, on which the updater retries pose
-/// updating itself; when it returns a pose, re-initialise the chain localiser there, make it the
-/// updater's last good pose and resume. A processed Update or Suspend ends the episode too
-/// (resume); after `lost_wait_s` without a recovered pose, resume anyway and count a give-up.
-/// The next Lost opens a new episode. Counts everything in [`LostCounts`].
-#[derive(Clone, Debug)]
-pub struct LostPolicy {
-    stop_on_lost: bool,
-    lost_wait_ns: u64,
-    floor: Covariance3,
-    open: Option<LostEpisode>,
-    last_stamp_ns: u64,
-    counts: LostCounts,
-    episodes: Vec<LostEpisode>,
-}
-
-impl LostPolicy {
-    /// A policy that stops the robot on Lost if `stop_on_lost`, gives up after `lost_wait_s`
-    /// (finite, ≥ 0; checked by `RunnerParams::validate`), and floors the recovered pose's
-    /// covariance at a quarter of `floor`'s variances (ICP's own is optimistic), `floor` itself
-    /// being the fallback.
-    pub fn new(stop_on_lost: bool, lost_wait_s: f64, floor: Covariance3) -> Self {
-        Self {
-            stop_on_lost,
-            lost_wait_ns: (lost_wait_s.max(0.0) * 1e9).round() as u64,
-            floor,
-            open: None,
-            last_stamp_ns: 0,
-            counts: LostCounts::default(),
-            episodes: Vec::new(),
-        }
-    }
-
-    /// The counts and the episodes (in order) so far; an episode still open is closed as
-    /// [`LostEnd::RunEnded`] at the last step seen (its stopped time counted to there).
-    pub fn finish(mut self) -> (LostCounts, Vec<LostEpisode>) {
-        let last = self.last_stamp_ns;
-        self.close(last, LostEnd::RunEnded);
-        (self.counts, self.episodes)
-    }
-
-    fn close(&mut self, stamp_ns: u64, end: LostEnd) {
-        let Some(mut ep) = self.open.take() else { return };
-        ep.end_ns = stamp_ns;
-        ep.end = end;
-        if ep.stopped {
-            self.counts.stopped_ns += stamp_ns.saturating_sub(ep.start_ns);
-        }
-        match end {
-            LostEnd::Recovered => self.counts.recoveries += 1,
-            LostEnd::Cleared => self.counts.cleared += 1,
-            LostEnd::GaveUp => self.counts.give_ups += 1,
-            LostEnd::RunEnded => {}
-        }
-        self.episodes.push(ep);
-    }
-
-    fn adopt(
-        &self,
-        step: &Step,
-        session: &mut Session<'_>,
-        pose: Pose2,
-        cov: &Covariance3,
-    ) -> Result<(), HarnessError> {
-        let mut c = *cov;
-        for (k, row) in c.iter_mut().enumerate() {
-            row[k] = row[k].max(self.floor[k][k] * 0.25);
-        }
-        if session.set_estimate(pose, c).is_err() {
-            session.set_estimate(pose, self.floor)?;
-        }
-        session.reset_updater_reference(pose, step.frame.odometry.unwrap_or(pose));
-        Ok(())
-    }
-}
-
-impl Control for LostPolicy {
-    fn after_step(
-        &mut self,
-        step: &Step,
-        report: &StepReport,
-        session: &mut Session<'_>,
-        robot: Option<&mut dyn RobotControl>,
-    ) -> Result<(), HarnessError> {
-        let stamp_ns = step.frame.stamp_ns;
-        self.last_stamp_ns = stamp_ns;
-        let u = report.updater.as_ref();
-        let verdict = u.and_then(|u| u.verdict);
-        let mut robot = robot;
-        if self.open.is_none() {
-            if verdict != Some(Verdict::Lost) {
-                return Ok(());
-            }
-            let mut stopped = false;
-            if self.stop_on_lost
-                && let Some(r) = robot.as_deref_mut()
-            {
-                r.stop(None);
-                stopped = r.is_stopped();
-            }
-            self.counts.episodes += 1;
-            let ep = LostEpisode { start_ns: stamp_ns, end_ns: stamp_ns, stopped, attempts: 0, end: LostEnd::RunEnded };
-            self.open = Some(ep);
-        }
-        let recovery = u.and_then(|u| u.pose_recovery.as_ref());
-        if let (Some(_), Some(ep)) = (recovery, self.open.as_mut()) {
-            ep.attempts += 1;
-            self.counts.attempts += 1;
-        }
-        let since = self.open.map_or(0, |ep| stamp_ns.saturating_sub(ep.start_ns));
-        let end = match (recovery, verdict) {
-            (Some(PoseRecovery::Recovered { pose_in_map, covariance, .. }), _) => {
-                self.adopt(step, session, *pose_in_map, covariance)?;
-                Some(LostEnd::Recovered)
-            }
-            (_, Some(Verdict::Update | Verdict::Suspend)) => Some(LostEnd::Cleared),
-            _ if since >= self.lost_wait_ns => Some(LostEnd::GaveUp),
-            _ => None,
-        };
-        if let Some(end) = end {
-            self.close(stamp_ns, end);
-            if let Some(r) = robot {
-                r.resume();
-            }
-        }
-        Ok(())
-    }
 }
 
 /// Records every processed step's verdict with the chain localiser's true error.

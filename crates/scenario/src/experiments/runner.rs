@@ -143,7 +143,7 @@ impl Default for RunnerParams {
             run_updater: true,
             run_baseline: true,
             stop_on_lost: true,
-            lost_wait_s: 2.0,
+            lost_wait_s: mapkeeper_harness::DEFAULT_LOST_WAIT_S,
             max_sim_time_s: 300.0,
             record_trajectories: false,
             parallel_baseline: true,

@@ -782,17 +782,7 @@ impl Summary {
                 pct_or_dash(c.initial_errors.updated_mean)
             );
         }
-        let l = &self.lost_handling;
-        let _ = writeln!(
-            t,
-            "lost handling: {} episodes, {} attempts, recovered/cleared/gave up {}/{}/{}, stopped {:.1} s",
-            l.episodes,
-            l.attempts,
-            l.recoveries,
-            l.cleared,
-            l.give_ups,
-            l.stopped_s()
-        );
+        let _ = writeln!(t, "lost handling: {}", self.lost_handling);
         if let Some(e) = &self.updater_pose_error {
             let _ = writeln!(
                 t,
