@@ -5,11 +5,11 @@ use crate::HarnessError;
 use crate::session::{Session, StepReport};
 use crate::source::{RobotControl, SensorSource, Step};
 
-/// Something that watches a run: statistics, timelines, recorders. It sees the truth, and it
-/// cannot act on the run.
+/// Something that watches a run: statistics, timelines, recorders. It sees the truth and the
+/// session (read-only: the maps, the particles), and it cannot act on the run, by type.
 pub trait Observer {
-    /// Called once per step, after the session processed it.
-    fn on_step(&mut self, step: &Step, report: &StepReport);
+    /// Called once per step, after the session processed it and before the controls react.
+    fn on_step(&mut self, step: &Step, report: &StepReport, session: &Session<'_>);
 }
 
 /// What an experiment does to a run: bias the estimate, stop or move the robot, recover.
@@ -51,7 +51,7 @@ pub fn step_once(
     }
     let report = session.process(&step.frame);
     for o in observers.iter_mut() {
-        o.on_step(&step, &report);
+        o.on_step(&step, &report, session);
     }
     for c in controls.iter_mut() {
         c.after_step(&step, &report, session, source.control())?;

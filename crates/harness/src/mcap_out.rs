@@ -5,9 +5,9 @@
 //! (`docs/real-data.md`).
 
 use crate::HarnessError;
-use crate::driver::Control;
+use crate::driver::Observer;
 use crate::session::{Session, StepReport};
-use crate::source::{RobotControl, Step};
+use crate::source::Step;
 use mapkeeper_grid::{CellState, ChangeKind, OccupancyGrid};
 use mapkeeper_logs::{
     CHANGE_ADDED, CHANGE_NONE, CHANGE_OTHER, CHANGE_REMOVED, McapRunWriter, McapWriteError, UpdaterStepMsg,
@@ -19,7 +19,10 @@ use std::path::{Path, PathBuf};
 /// whole grid).
 pub const MAP_PERIOD_NS: u64 = 1_000_000_000;
 
-/// A [`Control`] that writes every step of the run it sees to an MCAP file.
+/// An [`Observer`] that writes every step of the run it sees to an MCAP file: what the step
+/// produced, before any control reacts to it. It cannot change the run (observers see the
+/// session read-only); a write error stops the recording and is returned by
+/// [`McapRecorder::finish`].
 pub struct McapRecorder {
     writer: Option<McapRunWriter>,
     path: PathBuf,
@@ -168,23 +171,13 @@ fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
     }
 }
 
-impl Control for McapRecorder {
-    fn after_step(
-        &mut self,
-        step: &Step,
-        report: &StepReport,
-        session: &mut Session<'_>,
-        _robot: Option<&mut dyn RobotControl>,
-    ) -> Result<(), HarnessError> {
-        if self.error.is_some() {
-            return Ok(());
-        }
-        if let Err(e) = self.record(step, report, session) {
-            let message = e.to_string();
+impl Observer for McapRecorder {
+    fn on_step(&mut self, step: &Step, report: &StepReport, session: &Session<'_>) {
+        if self.error.is_none()
+            && let Err(e) = self.record(step, report, session)
+        {
             self.error = Some(e);
-            return Err(HarnessError::Invalid(message));
         }
-        Ok(())
     }
 }
 

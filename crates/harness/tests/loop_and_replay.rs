@@ -123,7 +123,7 @@ impl Control for Trace<'_> {
 }
 
 impl Observer for Trace<'_> {
-    fn on_step(&mut self, s: &Step, _: &StepReport) {
+    fn on_step(&mut self, s: &Step, _: &StepReport, _session: &Session<'_>) {
         self.0.borrow_mut().push(format!("{} observe {}", self.1, s.frame.stamp_ns));
     }
 }

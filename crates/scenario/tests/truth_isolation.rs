@@ -40,7 +40,7 @@ impl<S: SensorSource> SensorSource for GarbageTruth<S> {
 struct Estimates(Vec<String>);
 
 impl Observer for Estimates {
-    fn on_step(&mut self, _step: &Step, r: &StepReport) {
+    fn on_step(&mut self, _step: &Step, r: &StepReport, _session: &Session<'_>) {
         let u =
             r.updater.as_ref().map(|u| (u.outcome, u.verdict, u.n_dc, u.changed_cells.len(), u.pose_recovery.clone()));
         self.0.push(format!(

@@ -6,7 +6,7 @@ use anyhow::Context;
 use mapkeeper_grid::{Pose2, map_io};
 use mapkeeper_harness::jobs::localise::localise_log;
 use mapkeeper_harness::mcap_out::McapRecorder;
-use mapkeeper_harness::{Control, LogSource, ReplayOptions};
+use mapkeeper_harness::{LogSource, Observer, ReplayOptions};
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_sensor::write_tum_with_comment;
 use std::path::PathBuf;
@@ -84,8 +84,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = super::output_dir(&args.out, args.force)?;
 
     let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
-    let mut controls: Vec<&mut dyn Control> = recorder.iter_mut().map(|r| r as &mut dyn Control).collect();
-    let (r, init) = localise_log(source, &map, params, args.init, args.seed, &mut controls).context("localisation")?;
+    let mut observers: Vec<&mut dyn Observer> = recorder.iter_mut().map(|r| r as &mut dyn Observer).collect();
+    let (r, init) = localise_log(source, &map, params, args.init, args.seed, &mut observers).context("localisation")?;
     let mcap = recorder.map(|r| r.finish(None)).transpose()?;
     let comment = format!(
         "mapkeeper localise: localiser {localiser}, seed {}, log {}, map {}, init {init}",

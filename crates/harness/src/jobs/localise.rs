@@ -1,7 +1,7 @@
 //! The particle-filter localiser over a recorded log: estimates, covariances, and the error
 //! against the log's truth where it has any.
 
-use crate::driver::{Control, Observer};
+use crate::driver::Observer;
 use crate::replay::LogSource;
 use crate::session::{PoseSource, Session, StepReport};
 use crate::source::Step;
@@ -70,7 +70,7 @@ struct Recorder {
 }
 
 impl Observer for Recorder {
-    fn on_step(&mut self, step: &Step, report: &StepReport) {
+    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
         let Some(r) = report.localiser else {
             self.run.no_odometry += 1;
             return;
@@ -108,7 +108,7 @@ impl Observer for Recorder {
 
 /// Localises over `source` on `map`: the filter starts at `init`, else at the log's truth at
 /// the first scan, else globally; one filter call per step with odometry (the latest reading
-/// at or before the step; steps before the first are skipped). `controls` see every step (an
+/// at or before the step; steps before the first are skipped). `observers` see every step (an
 /// MCAP recorder, say).
 pub fn localise_log(
     mut source: LogSource,
@@ -116,7 +116,7 @@ pub fn localise_log(
     params: FilterParams,
     init: Option<Pose2>,
     seed: u64,
-    controls: &mut [&mut dyn Control],
+    observers: &mut [&mut dyn Observer],
 ) -> Result<(LocaliseRun, InitFrom), HarnessError> {
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scans", source.name())));
@@ -134,7 +134,10 @@ pub fn localise_log(
     session.set_deskew(source.options().deskew);
     let mut rec = Recorder::default();
     rec.run.covariance_csv.push_str("time_s,trace,lambda_max,particles,ess\n");
-    crate::run(&mut source, &mut session, controls, &mut [&mut rec])?;
+    let mut all: Vec<&mut dyn Observer> = vec![&mut rec];
+    all.extend(observers.iter_mut().map(|o| &mut **o as &mut dyn Observer));
+    crate::run(&mut source, &mut session, &mut [], &mut all)?;
+    drop(all);
     let n = rec.n_err as f64;
     rec.run.rmse = (rec.n_err > 0).then(|| ((rec.sq_pos / n).sqrt(), (rec.sq_yaw / n).sqrt(), rec.n_err));
     Ok((rec.run, init))

@@ -113,7 +113,7 @@ impl EstimateMapper {
 }
 
 impl Observer for EstimateMapper {
-    fn on_step(&mut self, step: &Step, report: &StepReport) {
+    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
         let Some(pose) = report.pose_in_map else { return };
         self.steps += 1;
         if !self.steps.is_multiple_of(self.stride) {
@@ -169,7 +169,7 @@ impl TruthMapper {
 }
 
 impl Observer for TruthMapper {
-    fn on_step(&mut self, step: &Step, _report: &StepReport) {
+    fn on_step(&mut self, step: &Step, _report: &StepReport, _session: &Session<'_>) {
         let Some(truth) = step.truth else { return };
         let now = (step.frame.stamp_ns, truth.pose_in_map);
         let before = self.last_truth.replace(now);
@@ -193,7 +193,7 @@ struct Placer {
 }
 
 impl Observer for Placer {
-    fn on_step(&mut self, step: &Step, _report: &StepReport) {
+    fn on_step(&mut self, step: &Step, _report: &StepReport, _session: &Session<'_>) {
         match step.truth {
             Some(t) => {
                 self.placed.extend(step.frame.scans.iter().map(|s| (s.clone(), s.lidar_in_map(&t.pose_in_map))));
@@ -340,6 +340,7 @@ mod tests {
         let g = GridGeometry::new(80, 60, 0.1, Pose2::new(-1.0, -3.0, 0.0)).unwrap();
         let mut truth = TruthMapper::new(g, MapperParams::default(), 2, 0.0).unwrap();
         let mut est = EstimateMapper::new(g, MapperParams::default(), 2).unwrap();
+        let session = crate::Session::new(crate::PoseSource::None, None, None, &crate::NoClock);
         for k in 0..9 {
             let pose = Pose2::new(0.2 * f64::from(k), 0.1, 0.05 * f64::from(k));
             let ranges = (0..21).map(|i| 3.0 + 0.1 * (i as f32) + 0.05 * k as f32).collect();
@@ -347,10 +348,10 @@ mod tests {
                 frame: SensorFrame { stamp_ns: k as u64, odometry: None, scans: vec![scan(ranges)] },
                 truth: Some(Truth { pose_in_map: pose, distance_m: 0.0 }),
             };
-            truth.on_step(&step, &report(None));
-            est.on_step(&step, &report(Some(pose)));
+            truth.on_step(&step, &report(None), &session);
+            est.on_step(&step, &report(Some(pose)), &session);
             // A step without a pose (skipped by the session) is not counted.
-            est.on_step(&step, &report(None));
+            est.on_step(&step, &report(None), &session);
         }
         assert_eq!((est.steps, est.scans), (9, 4));
         assert_eq!((truth.steps, truth.scans), (9, 4));

@@ -105,7 +105,7 @@ impl Rows {
 }
 
 impl Observer for Rows {
-    fn on_step(&mut self, _step: &Step, report: &StepReport) {
+    fn on_step(&mut self, _step: &Step, report: &StepReport, _session: &Session<'_>) {
         if let Some(pose) = report.pose_in_map {
             self.poses.push(StampedPose { stamp_ns: report.stamp_ns, pose });
         }
@@ -175,14 +175,14 @@ fn pose_track(source: &LogSource, poses: PoseInput) -> Result<Vec<StampedPose>, 
 }
 
 /// Runs the updater over `source` (replayed with interpolated odometry) on `map`; the time
-/// per step is read from `clock`; `controls` see every step (an MCAP recorder, say).
+/// per step is read from `clock`; `observers` see every step (an MCAP recorder, say).
 pub fn update_log(
     mut source: LogSource,
     map: OccupancyGrid,
     params: UpdaterParams,
     poses: PoseInput,
     clock: &dyn Clock,
-    controls: &mut [&mut dyn Control],
+    observers: &mut [&mut dyn Observer],
 ) -> Result<UpdateRun, HarnessError> {
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scan records", source.name())));
@@ -210,13 +210,14 @@ pub fn update_log(
         recoveries: RECOVERIES_CSV_HEADER.into(),
         poses: Vec::new(),
     };
-    // The caller's controls (a recorder, say) see each step before the policy acts on it.
-    let mut all: Vec<&mut dyn Control> = controls.iter_mut().map(|c| &mut **c as &mut dyn Control).collect();
+    let mut controls: Vec<&mut dyn Control> = Vec::new();
     if let Some(l) = lost.as_mut() {
-        all.push(l);
+        controls.push(l);
     }
-    crate::run(&mut source, &mut session, &mut all, &mut [&mut rows])?;
-    drop(all);
+    let mut all: Vec<&mut dyn Observer> = vec![&mut rows];
+    all.extend(observers.iter_mut().map(|o| &mut **o as &mut dyn Observer));
+    crate::run(&mut source, &mut session, &mut controls, &mut all)?;
+    drop((controls, all));
     let (lost, lost_episodes) = lost.map(LostPolicy::finish).unwrap_or_default();
     let out = session.finish()?;
     let Some(u) = out.updater else { return Err(HarnessError::Invalid("the session lost its updater".into())) };

@@ -318,7 +318,7 @@ impl GivenPoseError {
 }
 
 impl Observer for GivenPoseError {
-    fn on_step(&mut self, step: &Step, report: &StepReport) {
+    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
         let (Some(pose), Some(truth), Some(_)) = (report.pose_in_map, step.truth, report.updater.as_ref()) else {
             return;
         };

@@ -367,7 +367,7 @@ pub struct TimelineRecorder {
 }
 
 impl Observer for TimelineRecorder {
-    fn on_step(&mut self, step: &Step, report: &StepReport) {
+    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
         let (Some(u), Some(pose), Some(truth)) = (report.updater.as_ref(), report.pose_in_map, step.truth) else {
             return;
         };

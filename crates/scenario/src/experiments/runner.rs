@@ -403,15 +403,15 @@ fn fresh_mapper(params: &RunnerParams, prev_map: &OccupancyGrid) -> Result<Optio
         .transpose()
 }
 
-/// [`run_world`] with `extra` controls seeing every step after the run's own (an MCAP
-/// recorder, say); they must not change the run.
+/// [`run_world`] with `extra` observers seeing every step after the run's own (an MCAP
+/// recorder, say); observers cannot change the run.
 pub fn run_world_with(
     inputs: &RunInputs<'_>,
     params: &RunnerParams,
     seed: u64,
     label: &str,
     clock: &dyn Clock,
-    extra: &mut [&mut dyn Control],
+    extra: &mut [&mut dyn Observer],
 ) -> Result<WorldRun, ExperimentError> {
     params.validate()?;
     let RunInputs { world, route, prev_map, baseline_map, prev_memory } = *inputs;
@@ -455,8 +455,8 @@ pub fn run_world_with(
             controls.push(h);
         }
         controls.push(&mut lost);
-        for c in extra.iter_mut() {
-            controls.push(&mut **c);
+        for o in extra.iter_mut() {
+            observers.push(&mut **o);
         }
         mapkeeper_harness::run(&mut source, &mut session, &mut controls, &mut observers)
     };
