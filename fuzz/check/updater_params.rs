@@ -1,7 +1,7 @@
 //! The property of the `updater_params` fuzz target, shared with its replay test
 //! (`crates/updater/tests/fuzz_corpus.rs` includes this file with `#[path]`), so both check the
 //! same thing: the text is laid over each preset of `UpdaterParams` the way the CLI does it
-//! (`mapkeeper_harness::config::params_from_toml_str`, the in-memory half of `load_params`),
+//! (`mapkeeper_common::params_from_toml_str`, the in-memory half of `load_params`),
 //! then validated.
 //!
 //! - A refusal names the place: a syntax error its line and column, a type error or an unknown
@@ -57,7 +57,7 @@ pub fn check(text: &str, run: Run) -> Checked {
     let mut accepted = Vec::new();
     for name in PRESET_NAMES {
         let preset = UpdaterParams::preset(name).expect("a listed preset");
-        match mapkeeper_harness::config::params_from_toml_str(preset.clone(), text, UpdaterParams::validate) {
+        match mapkeeper_common::params_from_toml_str(preset.clone(), text, UpdaterParams::validate) {
             Ok(params) => {
                 out.accepted += 1;
                 accepted.push(Some(params));

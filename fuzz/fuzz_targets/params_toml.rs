@@ -28,7 +28,7 @@ fuzz_target!(|data: &[u8]| {
     check(text, mapkeeper_localiser::FilterParams::validate);
     let base = mapkeeper_scenario::RecoveryParams::default();
     if let Err(m) =
-        mapkeeper_harness::config::params_from_toml_str(base, text, mapkeeper_scenario::RecoveryParams::validate)
+        mapkeeper_common::params_from_toml_str(base, text, mapkeeper_scenario::RecoveryParams::validate)
     {
         // The CLI joins a TOML error's lines; a syntax error names its line.
         assert!(!m.is_empty() && (!m.starts_with("TOML parse error") || m.contains("line ")), "{m}");

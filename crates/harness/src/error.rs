@@ -24,15 +24,7 @@ pub enum HarnessError {
     /// The baseline localiser's thread panicked.
     #[error("the baseline localiser's thread panicked")]
     BaselinePanicked,
-    /// Parameters given without a file (a preset, the defaults) are invalid.
-    #[error("invalid parameters: {0}")]
-    InvalidParams(String),
-    /// A parameter file could not be read, parsed or validated.
-    #[error("{path}: {message}")]
-    Config {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What is wrong, and where.
-        message: String,
-    },
+    /// Parameters (a preset, a parameter file) were refused.
+    #[error(transparent)]
+    Params(#[from] mapkeeper_common::ParamsError),
 }

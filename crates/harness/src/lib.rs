@@ -21,8 +21,6 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod clock;
-pub mod config;
 pub mod driver;
 mod error;
 pub mod jobs;
@@ -33,10 +31,14 @@ pub mod session;
 pub mod source;
 pub mod stats;
 
-pub use clock::{Clock, NoClock};
 pub use driver::{Control, Observer, run, step_once};
 pub use error::HarnessError;
 pub use lost::{DEFAULT_LOST_WAIT_S, LostCounts, LostEnd, LostEpisode, LostPolicy};
+/// The injected clock (`mapkeeper_common::clock`).
+pub use mapkeeper_common::clock;
+/// Parameter files (`mapkeeper_common::params`).
+pub use mapkeeper_common::params as config;
+pub use mapkeeper_common::{Clock, NoClock};
 pub use replay::{DEFAULT_SYNC_WINDOW_NS, LogSource, OdometryAt, ReplayOptions};
 pub use session::{Baseline, BaselineSample, PoseBias, PoseSource, Session, SessionOutput, Skip, StepReport};
 pub use source::{RobotControl, SensorFrame, SensorSource, SourceError, Step, Truth};

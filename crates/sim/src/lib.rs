@@ -36,7 +36,8 @@ mod realism;
 mod robot;
 mod robot_file;
 mod route;
-pub mod seeds;
+/// Named random streams (`mapkeeper_common::seeds`).
+pub use mapkeeper_common::seeds;
 mod shape;
 mod sim;
 mod truth;

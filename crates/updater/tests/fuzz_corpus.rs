@@ -42,7 +42,7 @@ fn the_seed_with_every_field_of_paper_gives_paper_over_any_preset() {
     let text = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
     for name in mapkeeper_updater::PRESET_NAMES {
         let base = UpdaterParams::preset(name).unwrap();
-        let p = mapkeeper_harness::config::params_from_toml_str(base, &text, UpdaterParams::validate).unwrap();
+        let p = mapkeeper_common::params_from_toml_str(base, &text, UpdaterParams::validate).unwrap();
         assert_eq!(p, UpdaterParams::paper(), "paper.toml over {name}");
     }
 }
@@ -117,7 +117,7 @@ fn every_numeric_parameter_at_edge_values_holds_the_fuzz_property() {
         add(&mut total, &check("edge value", text, Run::One));
         for name in mapkeeper_updater::PRESET_NAMES {
             let base = UpdaterParams::preset(name).unwrap();
-            if let Err(m) = mapkeeper_harness::config::params_from_toml_str(base, text, UpdaterParams::validate)
+            if let Err(m) = mapkeeper_common::params_from_toml_str(base, text, UpdaterParams::validate)
                 && m.starts_with("invalid updater parameter")
             {
                 assert!(m.contains(key.as_str()), "{name}: {text:?} refused without naming {key}: {m}");

@@ -42,11 +42,6 @@ struct JobFile {
     run: SeedRun,
 }
 
-/// FNV-1a, 64 bits: a fingerprint of the world's text, not a security measure.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
-}
-
 fn fingerprint(params: &ValidationParams, seed: u64) -> Result<Fingerprint, ExperimentError> {
     let mut p = params.clone();
     // How the run is executed, not what it computes.
@@ -54,7 +49,7 @@ fn fingerprint(params: &ValidationParams, seed: u64) -> Result<Fingerprint, Expe
     p.runner.parallel_baseline = true;
     let params = serde_json::to_value(&p).map_err(|e| ExperimentError::Invalid(format!("parameters: {e}")))?;
     let world = match &p.world_data {
-        Some(w) => format!("{:016x}", fnv1a(w.to_toml_string()?.as_bytes())),
+        Some(w) => format!("{:016x}", mapkeeper_sim::seeds::fnv1a64(w.to_toml_string()?.as_bytes())),
         None => "default".to_string(),
     };
     Ok(Fingerprint { params, world, seed })

@@ -6,32 +6,12 @@
 
 use super::bench_scene::{route, warehouse};
 use super::s300_pair;
+use mapkeeper_common::seeds::Fnv1a64;
 use mapkeeper_grid::RayCaster;
 use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2};
 use mapkeeper_sensor::LaserScan;
 use mapkeeper_updater::paper::beam_classifier::BeamClassifier;
 use mapkeeper_updater::{MapUpdater, UpdaterParams};
-
-/// 64-bit FNV-1a, fed with bytes.
-#[derive(Clone, Copy, Debug)]
-pub struct Fnv(pub u64);
-
-impl Default for Fnv {
-    fn default() -> Self {
-        Fnv(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl Fnv {
-    pub fn bytes(&mut self, b: &[u8]) {
-        for &x in b {
-            self.0 = (self.0 ^ x as u64).wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    }
-    pub fn u64(&mut self, x: u64) {
-        self.bytes(&x.to_le_bytes());
-    }
-}
 
 /// One digest scenario: a preset, the map geometry's origin, how many steps of the route, and
 /// whether the pose handed to the updater carries a deterministic error (with a large one every
@@ -147,29 +127,29 @@ pub fn scenario_digest(s: &Scenario) -> (u64, usize) {
     let caster = RayCaster::new(&map, true);
     let mut classifier = BeamClassifier::new();
     let mut up = MapUpdater::new(map, params.clone()).unwrap();
-    let mut h = Fnv::default();
+    let mut h = Fnv1a64::new();
     let mut processed = 0;
     for (k, (truth, scans)) in steps.iter().enumerate() {
         let odom = s.map_origin.inverse().compose(truth);
         let est = estimate(s, k, *truth);
         let counts = classifier.classify(&caster, &est, scans, &params, &mapkeeper_updater::StepTolerance::NONE);
-        h.bytes(format!("{counts:?}").as_bytes());
+        h.write(format!("{counts:?}").as_bytes());
         for b in &classifier.beams {
-            h.bytes(&[b.class as u8]);
-            h.u64(b.hit.x.to_bits());
-            h.u64(b.hit.y.to_bits());
-            h.u64(b.range_m.to_bits());
+            h.write(&[b.class as u8]);
+            h.write_u64(b.hit.x.to_bits());
+            h.write_u64(b.hit.y.to_bits());
+            h.write_u64(b.range_m.to_bits());
         }
         let r = up.process(est, odom, scans);
         if r.verdict.is_some() {
             processed += 1;
         }
-        h.bytes(legacy(format!("{r:?}")).as_bytes());
-        h.u64(up.buffered_cells() as u64);
+        h.write(legacy(format!("{r:?}")).as_bytes());
+        h.write_u64(up.buffered_cells() as u64);
     }
-    h.bytes(&up.map().cells().iter().map(|&c| c as u8).collect::<Vec<_>>());
-    h.bytes(legacy(format!("{:?}", up.stats())).as_bytes());
-    (h.0, processed)
+    h.write(&up.map().cells().iter().map(|&c| c as u8).collect::<Vec<_>>());
+    h.write(legacy(format!("{:?}", up.stats())).as_bytes());
+    (h.finish(), processed)
 }
 
 /// A report or the running totals as the second release printed them when registration and

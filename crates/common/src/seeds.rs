@@ -7,7 +7,7 @@
 //! whose output may change between Rust releases).
 //!
 //! ```
-//! use mapkeeper_sim::seeds::{stream_rng, stream_seed};
+//! use mapkeeper_common::seeds::{stream_rng, stream_seed};
 //! assert_eq!(stream_seed(7, "lidar/0"), stream_seed(7, "lidar/0"));
 //! assert_ne!(stream_seed(7, "lidar/0"), stream_seed(7, "lidar/1"));
 //! assert_ne!(stream_seed(7, "lidar/0"), stream_seed(8, "lidar/0"));
@@ -17,14 +17,45 @@
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
 
-/// 64-bit FNV-1a hash of a byte string.
+/// 64-bit FNV-1a hash of a byte string (a fingerprint, not a security measure).
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    let mut h = Fnv1a64::new();
+    h.write(bytes);
+    h.finish()
+}
+
+/// 64-bit FNV-1a fed piece by piece: the same value as [`fnv1a64`] of the pieces joined.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fnv1a64(u64);
+
+impl Default for Fnv1a64 {
+    fn default() -> Self {
+        Self::new()
     }
-    h
+}
+
+impl Fnv1a64 {
+    /// The hash of nothing (the FNV offset basis).
+    pub const fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+
+    /// Feeds `bytes`.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    /// Feeds `x` as its 8 little-endian bytes.
+    pub fn write_u64(&mut self, x: u64) {
+        self.write(&x.to_le_bytes());
+    }
+
+    /// The hash so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
 }
 
 /// One SplitMix64 output for state `x` (the finaliser of Steele, Lea and Flood 2014).
@@ -97,6 +128,14 @@ mod tests {
         assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
         assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
         assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+        let mut h = Fnv1a64::new();
+        h.write(b"foo");
+        h.write(b"bar");
+        assert_eq!(h.finish(), fnv1a64(b"foobar"));
+        h.write_u64(7);
+        let mut joined = b"foobar".to_vec();
+        joined.extend(7u64.to_le_bytes());
+        assert_eq!(h.finish(), fnv1a64(&joined));
     }
 
     #[test]

@@ -2,11 +2,27 @@
 //! defaults), lay the TOML file's tables over it key by key (unknown keys are errors), then
 //! validate once.
 
-use crate::HarnessError;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::fmt::Display;
 use std::path::Path;
+
+/// Why parameters were refused.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParamsError {
+    /// Parameters given without a file (a preset, the defaults) are invalid.
+    #[error("invalid parameters: {0}")]
+    Invalid(String),
+    /// A parameter file could not be read, parsed or validated.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong, and where.
+        message: String,
+    },
+}
 
 /// `base` overridden by the TOML file at `file` (if any), then checked by `validate`. Errors
 /// name the file and, from the TOML parser, the line and the key.
@@ -14,16 +30,16 @@ pub fn load_params<T, E>(
     base: T,
     file: Option<&Path>,
     validate: impl FnOnce(&T) -> Result<(), E>,
-) -> Result<T, HarnessError>
+) -> Result<T, ParamsError>
 where
     T: Serialize + DeserializeOwned,
     E: Display,
 {
     let Some(path) = file else {
-        validate(&base).map_err(|e| HarnessError::InvalidParams(e.to_string()))?;
+        validate(&base).map_err(|e| ParamsError::Invalid(e.to_string()))?;
         return Ok(base);
     };
-    let bad = |message: String| HarnessError::Config { path: path.to_path_buf(), message };
+    let bad = |message: String| ParamsError::File { path: path.to_path_buf(), message };
     let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
     params_from_toml_str(base, &text, validate).map_err(bad)
 }
@@ -93,7 +109,7 @@ mod tests {
     }
 
     fn file(name: &str, text: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("mapkeeper-harness-config-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("mapkeeper-common-params-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join(name);
         std::fs::write(&p, text).unwrap();

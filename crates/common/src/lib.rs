@@ -1,0 +1,16 @@
+//! # mapkeeper-common
+//!
+//! The leaf every other crate may build on, and that builds on none of them: the named random
+//! streams derived from one run seed ([`seeds`]), the parameter files of every component
+//! ([`params`]: a preset, a TOML file laid over it key by key, one validation) and the clock the
+//! libraries are handed instead of reading one ([`clock`]). A crate that needs only these (the
+//! updater's tests, say) does not build the harness, the log readers or the simulator.
+#![warn(missing_docs)]
+
+pub mod clock;
+pub mod params;
+pub mod seeds;
+
+pub use clock::{Clock, NoClock};
+pub use params::{ParamsError, load_params, params_from_toml_str};
+pub use seeds::{Fnv1a64, SimRng, fnv1a64, splitmix64, stream_rng, stream_seed};
