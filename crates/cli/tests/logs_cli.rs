@@ -308,11 +308,11 @@ fn real_data_runs_on_a_bag_with_a_truth_topic() {
 
 #[test]
 fn real_data_on_the_shared_aces_log() {
-    let aces = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/carmen/aces-corrected.log.gz");
-    if !aces.is_file() {
-        println!("note: {} is absent (no ../shared beside the clone): test skipped", aces.display());
+    let Some(aces) =
+        mapkeeper_common::shared_data::path("data/carmen/aces-corrected.log.gz", "real_data_on_the_shared_aces_log")
+    else {
         return;
-    }
+    };
     let dir = scratch("logs", "aces");
     let out =
         ok(&["experiment", "real-data", "--log", s(&aces), "--seeds", "1", "--presets", "paper", "--out", s(&dir)]);

@@ -3,13 +3,15 @@
 //! The leaf every other crate may build on, and that builds on none of them: the named random
 //! streams derived from one run seed ([`seeds`]), the parameter files of every component
 //! ([`params`]: a preset, a TOML file laid over it key by key, one validation) and the clock the
-//! libraries are handed instead of reading one ([`clock`]). A crate that needs only these (the
+//! libraries are handed instead of reading one ([`clock`]); and, for the tests, where the
+//! team's reference data lies ([`shared_data`]). A crate that needs only these (the
 //! updater's tests, say) does not build the harness, the log readers or the simulator.
 #![warn(missing_docs)]
 
 pub mod clock;
 pub mod params;
 pub mod seeds;
+pub mod shared_data;
 
 pub use clock::{Clock, NoClock};
 pub use params::{ParamsError, load_params, params_from_toml_str};

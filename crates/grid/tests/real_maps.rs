@@ -9,14 +9,8 @@ use std::path::{Path, PathBuf};
 
 /// The AWS map folder in `../shared`, or `None` (after printing a note) when it is absent.
 fn maps_dir() -> Option<PathBuf> {
-    // The workspace root is two levels above this crate; `shared` sits beside the checkout.
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/maps/aws-small-warehouse");
-    if dir.join("map.yaml").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: ../shared not found (no {}); the real-map tests need it", dir.display());
-        None
-    }
+    mapkeeper_common::shared_data::path("maps/aws-small-warehouse/map.yaml", "the real-map tests")
+        .and_then(|yaml| yaml.parent().map(Path::to_path_buf))
 }
 
 /// A scratch folder for YAML files written by a test.

@@ -5,13 +5,7 @@ use mapkeeper_logs::{ImportOptions, LogFormat, detect_format, read_log};
 use std::path::PathBuf;
 
 fn shared(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/carmen").join(name);
-    if p.is_file() {
-        Some(p)
-    } else {
-        println!("note: {} is absent (no ../shared beside the clone): test skipped", p.display());
-        None
-    }
+    mapkeeper_common::shared_data::path(&format!("data/carmen/{name}"), "the CARMEN tests on the real logs")
 }
 
 #[test]

@@ -7,7 +7,6 @@ use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
 use mapkeeper_scenario::worlds::site::check_route;
 use mapkeeper_scenario::{NoClock, Site, SiteParams, ValidationParams, generate_worlds, run_seed};
 use mapkeeper_sim::{Route, World};
-use std::path::Path;
 
 /// A 10 m × 7 m room with a column and two boxes, one person; no storage areas, no route.
 const ROOM: &str = r#"
@@ -217,11 +216,12 @@ fn a_corridor_too_narrow_to_patrol_is_refused() {
 
 #[test]
 fn the_real_aws_map_imports_and_validates() {
-    let yaml = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/maps/aws-small-warehouse/map.yaml");
-    if !yaml.is_file() {
-        eprintln!("skipping: ../shared not found (no {}); this test needs the real map", yaml.display());
+    let Some(yaml) = mapkeeper_common::shared_data::path(
+        "maps/aws-small-warehouse/map.yaml",
+        "the_real_aws_map_imports_and_validates",
+    ) else {
         return;
-    }
+    };
     let grid = mapkeeper_grid::map_io::load_map(&yaml).unwrap();
     let world = World::from_ros_map(&grid, "aws-real");
     validate_imported(&world, "aws-real", Some(25.0));

@@ -61,11 +61,7 @@ fn missing_file_names_the_file() {
 /// The real AWS map from `../shared` beside the checkout (team reference data, never committed),
 /// or `None` after printing a note when `../shared` is absent.
 fn real_map() -> Option<mapkeeper_grid::OccupancyGrid> {
-    let yaml = repo().join("../shared/maps/aws-small-warehouse/map.yaml");
-    if !yaml.is_file() {
-        eprintln!("skipping: ../shared not found (no {}); this test needs the real map", yaml.display());
-        return None;
-    }
+    let yaml = mapkeeper_common::shared_data::path("maps/aws-small-warehouse/map.yaml", "the real-map world tests")?;
     Some(mapkeeper_grid::map_io::load_map(&yaml).expect("the real map loads"))
 }
 
