@@ -1,11 +1,14 @@
 //! `mapkeeper recover`: the robustness experiments of the paper (§5.3.1, §5.4) and the
 //! pose-recovery stress suite; the wall clock is read here (not in the libraries).
 
+mod print;
+
 use super::load_params;
 use anyhow::Context;
-use mapkeeper_scenario::experiments::recovery::{KidnapSummary, Progress};
+use mapkeeper_scenario::experiments::recovery::Progress;
 use mapkeeper_scenario::results::recovery_report::write_recovery;
 use mapkeeper_scenario::{RecoveryParams, run_recovery};
+use print::print_kidnap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -61,25 +64,6 @@ pub struct Args {
 
 fn default_out(seed: u64, trials: usize) -> PathBuf {
     super::numbered_out(&format!("recover-s{seed}-{trials}t"))
-}
-
-fn print_kidnap(name: &str, k: &KidnapSummary) {
-    let t = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.1} s"));
-    outln!(
-        "kidnap, {name:<6} {} trials: detected {:.1} %, recovered {:.1} % (≤ 1.5 m: {:.1} % of {}), false Lost \
-         {:.1} %, median recovery {}, map damage OPDF {:.3} points (max {:.3}), wrong poses {}/{}",
-        k.trials,
-        100.0 * k.detected_rate,
-        100.0 * k.recovered_rate,
-        100.0 * k.recovered_rate_le_1_5m,
-        k.trials_le_1_5m,
-        100.0 * k.false_lost_rate,
-        t(k.median_recovery_s),
-        k.map_damage_opdf,
-        k.map_damage_opdf_max,
-        k.wrong_pose_recoveries,
-        k.pose_recoveries
-    );
 }
 
 /// Runs the subcommand.

@@ -1,15 +1,18 @@
 //! `mapkeeper update`: runs the map updater over recorded data (a sensor log and a map), the
 //! path by which a real robot's logs are processed.
 
-use super::load_params;
+mod inputs;
+
+pub use inputs::load_updater_params;
+use inputs::{MAX_SYNC_WINDOW_S, pose_input, replay_options};
+
 use anyhow::Context;
 use mapkeeper_grid::map_io::{load_map, save_map};
-use mapkeeper_harness::jobs::update::{PoseInput, update_log};
+use mapkeeper_harness::jobs::update::update_log;
 use mapkeeper_harness::mcap_out::McapRecorder;
-use mapkeeper_harness::{LogSource, Observer, OdometryAt, ReplayOptions};
-use mapkeeper_sensor::{read_tum, write_tum};
-use mapkeeper_updater::{PRESET_NAMES, UpdaterParams};
-use std::path::{Path, PathBuf};
+use mapkeeper_harness::{LogSource, Observer};
+use mapkeeper_sensor::write_tum;
+use std::path::PathBuf;
 
 /// Arguments of `mapkeeper update`.
 #[derive(clap::Args, Debug)]
@@ -95,56 +98,15 @@ pub struct Args {
     pub force: bool,
 }
 
-/// The preset, overridden by the TOML file if any, validated.
-pub fn load_updater_params(preset: &str, file: Option<&Path>) -> anyhow::Result<UpdaterParams> {
-    let params =
-        UpdaterParams::preset(preset).with_context(|| format!("--preset (known: {})", PRESET_NAMES.join(", ")))?;
-    load_params(params, file, UpdaterParams::validate).with_context(|| format!("preset {preset}"))
-}
-
-/// Largest `--sync-window-s`, seconds.
-const MAX_SYNC_WINDOW_S: f64 = 10.0;
-
-/// The synchronisation window in nanoseconds, checked.
-pub fn sync_window_ns(seconds: f64) -> anyhow::Result<u64> {
-    anyhow::ensure!(
-        seconds.is_finite() && (0.0..=MAX_SYNC_WINDOW_S).contains(&seconds),
-        "--sync-window-s: must be a finite number from 0 s to {MAX_SYNC_WINDOW_S} s, got {seconds}"
-    );
-    Ok((seconds * 1e9).round() as u64)
-}
-
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let sync_window_ns = sync_window_ns(args.sync_window_s)?;
+    let options = replay_options(&args)?;
     let params = load_updater_params(&args.preset, args.params.as_deref())?;
     let map = load_map(&args.map)?;
     super::log_input::check_localiser(&args.localiser)?;
     let (log, log_path, imported) = args.input.read_with_origin()?;
-    let options = ReplayOptions {
-        odometry_at: OdometryAt::Interpolated,
-        sync_window_ns,
-        deskew: !args.no_deskew,
-        ..ReplayOptions::default()
-    };
     let source = LogSource::new(log, log_path.display().to_string(), options);
-    let poses = match (&args.poses, args.true_poses) {
-        (Some(p), _) => {
-            let track = read_tum(p)?;
-            anyhow::ensure!(!track.is_empty(), "{}: no poses", p.display());
-            PoseInput::Track(track)
-        }
-        (None, true) => PoseInput::LoggedTruth,
-        (None, false) if args.localise => {
-            let localiser = super::log_input::resolve_localiser(&args.localiser, imported);
-            let preset = mapkeeper_localiser::FilterParams::preset(localiser).context("--localiser")?;
-            errln!("localiser: {localiser}");
-            let params =
-                load_params(preset, args.localiser_params.as_deref(), mapkeeper_localiser::FilterParams::validate)?;
-            PoseInput::Localise { params: Box::new(params), seed: args.seed, init: None }
-        }
-        (None, false) => PoseInput::AlignedOdometry,
-    };
+    let poses = pose_input(&args, imported)?;
     let dir = super::output_dir(&args.out, args.force)?;
     let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
     let mut observers: Vec<&mut dyn Observer> = recorder.iter_mut().map(|r| r as &mut dyn Observer).collect();

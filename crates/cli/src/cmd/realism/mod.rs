@@ -2,10 +2,16 @@
 //! configuration (ideal, each effect alone, realistic) on a short setting, and each one's
 //! effect on map quality and localisation against `ideal` (docs/evaluation.md, Sensor realism).
 
+mod print;
+
+mod flags;
+
 use anyhow::Context;
-use mapkeeper_scenario::experiments::sensor_realism::{SensorRealismParams, SensorRealismResult, run_sensor_realism};
+use flags::apply_flags;
+use mapkeeper_scenario::experiments::sensor_realism::{SensorRealismParams, run_sensor_realism};
 use mapkeeper_scenario::results::sensor_realism_report::write_sensor_realism;
 use mapkeeper_scenario::{GroundTruth, SweepSpec};
+use print::print_table;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -133,52 +139,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     print_table(&r);
     outln!("wrote {}", written.display());
     Ok(())
-}
-
-/// The command-line overrides of the parameter file.
-fn apply_flags(args: &Args, p: &mut SensorRealismParams) {
-    if let Some(v) = args.worlds {
-        p.worlds = v;
-    }
-    if let Some(v) = args.seeds {
-        p.seeds = v;
-    }
-    if let Some(v) = args.seed {
-        p.first_seed = v;
-    }
-    if let Some(v) = &args.preset {
-        p.preset.clone_from(v);
-    }
-    if let Some(v) = args.route_length {
-        p.route_length_m = v;
-    }
-    if let Some(v) = &args.configs {
-        p.configs = v.iter().map(|c| c.trim().to_string()).collect();
-    }
-}
-
-/// Prints the summary table on stdout.
-fn print_table(r: &SensorRealismResult) {
-    outln!(
-        "{:<18} {:>9} {:>22} {:>11} {:>9} {:>5}",
-        "configuration",
-        "CC M_i %",
-        "Δ CC vs ideal",
-        "mean err m",
-        "max err m",
-        "Lost"
-    );
-    for c in &r.summaries {
-        outln!(
-            "{:<18} {:>9.2} {:>22} {:>11.4} {:>9.3} {:>5}",
-            c.config,
-            c.cc_updated_mean,
-            mapkeeper_scenario::results::report::with_ci(c.cc_updated_vs_ideal.mean, c.cc_updated_vs_ideal.ci95, 2),
-            c.err_mean_m,
-            c.err_max_m,
-            c.lost_episodes
-        );
-    }
 }
 
 fn default_out(seed: u64, worlds: usize) -> PathBuf {

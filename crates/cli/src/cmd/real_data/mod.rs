@@ -1,18 +1,21 @@
 //! `mapkeeper experiment real-data`: the localiser and the updater on recorded logs with
 //! reference poses (the CARMEN logs of `../shared/data/carmen/`, or the user's own).
 
+mod reading;
+
 use super::load_params;
-use super::log_input::LogInput;
 use anyhow::Context;
 use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_harness::config::params_from_toml_str;
 use mapkeeper_harness::jobs::map::MapLogParams;
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_scenario::experiments::real_data::{
-    Dataset, LocaliserConfig, ODOMETRY_TUNED_LOCALISER_TOML, RealDataParams, run_real_data,
+    LocaliserConfig, ODOMETRY_TUNED_LOCALISER_TOML, RealDataParams, run_real_data,
 };
 use mapkeeper_scenario::results::real_data_report::write_real_data;
-use std::path::{Path, PathBuf};
+pub use reading::ReadingFlags;
+use reading::read;
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The shared CARMEN logs, relative to the working folder, used when no `--log` is given.
@@ -62,33 +65,6 @@ pub struct Args {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
-}
-
-/// The reading flags of [`LogInput`] without `--log` (real-data takes several logs).
-#[derive(clap::Args, Debug, Clone)]
-pub struct ReadingFlags {
-    /// A topic of reference poses (bags; CARMEN corrected logs carry theirs).
-    #[arg(long, value_name = "TOPIC")]
-    pub truth_topic: Option<String>,
-    /// A lidar's scan topic (repeat for several).
-    #[arg(long = "scan-topic", value_name = "TOPIC")]
-    pub scan_topics: Vec<String>,
-    /// The odometry topic.
-    #[arg(long, value_name = "TOPIC")]
-    pub odom_topic: Option<String>,
-}
-
-fn read(path: &Path, flags: &ReadingFlags) -> anyhow::Result<Dataset> {
-    let input = LogInput {
-        scan_topics: flags.scan_topics.clone(),
-        odom_topic: flags.odom_topic.clone(),
-        truth_topic: flags.truth_topic.clone(),
-        ..LogInput::path(path)
-    };
-    let (log, read_path) = input.read()?;
-    let stem = path.file_name().map_or_else(|| "log".into(), |s| s.to_string_lossy().into_owned());
-    let name = stem.split('.').next().unwrap_or("log").trim_end_matches("-corrected").to_string();
-    Ok(Dataset { name, source: read_path.display().to_string(), log })
 }
 
 fn default_out(seed: u64) -> PathBuf {
