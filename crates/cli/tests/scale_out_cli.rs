@@ -39,15 +39,21 @@ const SWEEP: [&str; 13] = [
     "--no-timing",
 ];
 
-#[test]
-fn shards_through_xargs_merge_into_the_unsharded_sweep_and_resume_skips_complete_shards() {
-    let dir = scratch("scale-out", "sweep");
+/// The sweep run whole into `dir/whole`, the folder the merged shards must equal.
+fn unsharded(dir: &Path) -> PathBuf {
     let whole = dir.join("whole");
     let mut args = vec!["validate"];
     args.extend(SWEEP);
     args.extend(["--out", s(&whole)]);
     let o = Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(&args).output().unwrap();
     assert!(o.status.success(), "{}", text(&o));
+    whole
+}
+
+#[test]
+fn shards_through_xargs_merge_into_the_unsharded_sweep_and_resume_skips_complete_shards() {
+    let dir = scratch("scale-out", "sweep");
+    let whole = unsharded(&dir);
 
     // Four jobs (preset × seed) in three shards, two processes at a time.
     let out = dir.join("sharded");
@@ -122,12 +128,7 @@ fn slurm_task(task: Option<&str>, out: &Path) -> Output {
 #[test]
 fn slurm_array_tasks_shard_the_sweep_and_a_resubmitted_task_skips_its_complete_shard() {
     let dir = scratch("scale-out", "slurm");
-    let whole = dir.join("whole");
-    let mut args = vec!["validate"];
-    args.extend(SWEEP);
-    args.extend(["--out", s(&whole)]);
-    let o = Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(&args).output().unwrap();
-    assert!(o.status.success(), "{}", text(&o));
+    let whole = unsharded(&dir);
 
     let out = dir.join("sweep");
     for k in ["1", "2"] {
