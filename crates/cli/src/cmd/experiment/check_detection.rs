@@ -1,9 +1,9 @@
 //! `mapkeeper experiment check-detection`.
 
-use super::super::load_params;
-use super::{Common, MAX_TRIALS, default_out, run_timed, site_world};
+use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_timed, site_world};
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
+use mapkeeper_scenario::experiments::ExperimentError;
 use mapkeeper_scenario::experiments::check_detection::{CheckDetectionParams, run_check_detection};
 use mapkeeper_scenario::results::check_detection_report::write_check_detection;
 use serde::{Deserialize, Serialize};
@@ -47,16 +47,23 @@ struct CheckDetectionFile {
     check_detection: CheckDetectionParams,
 }
 
-pub(super) fn run(args: CheckDetectionArgs) -> anyhow::Result<()> {
-    let mut base = CheckDetectionFile::default();
-    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
-    if args.quick {
-        base.check_detection = CheckDetectionParams::quick();
+impl ExperimentFile for CheckDetectionFile {
+    fn recovery_mut(&mut self) -> &mut RecoveryParams {
+        &mut self.recovery
     }
-    let mut file = load_params(base, args.common.params.as_deref(), |f: &CheckDetectionFile| {
-        f.recovery.validate()?;
-        f.check_detection.validate()
-    })?;
+
+    fn set_quick(&mut self) {
+        self.check_detection = CheckDetectionParams::quick();
+    }
+
+    fn check(&self) -> Result<(), ExperimentError> {
+        self.recovery.validate()?;
+        self.check_detection.validate()
+    }
+}
+
+pub(super) fn run(args: CheckDetectionArgs) -> anyhow::Result<()> {
+    let mut file: CheckDetectionFile = load_file(&args.common, args.quick)?;
     let p = &mut file.check_detection;
     if let Some(n) = args.trials {
         p.trials = n;

@@ -1,9 +1,9 @@
 //! `mapkeeper experiment kidnap-robot`.
 
-use super::super::load_params;
-use super::{Common, MAX_TRIALS, default_out, run_timed, site_world};
+use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_timed, site_world};
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
+use mapkeeper_scenario::experiments::ExperimentError;
 use mapkeeper_scenario::experiments::kidnap_robot::{KidnapRobotParams, run_kidnap_robot};
 use mapkeeper_scenario::results::kidnap_robot_report::write_kidnap_robot;
 use serde::{Deserialize, Serialize};
@@ -40,16 +40,23 @@ struct KidnapRobotFile {
     kidnap_robot: KidnapRobotParams,
 }
 
-pub(super) fn run(args: KidnapRobotArgs) -> anyhow::Result<()> {
-    let mut base = KidnapRobotFile::default();
-    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
-    if args.quick {
-        base.kidnap_robot = KidnapRobotParams::quick();
+impl ExperimentFile for KidnapRobotFile {
+    fn recovery_mut(&mut self) -> &mut RecoveryParams {
+        &mut self.recovery
     }
-    let mut file = load_params(base, args.common.params.as_deref(), |f: &KidnapRobotFile| {
-        f.recovery.validate()?;
-        f.kidnap_robot.validate()
-    })?;
+
+    fn set_quick(&mut self) {
+        self.kidnap_robot = KidnapRobotParams::quick();
+    }
+
+    fn check(&self) -> Result<(), ExperimentError> {
+        self.recovery.validate()?;
+        self.kidnap_robot.validate()
+    }
+}
+
+pub(super) fn run(args: KidnapRobotArgs) -> anyhow::Result<()> {
+    let mut file: KidnapRobotFile = load_file(&args.common, args.quick)?;
     let p = &mut file.kidnap_robot;
     if let Some(n) = args.trials {
         p.trials = n;

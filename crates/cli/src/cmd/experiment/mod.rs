@@ -6,15 +6,16 @@
 
 mod check_detection;
 mod kidnap_robot;
+mod setup;
 mod table1;
 
 pub use check_detection::CheckDetectionArgs;
 pub use kidnap_robot::KidnapRobotArgs;
+pub(super) use setup::site_world;
+use setup::{ExperimentFile, load_file};
 pub use table1::Table1Args;
 
-use anyhow::Context;
 use mapkeeper_grid::StagedDir;
-use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_sim::World;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -77,23 +78,6 @@ pub struct Common {
     /// Replace an existing non-empty output folder.
     #[arg(long)]
     pub force: bool,
-}
-
-/// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
-/// parameters' tour, exploration route and storage areas taken from it; and its name.
-pub(super) fn site_world(
-    world: Option<&std::path::Path>,
-    route: Option<&std::path::Path>,
-    recovery: &mut RecoveryParams,
-) -> anyhow::Result<(World, String)> {
-    let Some((name, site)) = super::load_site(world, route, true)? else {
-        return Ok((World::default_warehouse(), "warehouse".into()));
-    };
-    recovery.tour = site.route;
-    recovery.exploration_route = site.exploration;
-    recovery.generator.storage_areas = site.storage;
-    recovery.validate().context("--world / --route")?;
-    Ok((site.world, name))
 }
 
 /// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 on the `--jobs`

@@ -1,9 +1,9 @@
 //! `mapkeeper experiment table1`.
 
-use super::super::load_params;
-use super::{Common, MAX_TRIALS, default_out, run_timed, site_world};
+use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_timed, site_world};
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
+use mapkeeper_scenario::experiments::ExperimentError;
 use mapkeeper_scenario::experiments::table1_hold::{Table1HoldParams, VARIANTS, run_table1_hold};
 use mapkeeper_scenario::results::table1_hold_report::write_table1_hold;
 use serde::{Deserialize, Serialize};
@@ -40,16 +40,23 @@ struct Table1File {
     table1: Table1HoldParams,
 }
 
-pub(super) fn run(args: Table1Args) -> anyhow::Result<()> {
-    let mut base = Table1File::default();
-    base.recovery.runner.set_localiser(&args.common.localiser).context("--localiser")?;
-    if args.quick {
-        base.table1 = Table1HoldParams::quick();
+impl ExperimentFile for Table1File {
+    fn recovery_mut(&mut self) -> &mut RecoveryParams {
+        &mut self.recovery
     }
-    let mut file = load_params(base, args.common.params.as_deref(), |f: &Table1File| {
-        f.recovery.validate()?;
-        f.table1.validate()
-    })?;
+
+    fn set_quick(&mut self) {
+        self.table1 = Table1HoldParams::quick();
+    }
+
+    fn check(&self) -> Result<(), ExperimentError> {
+        self.recovery.validate()?;
+        self.table1.validate()
+    }
+}
+
+pub(super) fn run(args: Table1Args) -> anyhow::Result<()> {
+    let mut file: Table1File = load_file(&args.common, args.quick)?;
     let p = &mut file.table1;
     if let Some(n) = args.trials {
         p.trials = n;
