@@ -18,16 +18,16 @@
 //! Every preset runs the same trials (same worlds, places, offsets and simulator noise).
 
 use super::ExperimentError;
-use super::recovery::{RecoveryParams, Setup, prepare, tour_from};
+use super::recovery::{RecoveryParams, Setup, prepare, tour_from, with_start};
 use super::run_events::{PoseErrorHold, TimelineSample};
 use super::runner::{NoClock, RunInputs, run_world};
+use super::trials::{Trials, run_trials};
 use crate::experiments::invalid;
 use crate::stats::median;
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::{UpdaterParams, Verdict};
 use rand::RngExt;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -403,8 +403,76 @@ fn summarise(trials: &[&DetectionTrial], p: &CheckDetectionParams) -> PresetDete
     }
 }
 
-/// Generates the worlds, then runs every trial under every preset (in parallel; collected in
-/// order). `progress` is called once per finished run.
+/// The trials of one run of the experiment: every draw under every preset.
+struct DetectionTrials<'a> {
+    recovery: &'a RecoveryParams,
+    p: &'a CheckDetectionParams,
+    seed: u64,
+    setup: Setup,
+    draws: Vec<DetectionDraw>,
+    presets: Vec<UpdaterParams>,
+}
+
+impl Trials for DetectionTrials<'_> {
+    /// (preset index, trial index).
+    type Job = (usize, usize);
+    type Outcome = DetectionTrial;
+    type Summary = CheckDetectionResults;
+
+    fn draw(&self) -> Vec<(usize, usize)> {
+        (0..self.presets.len()).flat_map(|k| (0..self.draws.len()).map(move |t| (k, t))).collect()
+    }
+
+    fn run(&self, (k, t): (usize, usize), progress: &(dyn Fn() + Sync)) -> Result<DetectionTrial, ExperimentError> {
+        let (recovery, p, d) = (self.recovery, self.p, self.draws[t]);
+        let (world, _) = self.setup.world(d.world)?;
+        let speed = recovery.runner.sim.robot.max_speed_mps.max(0.1);
+        let (start, route) = tour_from(&recovery.tour, d.tour_position_m, speed * (p.warmup_s + p.window_s) + 2.0);
+        let world = with_start(world, start);
+        let dir = start.yaw + d.direction_rel_rad;
+        let mut rp = recovery.runner.clone();
+        rp.updater = self.presets[k].clone();
+        rp.record_timeline = true;
+        rp.max_sim_time_s = p.warmup_s + p.window_s;
+        rp.pose_error = Some(PoseErrorHold {
+            at_s: p.warmup_s,
+            hold_s: f64::INFINITY,
+            dx_m: d.error_m * dir.cos(),
+            dy_m: d.error_m * dir.sin(),
+            dyaw_rad: d.yaw_error_rad,
+        });
+        let map = self.setup.initial_map(recovery.initial_map);
+        let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
+        let run = run_world(&inputs, &rp, self.seed, &format!("check-detection-{t:05}"), &NoClock)?;
+        progress();
+        Ok(score_trial(d, &p.presets[k], run.pose_error.map(|r| r.began_s), &run.timeline, p))
+    }
+
+    fn summarise(&self, trials: Vec<DetectionTrial>) -> Result<CheckDetectionResults, ExperimentError> {
+        let p = self.p;
+        let check_detection = p
+            .presets
+            .iter()
+            .map(|name| {
+                let mine: Vec<&DetectionTrial> = trials.iter().filter(|t| &t.preset == name).collect();
+                (name.clone(), summarise(&mine, p))
+            })
+            .collect();
+        let summary = CheckDetectionSummary {
+            tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+            seed: self.seed,
+            trials: p.trials,
+            wall_time_s: 0.0,
+            check_detection,
+            params: p.clone(),
+            recovery: self.recovery.clone(),
+        };
+        Ok(CheckDetectionResults { summary, trials })
+    }
+}
+
+/// Generates the worlds, then runs every trial under every preset ([`run_trials`]: in
+/// parallel, collected in order). `progress` is called once per finished run.
 pub fn run_check_detection(
     w1: &World,
     recovery: &RecoveryParams,
@@ -415,57 +483,16 @@ pub fn run_check_detection(
     p.validate()?;
     let mut rp_all = recovery.clone();
     rp_all.kidnap.stale_max_world = rp_all.kidnap.stale_max_world.max(p.max_world);
-    let setup: Setup = prepare(w1, &rp_all, seed)?;
     let tour_len = recovery.tour.length_m();
-    let draws: Vec<DetectionDraw> = (0..p.trials).map(|t| draw_detection(p, tour_len, seed, t)).collect();
-    let presets: Vec<UpdaterParams> = p.presets.iter().map(|n| UpdaterParams::preset(n)).collect::<Result<_, _>>()?;
-    let jobs: Vec<(usize, usize)> = (0..presets.len()).flat_map(|k| (0..draws.len()).map(move |t| (k, t))).collect();
-    let map = setup.initial_map(recovery.initial_map);
-    let trials: Vec<DetectionTrial> = jobs
-        .par_iter()
-        .map(|&(k, t)| {
-            let d = draws[t];
-            let (world, _) = setup.world(d.world)?;
-            let speed = recovery.runner.sim.robot.max_speed_mps.max(0.1);
-            let (start, route) = tour_from(&recovery.tour, d.tour_position_m, speed * (p.warmup_s + p.window_s) + 2.0);
-            let world = super::recovery::with_start(world, start);
-            let dir = start.yaw + d.direction_rel_rad;
-            let mut rp = recovery.runner.clone();
-            rp.updater = presets[k].clone();
-            rp.record_timeline = true;
-            rp.max_sim_time_s = p.warmup_s + p.window_s;
-            rp.pose_error = Some(PoseErrorHold {
-                at_s: p.warmup_s,
-                hold_s: f64::INFINITY,
-                dx_m: d.error_m * dir.cos(),
-                dy_m: d.error_m * dir.sin(),
-                dyaw_rad: d.yaw_error_rad,
-            });
-            let inputs =
-                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
-            let run = run_world(&inputs, &rp, seed, &format!("check-detection-{t:05}"), &NoClock)?;
-            progress();
-            Ok(score_trial(d, &p.presets[k], run.pose_error.map(|r| r.began_s), &run.timeline, p))
-        })
-        .collect::<Result<_, ExperimentError>>()?;
-    let check_detection = p
-        .presets
-        .iter()
-        .map(|name| {
-            let mine: Vec<&DetectionTrial> = trials.iter().filter(|t| &t.preset == name).collect();
-            (name.clone(), summarise(&mine, p))
-        })
-        .collect();
-    let summary = CheckDetectionSummary {
-        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+    let trials = DetectionTrials {
+        recovery,
+        p,
         seed,
-        trials: p.trials,
-        wall_time_s: 0.0,
-        check_detection,
-        params: p.clone(),
-        recovery: recovery.clone(),
+        setup: prepare(w1, &rp_all, seed)?,
+        draws: (0..p.trials).map(|t| draw_detection(p, tour_len, seed, t)).collect(),
+        presets: p.presets.iter().map(|n| UpdaterParams::preset(n)).collect::<Result<_, _>>()?,
     };
-    Ok(CheckDetectionResults { summary, trials })
+    run_trials(&trials, progress)
 }
 
 #[cfg(test)]

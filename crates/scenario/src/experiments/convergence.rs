@@ -12,12 +12,12 @@
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
 use crate::experiments::runner::{RunInputs, RunnerParams, run_world};
+use crate::experiments::trials::run_each;
 use crate::stats::median;
 use mapkeeper_grid::OccupancyGrid;
 use mapkeeper_harness::NoClock;
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_sim::{Route, World, ground_truth_map};
-use rayon::prelude::*;
 use std::fmt::Write as _;
 
 /// What to measure.
@@ -211,7 +211,7 @@ pub fn run_job(
     })
 }
 
-/// Every job, in parallel on the caller's rayon pool, in job order; `progress` after each.
+/// Every job ([`run_each`]: in parallel on the caller's rayon pool, in job order); `progress` after each.
 pub fn run_convergence(
     w1: &World,
     params: &ConvergenceParams,
@@ -219,15 +219,11 @@ pub fn run_convergence(
 ) -> Result<Vec<ConvergenceRun>, ExperimentError> {
     params.validate()?;
     let map = ground_truth_map(w1, &w1.default_map_geometry(params.resolution_m)?);
-    params
-        .jobs()
-        .into_par_iter()
-        .map(|job| {
-            let r = run_job(w1, &map, params, job);
-            progress();
-            r
-        })
-        .collect()
+    run_each(params.jobs(), |job| {
+        let r = run_job(w1, &map, params, job);
+        progress();
+        r
+    })
 }
 
 /// A run's steps as CSV (`t_s,distance_m,error_m,yaw_error_rad`).

@@ -11,9 +11,10 @@
 //! otherwise.
 
 use super::ExperimentError;
-use super::recovery::{RecoveryParams, prepare, recovery_time, scores, tour_from, with_start};
+use super::recovery::{RecoveryParams, Setup, prepare, recovery_time, scores, tour_from, with_start};
 use super::run_events::{RobotKidnap, TimelineSample, TrackSample};
 use super::runner::{NoClock, RunInputs, run_world};
+use super::trials::{Trials, run_trials};
 use super::validation::Scores;
 use crate::experiments::invalid;
 use crate::stats::{frac, mean, median, percentile};
@@ -22,7 +23,6 @@ use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::UpdaterParams;
 use rand::RngExt;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -412,7 +412,7 @@ pub struct KidnapRobotResults {
 }
 
 fn run_trial(
-    setup: &super::recovery::Setup,
+    setup: &Setup,
     recovery: &RecoveryParams,
     p: &KidnapRobotParams,
     updater: &UpdaterParams,
@@ -594,7 +594,46 @@ fn world_bins(a: &[&RobotKidnapTrial]) -> Vec<KidnapBin> {
     bins(a, &edges, |t| t.draw.world as f64)
 }
 
-/// Generates the worlds and runs every trial (in parallel, collected in order).
+/// The trials of one run of the experiment.
+struct RobotKidnapTrials<'a> {
+    recovery: &'a RecoveryParams,
+    p: &'a KidnapRobotParams,
+    seed: u64,
+    setup: Setup,
+    updater: UpdaterParams,
+}
+
+impl Trials for RobotKidnapTrials<'_> {
+    type Job = RobotKidnapDraw;
+    type Outcome = RobotKidnapTrial;
+    type Summary = KidnapRobotResults;
+
+    fn draw(&self) -> Vec<RobotKidnapDraw> {
+        let tour_len = self.recovery.tour.length_m();
+        (0..self.p.trials).map(|t| draw_robot_kidnap(self.p, tour_len, self.seed, t)).collect()
+    }
+
+    fn run(&self, d: RobotKidnapDraw, progress: &(dyn Fn() + Sync)) -> Result<RobotKidnapTrial, ExperimentError> {
+        let r = run_trial(&self.setup, self.recovery, self.p, &self.updater, d, self.seed);
+        progress();
+        r
+    }
+
+    fn summarise(&self, trials: Vec<RobotKidnapTrial>) -> Result<KidnapRobotResults, ExperimentError> {
+        Ok(KidnapRobotResults {
+            tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+            seed: self.seed,
+            world: warehouse(),
+            wall_time_s: 0.0,
+            kidnap_robot: summarise_robot_kidnap(&self.p.preset, &trials),
+            trials,
+            params: self.p.clone(),
+            recovery: self.recovery.clone(),
+        })
+    }
+}
+
+/// Generates the worlds and runs every trial ([`run_trials`]: in parallel, collected in order).
 pub fn run_kidnap_robot(
     w1: &World,
     recovery: &RecoveryParams,
@@ -605,27 +644,14 @@ pub fn run_kidnap_robot(
     p.validate()?;
     let mut rp = recovery.clone();
     rp.kidnap.stale_max_world = rp.kidnap.stale_max_world.max(p.max_world);
-    let setup = prepare(w1, &rp, seed)?;
-    let updater = UpdaterParams::preset(&p.preset)?;
-    let tour_len = recovery.tour.length_m();
-    let trials: Vec<RobotKidnapTrial> = (0..p.trials)
-        .into_par_iter()
-        .map(|t| {
-            let r = run_trial(&setup, recovery, p, &updater, draw_robot_kidnap(p, tour_len, seed, t), seed);
-            progress();
-            r
-        })
-        .collect::<Result<_, _>>()?;
-    Ok(KidnapRobotResults {
-        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+    let trials = RobotKidnapTrials {
+        recovery,
+        p,
         seed,
-        world: warehouse(),
-        wall_time_s: 0.0,
-        kidnap_robot: summarise_robot_kidnap(&p.preset, &trials),
-        trials,
-        params: p.clone(),
-        recovery: recovery.clone(),
-    })
+        setup: prepare(w1, &rp, seed)?,
+        updater: UpdaterParams::preset(&p.preset)?,
+    };
+    run_trials(&trials, progress)
 }
 
 #[cfg(test)]

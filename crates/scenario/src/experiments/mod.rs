@@ -19,6 +19,7 @@ pub mod runner;
 pub mod sensor_realism;
 pub mod sweep;
 pub mod table1_hold;
+pub mod trials;
 pub mod validation;
 
 use crate::worlds::WorldsError;

@@ -9,11 +9,11 @@
 
 use super::ExperimentError;
 use super::runner::NoClock;
+use super::trials::run_each;
 use super::validation::{ValidationParams, WorldRow, run_seed};
 use crate::experiments::invalid;
 use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_sim::{SensorEffect, SensorRealism};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the experiment.
@@ -218,7 +218,7 @@ pub struct SensorRealismResult {
     pub rows: Vec<RealismRow>,
 }
 
-/// Runs every configuration × seed (in parallel on the current rayon pool; the result does not
+/// Runs every configuration × seed ([`run_each`]: in parallel on the current rayon pool; the result does not
 /// depend on the thread count). `base` gives the world, route, preset-independent parameters
 /// and the localiser; its `worlds`, `preset` and route length are set from `p`. `progress` is
 /// called once per finished chain.
@@ -238,18 +238,15 @@ pub fn run_sensor_realism(
     vp.validate()?;
     let jobs: Vec<(usize, u64)> =
         (0..configs.len()).flat_map(|c| (0..p.seeds as u64).map(move |s| (c, p.first_seed + s))).collect();
-    let runs: Vec<Vec<RealismScores>> = jobs
-        .par_iter()
-        .map(|&(c, seed)| {
-            let mut q = vp.clone();
-            q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
-            q.runner.deskew = config_deskews(&configs[c]);
-            q.mapping.deskew = config_deskews(&configs[c]);
-            let run = run_seed(&q, seed, &NoClock, &|_| {})?;
-            progress();
-            Ok(run.rows.iter().map(RealismScores::of).collect())
-        })
-        .collect::<Result<_, ExperimentError>>()?;
+    let runs: Vec<Vec<RealismScores>> = run_each(jobs.clone(), |(c, seed)| {
+        let mut q = vp.clone();
+        q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
+        q.runner.deskew = config_deskews(&configs[c]);
+        q.mapping.deskew = config_deskews(&configs[c]);
+        let run = run_seed(&q, seed, &NoClock, &|_| {})?;
+        progress();
+        Ok(run.rows.iter().map(RealismScores::of).collect())
+    })?;
     let per_config = |c: usize| -> Vec<&Vec<RealismScores>> {
         jobs.iter().zip(&runs).filter(|((k, _), _)| *k == c).map(|(_, r)| r).collect()
     };

@@ -6,8 +6,8 @@ use crate::experiments::ExperimentError;
 use crate::experiments::checkpoint::Checkpoints;
 use crate::experiments::invalid;
 use crate::experiments::runner::Clock;
+use crate::experiments::trials::run_each;
 use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
-use rayon::prelude::*;
 
 /// What to sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -141,21 +141,18 @@ impl SweepPlan {
         for (k, (&(p, _), _)) in self.jobs.iter().zip(&done).enumerate().filter(|(_, (_, d))| d.is_some()) {
             (1..=self.params[p].worlds).for_each(|w| progress(k, w));
         }
-        self.jobs
-            .par_iter()
-            .zip(done)
-            .enumerate()
-            .map(|(k, (&(p, s), done))| {
-                if let Some(run) = done {
-                    return Ok(run);
-                }
-                let run = run_seed(&self.params[p], s, clock, &|w| progress(k, w))?;
-                if let Some(c) = checkpoints {
-                    c.save(&self.params[p], &run)?;
-                }
-                Ok(run)
-            })
-            .collect()
+        let jobs: Vec<(usize, (usize, u64), Option<SeedRun>)> =
+            self.jobs.iter().zip(done).enumerate().map(|(k, (&job, done))| (k, job, done)).collect();
+        run_each(jobs, |(k, (p, s), done)| {
+            if let Some(run) = done {
+                return Ok(run);
+            }
+            let run = run_seed(&self.params[p], s, clock, &|w| progress(k, w))?;
+            if let Some(c) = checkpoints {
+                c.save(&self.params[p], &run)?;
+            }
+            Ok(run)
+        })
     }
 
     /// The runs of preset `p`, in job order.

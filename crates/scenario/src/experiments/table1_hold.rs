@@ -12,9 +12,10 @@
 //! the initial map and from G_2, where G_2 is known).
 
 use super::ExperimentError;
-use super::recovery::{RecoveryParams, mean_scores, prepare, scores, tour_from, with_start};
+use super::recovery::{RecoveryParams, Setup, mean_scores, prepare, scores, tour_from, with_start};
 use super::run_events::{Kidnap, PoseErrorHold};
 use super::runner::{NoClock, RunInputs, run_world};
+use super::trials::{Trials, run_each, run_trials};
 use super::validation::Scores;
 use crate::experiments::invalid;
 use crate::stats::{mean, paired_diff};
@@ -23,7 +24,6 @@ use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
 use mapkeeper_updater::UpdaterParams;
 use rand::RngExt;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -374,8 +374,90 @@ fn set_condition(
     }
 }
 
-/// Runs every trial under every preset, condition and variant (in parallel, collected in
-/// order). `progress` is called once per finished run.
+/// The trials of one run of the experiment: every draw under every preset, condition and
+/// variant, each draw in worlds of its own seed.
+struct Table1Trials<'a> {
+    recovery: &'a RecoveryParams,
+    p: &'a Table1HoldParams,
+    seed: u64,
+    draws: Vec<Table1Draw>,
+    setups: Vec<Setup>,
+    presets: Vec<UpdaterParams>,
+    conditions: Vec<String>,
+}
+
+impl Trials for Table1Trials<'_> {
+    /// (trial, preset, condition, variant) indices.
+    type Job = (usize, usize, usize, usize);
+    type Outcome = Table1HoldRun;
+    type Summary = Table1HoldResults;
+
+    fn draw(&self) -> Vec<Self::Job> {
+        let mut jobs = Vec::new();
+        for t in 0..self.draws.len() {
+            for k in 0..self.presets.len() {
+                for c in 0..self.conditions.len() {
+                    jobs.extend((0..VARIANTS.len()).map(|v| (t, k, c, v)));
+                }
+            }
+        }
+        jobs
+    }
+
+    fn run(&self, (t, k, c, v): Self::Job, progress: &(dyn Fn() + Sync)) -> Result<Table1HoldRun, ExperimentError> {
+        let (recovery, p) = (self.recovery, self.p);
+        let d = self.draws[t];
+        let setup = &self.setups[t];
+        let (world, g) = setup.world(2)?;
+        let length = if p.route_length_m > 0.0 { p.route_length_m } else { recovery.tour.length_m() };
+        let (start, route) = tour_from(&recovery.tour, d.tour_position_m, length);
+        let world = with_start(world, start);
+        let map = setup.initial_map(recovery.initial_map);
+        let mut run_p = recovery.runner.clone();
+        run_p.updater = variant_params(&self.presets[k], VARIANTS[v]);
+        set_condition(&mut run_p, p, recovery, &d, start.yaw, c);
+        let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
+        let run = run_world(&inputs, &run_p, d.seed, &format!("table1-hold-{t:04}"), &NoClock)?;
+        let (wrong, changed) = wrong_flips(&run.map, map, g);
+        progress();
+        Ok(Table1HoldRun {
+            draw: d,
+            preset: p.presets[k].clone(),
+            condition: self.conditions[c].clone(),
+            variant: VARIANTS[v].to_string(),
+            scores: scores(&run.map, g, &recovery.metrics)?,
+            static_scores: scores(map, g, &recovery.metrics)?,
+            wrong_flips: wrong,
+            cells_changed: changed,
+            suspends: run.updater.suspend + run.updater.lost,
+            losts: run.updater.lost,
+            recoveries: run.updater.recovered,
+            route_done: run.route_done,
+        })
+    }
+
+    fn summarise(&self, runs: Vec<Table1HoldRun>) -> Result<Table1HoldResults, ExperimentError> {
+        let p = self.p;
+        let paper_table1 = BTreeMap::from([
+            ("always_update".to_string(), Scores { cc: 66.86, ms: 55.11, opdf: 90.40 }),
+            ("check".to_string(), Scores { cc: 70.03, ms: 61.24, opdf: 95.87 }),
+        ]);
+        let summary = Table1HoldSummary {
+            tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+            seed: self.seed,
+            wall_time_s: 0.0,
+            static_map: static_scores(&runs, p, &self.conditions),
+            table1: tabulate(&runs, p, &self.conditions),
+            paper_table1,
+            params: p.clone(),
+            recovery: self.recovery.clone(),
+        };
+        Ok(Table1HoldResults { summary, runs })
+    }
+}
+
+/// Runs every trial under every preset, condition and variant ([`run_trials`]: in parallel,
+/// collected in order). `progress` is called once per finished run.
 pub fn run_table1_hold(
     w1: &World,
     recovery: &RecoveryParams,
@@ -391,71 +473,18 @@ pub fn run_table1_hold(
     rp.lost.world = 2;
     let tour_len = recovery.tour.length_m();
     let draws: Vec<Table1Draw> = (0..p.trials).map(|t| draw_table1(p, tour_len, seed, t)).collect();
-    let setups = draws.par_iter().map(|d| prepare(w1, &rp, d.seed)).collect::<Result<Vec<_>, _>>()?;
-    let presets: Vec<UpdaterParams> = p.presets.iter().map(|n| UpdaterParams::preset(n)).collect::<Result<_, _>>()?;
-    let conditions = p.conditions();
-    let mut jobs = Vec::new();
-    for t in 0..draws.len() {
-        for k in 0..presets.len() {
-            for c in 0..conditions.len() {
-                for v in 0..VARIANTS.len() {
-                    jobs.push((t, k, c, v));
-                }
-            }
-        }
-    }
-    let length = if p.route_length_m > 0.0 { p.route_length_m } else { tour_len };
-    let runs: Vec<Table1HoldRun> = jobs
-        .par_iter()
-        .map(|&(t, k, c, v)| {
-            let d = draws[t];
-            let setup = &setups[t];
-            let (world, g) = setup.world(2)?;
-            let (start, route) = tour_from(&recovery.tour, d.tour_position_m, length);
-            let world = with_start(world, start);
-            let map = setup.initial_map(recovery.initial_map);
-            let mut run_p = recovery.runner.clone();
-            run_p.updater = variant_params(&presets[k], VARIANTS[v]);
-            let cond = &conditions[c];
-            set_condition(&mut run_p, p, recovery, &d, start.yaw, c);
-            let inputs =
-                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
-            let run = run_world(&inputs, &run_p, d.seed, &format!("table1-hold-{t:04}"), &NoClock)?;
-            let (wrong, changed) = wrong_flips(&run.map, map, g);
-            progress();
-            Ok(Table1HoldRun {
-                draw: d,
-                preset: p.presets[k].clone(),
-                condition: cond.clone(),
-                variant: VARIANTS[v].to_string(),
-                scores: scores(&run.map, g, &recovery.metrics)?,
-                static_scores: scores(map, g, &recovery.metrics)?,
-                wrong_flips: wrong,
-                cells_changed: changed,
-                suspends: run.updater.suspend + run.updater.lost,
-                losts: run.updater.lost,
-                recoveries: run.updater.recovered,
-                route_done: run.route_done,
-            })
-        })
-        .collect::<Result<_, ExperimentError>>()?;
-    let table1 = tabulate(&runs, p, &conditions);
-    let static_map = static_scores(&runs, p, &conditions);
-    let paper_table1 = BTreeMap::from([
-        ("always_update".to_string(), Scores { cc: 66.86, ms: 55.11, opdf: 90.40 }),
-        ("check".to_string(), Scores { cc: 70.03, ms: 61.24, opdf: 95.87 }),
-    ]);
-    let summary = Table1HoldSummary {
-        tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
+    // Each draw's worlds are its own (seeded by the draw): generated once, in parallel.
+    let setups = run_each(draws.clone(), |d| prepare(w1, &rp, d.seed))?;
+    let trials = Table1Trials {
+        recovery,
+        p,
         seed,
-        wall_time_s: 0.0,
-        static_map,
-        table1,
-        paper_table1,
-        params: p.clone(),
-        recovery: recovery.clone(),
+        draws,
+        setups,
+        presets: p.presets.iter().map(|n| UpdaterParams::preset(n)).collect::<Result<_, _>>()?,
+        conditions: p.conditions(),
     };
-    Ok(Table1HoldResults { summary, runs })
+    run_trials(&trials, progress)
 }
 
 #[cfg(test)]

@@ -4,12 +4,12 @@ use super::{Setup, frac, mean, mean_scores, median, recovery_time, scores, tour_
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{Kidnap, TimelineSample, TrackSample, VerdictCounts};
 use crate::experiments::runner::{NoClock, RunInputs, WorldRun, run_world};
+use crate::experiments::trials::run_each;
 use crate::experiments::validation::Scores;
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::{UpdaterParams, Verdict};
 use rand::RngExt;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::RecoveryParams;
@@ -228,21 +228,17 @@ pub fn run_table1(
     let map = setup.initial_map(params.initial_map);
     let presets = [UpdaterParams::always_update(), UpdaterParams::paper()];
     let jobs: Vec<(usize, usize)> = (0..t.runs).flat_map(|r| [(r, 0), (r, 1)]).collect();
-    let results: Vec<(f64, WorldRun)> = jobs
-        .par_iter()
-        .map(|&(r, k)| {
-            let label = format!("table1-{r:03}");
-            let (dir, kid) =
-                start_kidnap(seed, &format!("{label}/error"), t.start_error_m, t.init_sigma_xy_m, t.init_sigma_yaw_rad);
-            let mut rp = params.runner.clone();
-            rp.updater = presets[k].clone();
-            rp.kidnap = Some(kid);
-            rp.record_timeline = true;
-            let inputs =
-                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
-            run_world(&inputs, &rp, seed, &label, &NoClock).map(|run| (dir, run))
-        })
-        .collect::<Result<_, _>>()?;
+    let results: Vec<(f64, WorldRun)> = run_each(jobs, |(r, k)| {
+        let label = format!("table1-{r:03}");
+        let (dir, kid) =
+            start_kidnap(seed, &format!("{label}/error"), t.start_error_m, t.init_sigma_xy_m, t.init_sigma_yaw_rad);
+        let mut rp = params.runner.clone();
+        rp.updater = presets[k].clone();
+        rp.kidnap = Some(kid);
+        rp.record_timeline = true;
+        let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
+        run_world(&inputs, &rp, seed, &label, &NoClock).map(|run| (dir, run))
+    })?;
     let mut runs = Vec::with_capacity(t.runs);
     for (r, pair) in results.chunks(2).enumerate() {
         let [(dir, au), (_, ck)] = pair else { continue };
@@ -359,27 +355,23 @@ pub fn run_lost_robot(
     let world = with_start(world, start);
     let map = setup.initial_map(params.initial_map);
     let jobs: Vec<(usize, usize)> = (0..l.runs).flat_map(|r| [(r, 0), (r, 1), (r, 2)]).collect();
-    let results: Vec<(f64, WorldRun)> = jobs
-        .par_iter()
-        .map(|&(r, k)| {
-            let label = format!("lost-{r:03}");
-            let (dir, kid) =
-                start_kidnap(seed, &format!("{label}/error"), l.start_error_m, l.init_sigma_xy_m, l.init_sigma_yaw_rad);
-            let mut rp = params.runner.clone();
-            rp.record_timeline = true;
-            match k {
-                0 => rp.kidnap = Some(kid),
-                1 => rp.kidnap = Some(Kidnap { dx_m: 0.0, dy_m: 0.0, ..kid }),
-                _ => {
-                    rp.kidnap = Some(kid);
-                    rp.updater = UpdaterParams::always_update();
-                }
+    let results: Vec<(f64, WorldRun)> = run_each(jobs, |(r, k)| {
+        let label = format!("lost-{r:03}");
+        let (dir, kid) =
+            start_kidnap(seed, &format!("{label}/error"), l.start_error_m, l.init_sigma_xy_m, l.init_sigma_yaw_rad);
+        let mut rp = params.runner.clone();
+        rp.record_timeline = true;
+        match k {
+            0 => rp.kidnap = Some(kid),
+            1 => rp.kidnap = Some(Kidnap { dx_m: 0.0, dy_m: 0.0, ..kid }),
+            _ => {
+                rp.kidnap = Some(kid);
+                rp.updater = UpdaterParams::always_update();
             }
-            let inputs =
-                RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
-            run_world(&inputs, &rp, seed, &label, &NoClock).map(|run| (dir, run))
-        })
-        .collect::<Result<_, _>>()?;
+        }
+        let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
+        run_world(&inputs, &rp, seed, &label, &NoClock).map(|run| (dir, run))
+    })?;
     let mut runs = Vec::with_capacity(l.runs);
     for (r, triple) in results.chunks(3).enumerate() {
         let [(dir, err), (_, reference), (_, au)] = triple else { continue };

@@ -5,11 +5,11 @@ use super::{KidnapParams, RecoveryParams, Setup, frac, mean, median, recovery_ti
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{Kidnap, TrackSample};
 use crate::experiments::runner::{NoClock, RunInputs, run_world};
+use crate::experiments::trials::run_each;
 use crate::stats::percentile;
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use rand::RngExt;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Which map the chain localiser and the updater start from in a kidnap trial.
@@ -296,11 +296,9 @@ pub fn run_kidnap_suite(
     }
     let jobs: Vec<(MapCase, usize)> =
         cases.iter().flat_map(|&c| (0..params.kidnap.trials).map(move |t| (c, t))).collect();
-    jobs.par_iter()
-        .map(|&(case, t)| {
-            let r = run_kidnap_trial(setup, params, seed, t, case);
-            progress();
-            r
-        })
-        .collect()
+    run_each(jobs, |(case, t)| {
+        let r = run_kidnap_trial(setup, params, seed, t, case);
+        progress();
+        r
+    })
 }
