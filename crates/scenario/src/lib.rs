@@ -35,7 +35,7 @@ pub use experiments::runner::{
     Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
     run_world_with,
 };
-pub use experiments::sweep::{SweepPlan, SweepSpec};
+pub use experiments::validation::sweep::{SweepPlan, SweepSpec};
 pub use experiments::validation::{
     GroundTruth, Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed,
     run_seed_in, summarise, summarise_records,

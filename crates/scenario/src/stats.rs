@@ -1,6 +1,14 @@
 //! Small statistics over a run's or a sweep's values, written once: means, fractions, medians,
 //! percentiles (and the median of a histogram, for timings merged across shards).
 
+/// `mean [lo, hi]` with `digits` decimals, or `mean (no interval)` without one.
+pub fn with_ci(mean: f64, ci: Option<[f64; 2]>, digits: usize) -> String {
+    match ci {
+        Some([lo, hi]) => format!("{mean:+.digits$} [{lo:+.digits$}, {hi:+.digits$}]"),
+        None => format!("{mean:+.digits$} (no interval)"),
+    }
+}
+
 /// The mean, 0 for no values.
 pub fn mean(v: impl Iterator<Item = f64>) -> f64 {
     let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));

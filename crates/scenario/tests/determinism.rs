@@ -6,7 +6,7 @@
 //! The CLI-level twin (`crates/cli/tests/validate_cli.rs`) runs the binary twice and compares
 //! the folders, and merges shards.
 
-use mapkeeper_scenario::results::report::{runs_json, summary_json, worlds_csv};
+use mapkeeper_scenario::experiments::validation::report::{runs_json, summary_json, worlds_csv};
 use mapkeeper_scenario::{
     NoClock, SeedRun, Shard, ValidationParams, ValidationRecord, run_seed, summarise, summarise_records,
 };

@@ -2,7 +2,7 @@
 //! stands still until pose updating returns a pose, the check clears, or `lost_wait_s` passes;
 //! every episode, attempt, recovery, give-up and the time stopped are counted.
 
-use mapkeeper_scenario::experiments::recovery::tour_from;
+use mapkeeper_scenario::experiments::setup::tour_from;
 use mapkeeper_scenario::{Kidnap, LostEnd, NoClock, RunInputs, RunnerParams, WorldRun, run_world};
 use mapkeeper_sim::{StartPose, World, ground_truth_map};
 

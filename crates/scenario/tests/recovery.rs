@@ -4,10 +4,10 @@
 //! caller's and is 0 here) and CSV files, whatever the number of threads running the trials.
 
 use mapkeeper_grid::metrics::{MetricParams, map_metrics};
-use mapkeeper_scenario::experiments::recovery::{
-    RecoveryParams, SuccessCriterion, draw_trial, recovery_time, run_recovery, tour_from,
-};
-use mapkeeper_scenario::results::recovery_report::{kidnap_csv, summary_json, write_recovery};
+use mapkeeper_scenario::experiments::recovery::report::{kidnap_csv, summary_json, write_recovery};
+use mapkeeper_scenario::experiments::recovery::{RecoveryParams, draw_trial, run_recovery};
+use mapkeeper_scenario::experiments::setup::params::SuccessCriterion;
+use mapkeeper_scenario::experiments::setup::{recovery_time, tour_from};
 use mapkeeper_scenario::{
     Kidnap, NoClock, RecoveryResults, RunInputs, RunnerParams, StagedDir, ValidationParams, run_world,
 };

@@ -39,8 +39,8 @@ impl Progress {
                 "{}: {done}/{total} {} after {}; about {} left (at this run's rate so far)",
                 self.what,
                 self.unit,
-                mapkeeper_scenario::experiments::eta::human_duration(elapsed),
-                mapkeeper_scenario::experiments::eta::human_duration(left)
+                mapkeeper_scenario::experiments::validation::eta::human_duration(elapsed),
+                mapkeeper_scenario::experiments::validation::eta::human_duration(left)
             );
             self.bar.suspend(|| errln!("{line}"));
         }

@@ -1,10 +1,10 @@
 //! The progress of a validation sweep: a bar on a terminal, and lines anywhere, with an estimate
 //! of the time left that follows this run's own world times per preset
-//! ([`mapkeeper_scenario::experiments::eta`]). The wall clock is read here, not in the library.
+//! ([`mapkeeper_scenario::experiments::validation::eta`]). The wall clock is read here, not in the library.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mapkeeper_scenario::SweepPlan;
-use mapkeeper_scenario::experiments::eta::{Estimate, SweepEta, human_duration, prior_world_s};
+use mapkeeper_scenario::experiments::validation::eta::{Estimate, SweepEta, human_duration, prior_world_s};
 use std::io::IsTerminal as _;
 use std::sync::Mutex;
 use std::time::Instant;

@@ -6,18 +6,14 @@
 //! pose source of the updater ([`pose_oracle`]).
 
 pub mod check_detection;
-pub mod checkpoint;
 pub mod convergence;
-pub mod erosion;
-pub mod eta;
 pub mod kidnap_robot;
 pub mod pose_oracle;
 pub mod real_data;
 pub mod recovery;
 pub mod run_events;
 pub mod runner;
-pub mod sensor_realism;
-pub mod sweep;
+pub mod setup;
 pub mod table1_hold;
 pub mod trials;
 pub mod validation;

@@ -3,7 +3,7 @@
 //! it (reproduced, not reproduced, differs, or inconclusive) and why. The verdict rules are here,
 //! in one place, and the thresholds the paper does not give are named in the "why".
 
-use crate::results::report::with_ci;
+use crate::stats::with_ci;
 use std::fmt::Write as _;
 
 /// What a result says of a claim.

@@ -4,14 +4,14 @@
 //! Everything is recomputed from the presets' records, so the comparison of merged shards is
 //! that of the unsharded sweep.
 
-use crate::experiments::erosion::{ChangeClassSummary, RetentionSummary};
 use crate::experiments::pose_oracle::UpdaterPoses;
 use crate::experiments::run_events::{LostCounts, VerdictCounts};
+use crate::experiments::validation::erosion::{ChangeClassSummary, RetentionSummary};
+use crate::experiments::validation::html::{Part, page_html, world_steppers};
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
 use crate::results::ResultsError;
-use crate::results::html::{Part, page_html, world_steppers};
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
-use crate::results::report::with_ci;
+use crate::stats::with_ci;
 use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};

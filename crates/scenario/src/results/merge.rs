@@ -10,9 +10,9 @@
 //! format, world count, preset, any other parameter or timing mode differ, when a seed
 //! appears twice, or when the counts the summary adds up would not fit in `u64`.
 
+use crate::experiments::validation::report::write_results;
 use crate::experiments::validation::{RUNS_FORMAT, RUNS_FORMAT_VERSION, SeedRecord, Summary, ValidationRecord};
 use crate::results::ResultsError;
-use crate::results::report::write_results;
 use mapkeeper_grid::StagedDir;
 use std::collections::BTreeMap;
 use std::fmt;

@@ -1,23 +1,18 @@
-//! Results: the validation's report folder ([`report`]) and figures ([`figures`]), the
-//! recovery suite's ([`recovery_report`]), and merging the folders of a sharded sweep
-//! ([`merge`]). Every folder is written through [`mapkeeper_grid::StagedDir`].
+//! Results: what every report shares (the claims table, [`claims`]; the figures' size, the
+//! error type) and what is done with result folders once written: merging the shards of a
+//! sweep ([`merge`]), comparing presets ([`comparison`]), a team's CI gate ([`gate`]). Each
+//! experiment's own report sits in its folder (`experiments/<name>/report.rs`). Every folder
+//! is written through [`mapkeeper_grid::StagedDir`].
 
-pub mod check_detection_report;
 pub mod claims;
 pub mod comparison;
-pub mod figures;
 pub mod gate;
-pub mod html;
-pub mod kidnap_robot_report;
 pub mod merge;
-pub mod real_data_report;
-pub mod recovery_report;
-pub mod report;
-pub mod saved_worlds;
-pub mod sensor_realism_report;
-pub mod table1_hold_report;
 
 use std::path::PathBuf;
+
+/// Size of the PNG figures of every report, px.
+pub const PNG_SIZE_PX: (u32, u32) = (1200, 750);
 
 /// What can go wrong while writing or merging results.
 #[derive(Debug, thiserror::Error)]

@@ -4,8 +4,8 @@ use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_time
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
+use mapkeeper_scenario::experiments::check_detection::report::write_check_detection;
 use mapkeeper_scenario::experiments::check_detection::{CheckDetectionParams, run_check_detection};
-use mapkeeper_scenario::results::check_detection_report::write_check_detection;
 use serde::{Deserialize, Serialize};
 
 /// Arguments of `mapkeeper experiment check-detection`.

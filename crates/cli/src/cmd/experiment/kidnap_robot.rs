@@ -4,8 +4,8 @@ use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_time
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
+use mapkeeper_scenario::experiments::kidnap_robot::report::write_kidnap_robot;
 use mapkeeper_scenario::experiments::kidnap_robot::{KidnapRobotParams, run_kidnap_robot};
-use mapkeeper_scenario::results::kidnap_robot_report::write_kidnap_robot;
 use serde::{Deserialize, Serialize};
 
 /// Arguments of `mapkeeper experiment kidnap-robot`.

@@ -4,8 +4,8 @@ use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_time
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
+use mapkeeper_scenario::experiments::table1_hold::report::write_table1_hold;
 use mapkeeper_scenario::experiments::table1_hold::{Table1HoldParams, VARIANTS, run_table1_hold};
-use mapkeeper_scenario::results::table1_hold_report::write_table1_hold;
 use serde::{Deserialize, Serialize};
 
 /// Arguments of `mapkeeper experiment table1`.

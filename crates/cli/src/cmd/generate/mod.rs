@@ -5,7 +5,7 @@ mod logs;
 
 use anyhow::Context;
 use logs::write_logs;
-use mapkeeper_scenario::results::report::write_scenario_set;
+use mapkeeper_scenario::experiments::validation::report::write_scenario_set;
 use mapkeeper_scenario::{GeneratorParams, generate_worlds};
 use mapkeeper_sim::{Route, World};
 use std::path::PathBuf;

@@ -9,10 +9,10 @@ use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_harness::config::params_from_toml_str;
 use mapkeeper_harness::jobs::map::MapLogParams;
 use mapkeeper_localiser::FilterParams;
+use mapkeeper_scenario::experiments::real_data::report::write_real_data;
 use mapkeeper_scenario::experiments::real_data::{
     LocaliserConfig, ODOMETRY_TUNED_LOCALISER_TOML, RealDataParams, run_real_data,
 };
-use mapkeeper_scenario::results::real_data_report::write_real_data;
 pub use reading::ReadingFlags;
 use reading::read;
 use std::path::PathBuf;

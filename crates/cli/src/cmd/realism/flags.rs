@@ -1,7 +1,7 @@
 //! The flags of `experiment sensor-realism` laid over its parameters.
 
 use super::Args;
-use mapkeeper_scenario::experiments::sensor_realism::SensorRealismParams;
+use mapkeeper_scenario::experiments::validation::sensor_realism::SensorRealismParams;
 
 /// The command-line overrides of the parameter file.
 pub(super) fn apply_flags(args: &Args, p: &mut SensorRealismParams) {

@@ -8,8 +8,8 @@ mod flags;
 
 use anyhow::Context;
 use flags::apply_flags;
-use mapkeeper_scenario::experiments::sensor_realism::{SensorRealismParams, run_sensor_realism};
-use mapkeeper_scenario::results::sensor_realism_report::write_sensor_realism;
+use mapkeeper_scenario::experiments::validation::sensor_realism::report::write_sensor_realism;
+use mapkeeper_scenario::experiments::validation::sensor_realism::{SensorRealismParams, run_sensor_realism};
 use mapkeeper_scenario::{GroundTruth, SweepSpec};
 use print::print_table;
 use std::path::PathBuf;

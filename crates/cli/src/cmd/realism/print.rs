@@ -1,6 +1,6 @@
 //! The table `experiment sensor-realism` prints.
 
-use mapkeeper_scenario::experiments::sensor_realism::SensorRealismResult;
+use mapkeeper_scenario::experiments::validation::sensor_realism::SensorRealismResult;
 
 /// Prints the summary table on stdout.
 pub(super) fn print_table(r: &SensorRealismResult) {
@@ -18,7 +18,7 @@ pub(super) fn print_table(r: &SensorRealismResult) {
             "{:<18} {:>9.2} {:>22} {:>11.4} {:>9.3} {:>5}",
             c.config,
             c.cc_updated_mean,
-            mapkeeper_scenario::results::report::with_ci(c.cc_updated_vs_ideal.mean, c.cc_updated_vs_ideal.ci95, 2),
+            mapkeeper_scenario::stats::with_ci(c.cc_updated_vs_ideal.mean, c.cc_updated_vs_ideal.ci95, 2),
             c.err_mean_m,
             c.err_max_m,
             c.lost_episodes

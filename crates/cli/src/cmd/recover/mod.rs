@@ -6,7 +6,7 @@ mod print;
 use super::load_params;
 use anyhow::Context;
 use mapkeeper_scenario::experiments::recovery::Progress;
-use mapkeeper_scenario::results::recovery_report::write_recovery;
+use mapkeeper_scenario::experiments::recovery::report::write_recovery;
 use mapkeeper_scenario::{RecoveryParams, run_recovery};
 use print::print_kidnap;
 use std::path::PathBuf;

@@ -3,7 +3,7 @@
 use super::Args;
 use anyhow::Context;
 use mapkeeper_scenario::SweepPlan;
-use mapkeeper_scenario::experiments::checkpoint::Checkpoints;
+use mapkeeper_scenario::experiments::validation::checkpoint::Checkpoints;
 use std::path::Path;
 
 /// The jobs a killed run had finished (with --resume; in job order, `None`: to run), or none,

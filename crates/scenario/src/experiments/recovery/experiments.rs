@@ -4,8 +4,8 @@ use super::{Setup, frac, mean, mean_scores, median, recovery_time, scores, tour_
 use crate::experiments::ExperimentError;
 use crate::experiments::run_events::{Kidnap, TimelineSample, TrackSample, VerdictCounts};
 use crate::experiments::runner::{NoClock, RunInputs, WorldRun, run_world};
+use crate::experiments::setup::Scores;
 use crate::experiments::trials::run_each;
-use crate::experiments::validation::Scores;
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::{UpdaterParams, Verdict};

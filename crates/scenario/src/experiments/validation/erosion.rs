@@ -457,7 +457,7 @@ mod tests {
 
     /// The record of `tests/data/validation_run` (written before these metrics): one seed, W_2.
     fn old_record() -> ValidationRecord {
-        let text = include_str!("../../../../tests/data/validation_run/runs.json");
+        let text = include_str!("../../../../../tests/data/validation_run/runs.json");
         serde_json::from_str(text).expect("runs.json of format 2 still loads")
     }
 

@@ -10,13 +10,16 @@
 //! pose from pose updating came at or before the start of that good stretch, for the filter
 //! otherwise.
 
-use super::ExperimentError;
-use super::recovery::{RecoveryParams, Setup, prepare, recovery_time, scores, tour_from, with_start};
-use super::run_events::{RobotKidnap, TimelineSample, TrackSample};
-use super::runner::{NoClock, RunInputs, run_world};
-use super::trials::{Trials, run_trials};
-use super::validation::Scores;
+pub mod report;
+
+use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
+use crate::experiments::run_events::{RobotKidnap, TimelineSample, TrackSample};
+use crate::experiments::runner::{NoClock, RunInputs, run_world};
+use crate::experiments::setup::Scores;
+use crate::experiments::setup::params::RecoveryParams;
+use crate::experiments::setup::{Setup, prepare, recovery_time, scores, tour_from, with_start};
+use crate::experiments::trials::{Trials, run_trials};
 use crate::stats::{frac, mean, median, percentile};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
@@ -708,7 +711,7 @@ mod tests {
         // localised), a well-localised one, one 0.3 m off, and a Suspend at a right pose.
         let t = [at(Lost, 0.15, 3.7), at(Lost, 0.04, 1.5), at(Lost, 0.3, 0.5), at(Suspend, 0.01, 0.0)];
         let p = KidnapRobotParams::default();
-        let c = super::super::recovery::SuccessCriterion::default();
+        let c = crate::experiments::setup::params::SuccessCriterion::default();
         assert_eq!(lost_where(&t, |s| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad), 2);
         let well = |s: &TimelineSample| {
             s.error_m <= p.well_localised_max_error_m && s.yaw_error_rad <= p.well_localised_max_yaw_rad

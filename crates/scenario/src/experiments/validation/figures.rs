@@ -23,8 +23,7 @@ use crate::results::ResultsError;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_plot::{LineChart, Series};
 
-/// Size of the PNG figures, px.
-pub const PNG_SIZE_PX: (u32, u32) = (1200, 750);
+pub use crate::results::PNG_SIZE_PX;
 
 /// The folder of the figures inside a validation folder.
 pub const PLOTS_DIR: &str = "plots";

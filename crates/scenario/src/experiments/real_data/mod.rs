@@ -8,6 +8,8 @@
 //! reference increment by more than [`DISAGREEMENT_M`]), which is where a filter that trusts
 //! odometry loses track.
 
+pub mod report;
+
 use crate::experiments::ExperimentError;
 use crate::stats::{median, percentile};
 use mapkeeper_grid::{OccupancyGrid, Pose2, angle_diff};
@@ -23,7 +25,7 @@ use serde::Serialize;
 /// The overrides of the `odometry-tuned` localiser configuration, the second release's
 /// configuration for real logs (TOML over the `mapkeeper` preset; odometry-driven, no scan
 /// matching; tuned on the Intel log only).
-pub const ODOMETRY_TUNED_LOCALISER_TOML: &str = include_str!("../../params/odometry_tuned_localiser.toml");
+pub const ODOMETRY_TUNED_LOCALISER_TOML: &str = include_str!("../../../params/odometry_tuned_localiser.toml");
 
 /// Position RMSE target, metres (issue 14).
 pub const TARGET_RMSE_M: f64 = 0.05;

@@ -2,9 +2,9 @@
 //! summary per configuration), `worlds.csv` (every world run) and `report.md` (the table of
 //! each switch's effect).
 
-use super::ResultsError;
-use super::report::with_ci;
-use crate::experiments::sensor_realism::{RealismRow, SensorRealismResult};
+use crate::experiments::validation::sensor_realism::{RealismRow, SensorRealismResult};
+use crate::results::ResultsError;
+use crate::stats::with_ci;
 use mapkeeper_grid::StagedDir;
 use std::fmt::Write as _;
 
@@ -14,8 +14,8 @@ pub fn write_sensor_realism(dir: &StagedDir, r: &SensorRealismResult, header: &s
     #[derive(serde::Serialize)]
     struct Summary<'a> {
         format: &'static str,
-        params: &'a crate::experiments::sensor_realism::SensorRealismParams,
-        configs: &'a [crate::experiments::sensor_realism::ConfigSummary],
+        params: &'a crate::experiments::validation::sensor_realism::SensorRealismParams,
+        configs: &'a [crate::experiments::validation::sensor_realism::ConfigSummary],
     }
     let s = Summary { format: "mapkeeper-sensor-realism", params: &r.params, configs: &r.summaries };
     let json = serde_json::to_string_pretty(&s)

@@ -2,17 +2,18 @@
 //!
 //! Validation folder: `runs.json` (the machine-readable record everything else is computed
 //! from), `summary.json`, `worlds.csv`, `report.md`, `edits.json`, `plots/` (the paper's
-//! Fig. 24-27, SVG and PNG, [`crate::results::figures`]), `report.html` (the report as one
-//! self-contained page, [`crate::results::html`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
-//! and `E_iii.png` (M_1, G_1 and the saved worlds, [`crate::results::saved_worlds`]) and
+//! Fig. 24-27, SVG and PNG, [`crate::experiments::validation::figures`]), `report.html` (the report as one
+//! self-contained page, [`crate::experiments::validation::html`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
+//! and `E_iii.png` (M_1, G_1 and the saved worlds, [`crate::experiments::validation::saved_worlds`]) and
 //! `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
 //!
 //! Scenario set (`generate`): `manifest.json`, `route.toml`, `worlds/W_iii.toml`,
 //! `ground_truth/G_iii.{yaml,pgm}`. Same seed ⇒ byte-identical files.
 
+use crate::experiments::validation::figures::{Figure, write_figures};
 use crate::experiments::validation::{Scores, SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
 use crate::results::ResultsError;
-use crate::results::figures::{Figure, write_figures};
+use crate::stats::with_ci;
 use crate::worlds::generator::WorldChain;
 use mapkeeper_grid::GridGeometry;
 use mapkeeper_grid::StagedDir;
@@ -249,14 +250,6 @@ fn figure_lines(s: &mut String, figures: &[Figure], stems: &[&str]) {
 /// `report.md`: the results beside the paper's claims, without figures.
 pub fn report_md(summary: &Summary) -> String {
     report_md_with_figures(summary, &[])
-}
-
-/// `mean [lo, hi]` with `digits` decimals, or `mean (no interval)` without one.
-pub fn with_ci(mean: f64, ci: Option<[f64; 2]>, digits: usize) -> String {
-    match ci {
-        Some([lo, hi]) => format!("{mean:+.digits$} [{lo:+.digits$}, {hi:+.digits$}]"),
-        None => format!("{mean:+.digits$} (no interval)"),
-    }
 }
 
 /// `report.md`: the results beside the paper's claims, showing `figures` (in `plots/`).
@@ -575,9 +568,13 @@ pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summa
     let figures = write_figures(dir, record)?;
     let mut report = report_md_with_figures(&summary, &figures);
     report.push_str(&per_world_md(record));
-    report.push_str(&crate::results::saved_worlds::saved_worlds_md(record));
+    report.push_str(&crate::experiments::validation::saved_worlds::saved_worlds_md(record));
     dir.write("report.md", report.as_bytes())?;
-    crate::results::html::write_report_html(dir, &report, &crate::results::html::world_steppers(record))?;
+    crate::experiments::validation::html::write_report_html(
+        dir,
+        &report,
+        &crate::experiments::validation::html::world_steppers(record),
+    )?;
     Ok(summary)
 }
 
@@ -640,10 +637,10 @@ pub fn per_world_md(record: &ValidationRecord) -> String {
 }
 
 /// Writes the whole validation folder into `dir`: each seed's saved worlds and trajectories
-/// ([`crate::results::saved_worlds`]), then [`write_results`] for `record` (made from `runs`;
+/// ([`crate::experiments::validation::saved_worlds`]), then [`write_results`] for `record` (made from `runs`;
 /// `report.html` embeds the images written first). Returns the summary.
 pub fn write_validation(dir: &StagedDir, runs: &[SeedRun], record: &ValidationRecord) -> Result<Summary, ResultsError> {
-    crate::results::saved_worlds::write_saved_worlds(dir, runs)?;
+    crate::experiments::validation::saved_worlds::write_saved_worlds(dir, runs)?;
     write_results(dir, record)
 }
 

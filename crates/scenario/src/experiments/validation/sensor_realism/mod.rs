@@ -7,11 +7,13 @@
 //! The worlds, edits and M_1 are the same in every configuration only up to the lidar: M_1 is
 //! built from the exploration scans, so a switch changes M_1 too, as it would on a real robot.
 
-use super::ExperimentError;
-use super::runner::NoClock;
-use super::trials::run_each;
-use super::validation::{ValidationParams, WorldRow, run_seed};
+pub mod report;
+
+use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
+use crate::experiments::runner::NoClock;
+use crate::experiments::trials::run_each;
+use crate::experiments::validation::{ValidationParams, WorldRow, run_seed};
 use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_sim::{SensorEffect, SensorRealism};
 use serde::{Deserialize, Serialize};

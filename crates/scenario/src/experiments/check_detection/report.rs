@@ -3,8 +3,8 @@
 //! detection").
 
 use crate::experiments::check_detection::{CheckDetectionResults, DetectionTrial, PresetDetection, Rate};
+use crate::results::PNG_SIZE_PX;
 use crate::results::ResultsError;
-use crate::results::figures::PNG_SIZE_PX;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_plot::BarChart;
 use std::fmt::Write as _;

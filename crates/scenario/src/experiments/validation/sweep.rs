@@ -3,10 +3,10 @@
 //! caller's rayon pool, collected in job order), and the runs of one preset.
 
 use crate::experiments::ExperimentError;
-use crate::experiments::checkpoint::Checkpoints;
 use crate::experiments::invalid;
 use crate::experiments::runner::Clock;
 use crate::experiments::trials::run_each;
+use crate::experiments::validation::checkpoint::Checkpoints;
 use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
 
 /// What to sweep.

@@ -4,25 +4,36 @@
 //! for i = 2 … N run the closed loop in W_i with the chain localiser and the updater on M_{i-1}
 //! and the baseline localiser on M_1, and score M_1/G_i (static) and M_i/G_i (updated) with
 //! CC, MS and OPDF, and M_i, M*_i and F_i by structure retention and change class
-//! ([`crate::experiments::erosion`]). The chain of worlds is sequential; seeds are independent,
+//! ([`crate::experiments::validation::erosion`]). The chain of worlds is sequential; seeds are independent,
 //! so the caller may run them in parallel and merge them in seed order ([`summarise`]).
 
+pub mod checkpoint;
+pub mod erosion;
+pub mod eta;
+pub mod figures;
+pub mod html;
+pub mod report;
+pub mod saved_worlds;
+pub mod sensor_realism;
+pub mod sweep;
+
 use crate::experiments::ExperimentError;
-use crate::experiments::erosion::{
-    ChangeClassSummary, ChangeClasses, ErosionJudge, Retention, RetentionSummary, change_class_summary,
-    retention_summary,
-};
 use crate::experiments::pose_oracle::GivenPoseStats;
 use crate::experiments::run_events::LostCounts;
 use crate::experiments::runner::{
     Clock, FreshMapParams, LocStats, RunInputs, RunnerParams, Trajectories, UpdaterCounts, run_world, run_world_with,
+};
+pub use crate::experiments::setup::Scores;
+use crate::experiments::validation::erosion::{
+    ChangeClassSummary, ChangeClasses, ErosionJudge, Retention, RetentionSummary, change_class_summary,
+    retention_summary,
 };
 pub use crate::stats::histogram_median;
 use crate::stats::{PairedDiff, frac, mean, median, paired_diff};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
 use crate::worlds::mapping::{MappingParams, build_initial_map};
 use crate::worlds::observed::{OBSERVATION_STEP_M, restrict_to, route_poses, visible_cells};
-use mapkeeper_grid::metrics::{MapMetrics, MetricParams, interior_mask, map_metrics, map_metrics_in};
+use mapkeeper_grid::metrics::{MetricParams, interior_mask, map_metrics, map_metrics_in};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sim::{Route, World, ground_truth_map};
 use mapkeeper_updater::UpdaterParams;
@@ -245,23 +256,6 @@ impl ValidationParams {
         self.mapping.validate()?;
         self.metrics.validate()?;
         Ok(())
-    }
-}
-
-/// CC, MS and OPDF of one comparison, percent.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Scores {
-    /// Cross-correlation.
-    pub cc: f64,
-    /// Map score.
-    pub ms: f64,
-    /// Occupied picture-distance function.
-    pub opdf: f64,
-}
-
-impl From<MapMetrics> for Scores {
-    fn from(m: MapMetrics) -> Self {
-        Scores { cc: m.cc, ms: m.ms, opdf: m.opdf }
     }
 }
 

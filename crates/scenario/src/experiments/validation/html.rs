@@ -4,7 +4,7 @@
 //! The page is `report.md` rendered to HTML (CommonMark with tables, by `pulldown-cmark`), with a
 //! table of contents, every image the report shows (the figures in `plots/`) embedded as a
 //! `data:` URI, and per seed a *world stepper*: the error images of the saved worlds
-//! (`seed-S/maps/E_iii.png`, [`crate::results::saved_worlds`]) one at a time, with a slider,
+//! (`seed-S/maps/E_iii.png`, [`crate::experiments::validation::saved_worlds`]) one at a time, with a slider,
 //! previous / next buttons and the arrow keys, and each world's scores. Links to other files of
 //! the folder (the PNG figures, the maps) stay relative: they resolve beside the folder. A
 //! sweep's page (`OUT/report.html`) holds the comparison and every preset's report.
@@ -13,8 +13,8 @@
 //! same inputs give byte-identical pages.
 
 use crate::experiments::validation::ValidationRecord;
+use crate::experiments::validation::saved_worlds::{map_file, saved_worlds_of, scores_of};
 use crate::results::ResultsError;
-use crate::results::saved_worlds::{map_file, saved_worlds_of, scores_of};
 use base64::Engine as _;
 use mapkeeper_grid::StagedDir;
 use pulldown_cmark::{CowStr, Event, HeadingLevel, Options, Parser, Tag, TagEnd};

@@ -17,12 +17,15 @@
 //!
 //! Every preset runs the same trials (same worlds, places, offsets and simulator noise).
 
-use super::ExperimentError;
-use super::recovery::{RecoveryParams, Setup, prepare, tour_from, with_start};
-use super::run_events::{PoseErrorHold, TimelineSample};
-use super::runner::{NoClock, RunInputs, run_world};
-use super::trials::{Trials, run_trials};
+pub mod report;
+
+use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
+use crate::experiments::run_events::{PoseErrorHold, TimelineSample};
+use crate::experiments::runner::{NoClock, RunInputs, run_world};
+use crate::experiments::setup::params::RecoveryParams;
+use crate::experiments::setup::{Setup, prepare, tour_from, with_start};
+use crate::experiments::trials::{Trials, run_trials};
 use crate::stats::median;
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;

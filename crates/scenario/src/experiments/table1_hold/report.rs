@@ -2,8 +2,8 @@
 //! figure `cc_by_hold.{svg,png}` (`docs/recovery.md`, "Table 1 with a held error").
 
 use crate::experiments::table1_hold::{MeanCi, Table1HoldResults, VARIANTS};
+use crate::results::PNG_SIZE_PX;
 use crate::results::ResultsError;
-use crate::results::figures::PNG_SIZE_PX;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_plot::BarChart;
 use std::fmt::Write as _;

@@ -11,13 +11,16 @@
 //! G_2 (CC, MS, OPDF) and the wrongly flipped cells are counted (cells of M_2 that differ from
 //! the initial map and from G_2, where G_2 is known).
 
-use super::ExperimentError;
-use super::recovery::{RecoveryParams, Setup, mean_scores, prepare, scores, tour_from, with_start};
-use super::run_events::{Kidnap, PoseErrorHold};
-use super::runner::{NoClock, RunInputs, run_world};
-use super::trials::{Trials, run_each, run_trials};
-use super::validation::Scores;
+pub mod report;
+
+use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
+use crate::experiments::run_events::{Kidnap, PoseErrorHold};
+use crate::experiments::runner::{NoClock, RunInputs, run_world};
+use crate::experiments::setup::Scores;
+use crate::experiments::setup::params::RecoveryParams;
+use crate::experiments::setup::{Setup, mean_scores, prepare, scores, tour_from, with_start};
+use crate::experiments::trials::{Trials, run_each, run_trials};
 use crate::stats::{mean, paired_diff};
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_sim::World;
@@ -345,7 +348,7 @@ fn static_scores(runs: &[Table1HoldRun], p: &Table1HoldParams, conditions: &[Str
 
 /// Condition `c` of `p.conditions()` on the run's parameters: a held error or a start error.
 fn set_condition(
-    run_p: &mut super::runner::RunnerParams,
+    run_p: &mut crate::experiments::runner::RunnerParams,
     p: &Table1HoldParams,
     recovery: &RecoveryParams,
     d: &Table1Draw,
