@@ -58,9 +58,9 @@ struct Cli {
 enum Command {
     /// The hundred-world validation of the paper (§5.3.2) on the embedded default warehouse.
     Validate(cmd::validate::Args),
-    /// The robustness experiments: localisation-check demo, Table 1, lost robot, kidnap suite.
+    /// The recovery suite (= `experiment recovery-suite`): localisation-check demo, Table 1 with a start error, lost robot, kidnaps of the estimate.
     Recover(cmd::recover::Args),
-    /// One experiment of the paper's claims into a folder of its own (check-detection, table1, kidnap-robot, real-data, sensor-realism).
+    /// One experiment of the paper's claims into a folder of its own (recovery-suite, check-detection, table1-held-pose, kidnap-robot, real-data, sensor-realism).
     Experiment(cmd::experiment::Args),
     /// How long the localiser presets take to correct a start error (time and distance).
     Converge(cmd::converge::Args),

@@ -87,7 +87,10 @@ fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports
 fn table1_writes_every_cell_of_the_table_and_the_held_error_costs_always_update() {
     let dir = scratch("experiment", "table1");
     let out = dir.join("t");
-    let o = mapkeeper(&["experiment", "table1", "--quick", "--out", s(&out)]);
+    // `table1` is the old spelling of `table1-held-pose`.
+    let o = mapkeeper(&["experiment", "table1", "--help"]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("table1-held-pose"));
+    let o = mapkeeper(&["experiment", "table1-held-pose", "--quick", "--out", s(&out)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for f in ["summary.json", "runs.csv", "report.md", "cc_by_hold.svg", "cc_by_hold.png"] {
         assert!(out.join(f).is_file(), "{f} missing");

@@ -22,12 +22,14 @@ fn recover_writes_the_summary_csv_and_report_and_refuses_bad_input() {
     let params = dir.join("short.toml");
     std::fs::write(&params, SHORT_RECOVER).unwrap();
     let out = dir.join("out");
-    let run = |extra: &[&str]| {
-        let mut args = vec!["recover", "--trials", "1", "--seed", "2", "--jobs", "2", "--params"];
+    let run_as = |command: &[&str], extra: &[&str]| {
+        let mut args = command.to_vec();
+        args.extend_from_slice(&["--trials", "1", "--seed", "2", "--jobs", "2", "--params"]);
         args.push(params.to_str().unwrap());
         args.extend_from_slice(extra);
         Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(&args).output().unwrap()
     };
+    let run = |extra: &[&str]| run_as(&["recover"], extra);
     let o = run(&["--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -41,6 +43,15 @@ fn recover_writes_the_summary_csv_and_report_and_refuses_bad_input() {
     assert_eq!(v["kidnap"]["trials"], 1);
     assert!(v["table1"]["check"]["opdf"].is_number());
     assert!(v["wall_time_s"].as_f64().unwrap() > 0.0);
+
+    // The same suite under the experiment family's name writes the same files (but for the wall
+    // time in summary.json and report.md).
+    let out2 = dir.join("out2");
+    let o = run_as(&["experiment", "recovery-suite"], &["--out", out2.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["kidnap_trials.csv", "table1.csv", "lost_robot.csv", "demo_timeline.csv"] {
+        assert_eq!(std::fs::read(out.join(f)).unwrap(), std::fs::read(out2.join(f)).unwrap(), "{f}");
+    }
 
     // An existing folder is refused without --force.
     let o = run(&["--out", out.to_str().unwrap()]);

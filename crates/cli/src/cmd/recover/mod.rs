@@ -1,5 +1,6 @@
-//! `mapkeeper recover`: the robustness experiments of the paper (§5.3.1, §5.4) and the
-//! pose-recovery stress suite; the wall clock is read here (not in the libraries).
+//! `mapkeeper recover` (= `mapkeeper experiment recovery-suite`): the robustness experiments of
+//! the paper (§5.3.1, §5.4) and the pose-recovery stress suite; the wall clock is read here
+//! (not in the libraries).
 
 mod print;
 
@@ -18,10 +19,11 @@ const MAX_TRIALS: usize = 10_000;
 /// Arguments of `mapkeeper recover`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Experiments: the localisation-check demo (0.5 m start error: updates suspended, then \
-resumed), the Table 1 analog (0.7 m start error, always-update against the check, CC/MS/OPDF of M_2 against G_2), \
-the lost robot (1.5 m: Lost, pose updating, map not corrupted) and the kidnap suite (N seeded trials: the chain \
-localiser's estimate displaced by 0.5-3 m and up to ±45° while the robot drives, on a stale map M_1 in W_k and on \
-the current world's map G_k).\n\n\
+resumed), Table 1 with a start error (0.7 m, always-update against the check, CC/MS/OPDF of M_2 against G_2; \
+`experiment table1-held-pose` holds the pose wrong instead), the lost robot (1.5 m: Lost, pose updating, map not \
+corrupted) and the kidnap suite of the estimate (N seeded trials: the chain localiser's estimate displaced by 0.5-3 m \
+and up to ±45° while the robot drives, on a stale map M_1 in W_k and on the current world's map G_k; `experiment \
+kidnap-robot` moves the robot itself).\n\n\
 Output in OUT (default results/recover-s<SEED>-<N>t-<counter>): summary.json, kidnap_trials.csv, table1.csv, \
 lost_robot.csv, demo_timeline.csv, report.md. Same seed => identical files whatever --jobs, except wall_time_s. \
 Definitions: docs/recovery.md.")]
