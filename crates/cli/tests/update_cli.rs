@@ -7,19 +7,12 @@ mod common;
 
 use common::{mapkeeper, s, scratch};
 
-use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, map_io};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2, map_io};
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, LogWriter, OdometryReading, TruePose};
 
 /// A 10 m × 10 m free room with an occupied border, 0.1 m cells, origin at (-5, -5).
 fn room() -> OccupancyGrid {
-    let g = GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap();
-    let mut m = OccupancyGrid::filled(g, CellState::Free);
-    for i in 0..100 {
-        for (x, y) in [(i, 0), (i, 99), (0, i), (99, i)] {
-            m.set(CellCoord::new(x, y), CellState::Occupied);
-        }
-    }
-    m
+    OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap())
 }
 
 /// A whole turn of beams from `robot` in `room()` (inner wall faces at ±4.9 m).

@@ -325,6 +325,20 @@ impl OccupancyGrid {
         Self { cells: vec![state; geometry.len()], geometry }
     }
 
+    /// A room: every cell free but the grid's outer ring (first and last row and column),
+    /// occupied. The walls of a test scene or a synthetic map; furniture is set on top.
+    pub fn walled(geometry: GridGeometry) -> Self {
+        let mut m = Self::filled(geometry, CellState::Free);
+        let (w, h) = (geometry.width(), geometry.height());
+        for (i, c) in m.cells.iter_mut().enumerate() {
+            let (x, y) = (i % w, i / w);
+            if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                *c = CellState::Occupied;
+            }
+        }
+        m
+    }
+
     /// A grid from its cells, row-major from the bottom row.
     pub fn from_cells(geometry: GridGeometry, cells: Vec<CellState>) -> Result<Self, GridError> {
         if cells.len() != geometry.len() {
@@ -401,6 +415,20 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_walled_grid_is_free_inside_its_occupied_ring() {
+        let g = GridGeometry::new(5, 4, 0.1, Pose2::IDENTITY).unwrap_or_else(|e| panic!("{e}"));
+        let m = OccupancyGrid::walled(g);
+        let rows: Vec<String> = (0..4)
+            .map(|y| {
+                (0..5)
+                    .map(|x| if m.get(CellCoord::new(x, y)) == Some(CellState::Occupied) { '#' } else { '.' })
+                    .collect()
+            })
+            .collect();
+        assert_eq!(rows, ["#####", "#...#", "#...#", "#####"]);
+    }
 
     #[test]
     fn a_grid_round_trips_through_json_and_damaged_records_are_refused() {

@@ -29,7 +29,7 @@ pub mod mcap_out;
 pub mod replay;
 pub mod session;
 pub mod source;
-pub mod stats;
+pub mod scoring;
 
 pub use driver::{Control, Observer, run, step_once};
 pub use error::HarnessError;
@@ -42,4 +42,4 @@ pub use mapkeeper_common::{Clock, NoClock};
 pub use replay::{DEFAULT_SYNC_WINDOW_NS, LogSource, OdometryAt, ReplayOptions};
 pub use session::{Baseline, BaselineSample, PoseBias, PoseSource, Session, SessionOutput, Skip, StepReport};
 pub use source::{RobotControl, SensorFrame, SensorSource, SourceError, Step, Truth};
-pub use stats::{ErrorSample, LocAcc, LocScore, LocStats, Trajectories, UpdaterWork};
+pub use scoring::{ErrorSample, LocAcc, LocScore, LocStats, Trajectories, UpdaterWork};

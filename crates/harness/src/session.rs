@@ -372,21 +372,14 @@ impl<'c> Session<'c> {
 mod tests {
     use super::*;
     use crate::NoClock;
-    use mapkeeper_grid::{CellState, GridGeometry};
+    use mapkeeper_grid::GridGeometry;
     use mapkeeper_localiser::FilterParams;
     use mapkeeper_sensor::LaserScan;
     use mapkeeper_updater::UpdaterParams;
 
     /// A 10 m × 10 m room, free inside an occupied border, 0.1 m cells, origin at (-5, -5).
     fn room() -> OccupancyGrid {
-        let g = GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for i in 0..100 {
-            for (x, y) in [(i, 0), (i, 99), (0, i), (99, i)] {
-                m.cells_mut()[y * 100 + x] = CellState::Occupied;
-            }
-        }
-        m
+        OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap())
     }
 
     /// Step k: the robot 0.3 m further along x, one scan.

@@ -3,7 +3,7 @@
 //! replay jobs end to end on a hand-built map.
 #![allow(clippy::unwrap_used)]
 
-use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2};
+use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2};
 use mapkeeper_harness::jobs::localise::{InitFrom, localise_log};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
 use mapkeeper_harness::{
@@ -43,14 +43,7 @@ fn truth(stamp_ns: u64, x: f64) -> LogRecord {
 
 /// A 10 m × 10 m room of free cells with an occupied border, 0.1 m cells, origin at (-5, -5).
 fn room() -> OccupancyGrid {
-    let g = GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap();
-    let mut m = OccupancyGrid::filled(g, CellState::Free);
-    for i in 0..100 {
-        for (x, y) in [(i, 0), (i, 99), (0, i), (99, i)] {
-            m.cells_mut()[y * 100 + x] = CellState::Occupied;
-        }
-    }
-    m
+    OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap())
 }
 
 #[test]

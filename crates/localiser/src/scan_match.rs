@@ -325,15 +325,7 @@ mod tests {
     /// A 6 m × 4 m room with walls on the border and two boxes, 0.05 m cells.
     fn room() -> OccupancyGrid {
         let g = GridGeometry::new(120, 80, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for i in 0..120 {
-            m.set(CellCoord::new(i, 0), CellState::Occupied);
-            m.set(CellCoord::new(i, 79), CellState::Occupied);
-        }
-        for j in 0..80 {
-            m.set(CellCoord::new(0, j), CellState::Occupied);
-            m.set(CellCoord::new(119, j), CellState::Occupied);
-        }
+        let mut m = OccupancyGrid::walled(g);
         for (i0, j0) in [(40, 20), (80, 50)] {
             for i in i0..i0 + 6 {
                 for j in j0..j0 + 4 {

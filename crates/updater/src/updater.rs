@@ -749,17 +749,7 @@ mod tests {
 
     /// A `w` × `h`-cell room at 0.05 m with one-cell walls on the map's edge.
     fn room(w: usize, h: usize) -> OccupancyGrid {
-        let g = GridGeometry::new(w, h, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for x in 0..w as i32 {
-            m.set(CellCoord::new(x, 0), CellState::Occupied);
-            m.set(CellCoord::new(x, h as i32 - 1), CellState::Occupied);
-        }
-        for y in 0..h as i32 {
-            m.set(CellCoord::new(0, y), CellState::Occupied);
-            m.set(CellCoord::new(w as i32 - 1, y), CellState::Occupied);
-        }
-        m
+        OccupancyGrid::walled(GridGeometry::new(w, h, 0.05, Pose2::IDENTITY).unwrap())
     }
 
     /// A 360° scan of `world` from `robot`, 1° apart, ranges 5 mm beyond the cast.

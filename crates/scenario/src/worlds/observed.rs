@@ -98,14 +98,10 @@ mod tests {
     /// A 6 × 4 m room with one-cell walls at 0.1 m and a solid 1 × 1 m block in the middle.
     fn room() -> OccupancyGrid {
         let g = GridGeometry::new(60, 40, 0.1, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for iy in 0..40 {
-            for ix in 0..60 {
-                let wall = ix == 0 || iy == 0 || ix == 59 || iy == 39;
-                let block = (25..35).contains(&ix) && (15..25).contains(&iy);
-                if wall || block {
-                    m.set(CellCoord::new(ix, iy), CellState::Occupied);
-                }
+        let mut m = OccupancyGrid::walled(g);
+        for iy in 15..25 {
+            for ix in 25..35 {
+                m.set(CellCoord::new(ix, iy), CellState::Occupied);
             }
         }
         m

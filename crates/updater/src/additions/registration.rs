@@ -538,15 +538,7 @@ mod tests {
     /// A 10 m × 8 m room at 0.05 m with walls and a few boxes (no symmetry).
     fn room() -> OccupancyGrid {
         let g = GridGeometry::new(200, 160, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for x in 0..200 {
-            m.set(CellCoord::new(x, 0), CellState::Occupied);
-            m.set(CellCoord::new(x, 159), CellState::Occupied);
-        }
-        for y in 0..160 {
-            m.set(CellCoord::new(0, y), CellState::Occupied);
-            m.set(CellCoord::new(199, y), CellState::Occupied);
-        }
+        let mut m = OccupancyGrid::walled(g);
         for (x0, y0, w, h) in [(40, 30, 10, 6), (120, 100, 6, 14), (150, 30, 20, 4)] {
             for x in x0..x0 + w {
                 for y in y0..y0 + h {

@@ -223,12 +223,7 @@ mod tests {
     /// A 6 m × 6 m room with walls, and a lidar at its centre with 360 beams.
     fn room() -> (DistanceField, impl Fn(Pose2) -> LaserScan) {
         let g = GridGeometry::new(120, 120, 0.05, Pose2::new(-3.0, -3.0, 0.0)).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for k in 0..120 {
-            for c in [CellCoord::new(k, 0), CellCoord::new(k, 119), CellCoord::new(0, k), CellCoord::new(119, k)] {
-                m.set(c, CellState::Occupied);
-            }
-        }
+        let mut m = OccupancyGrid::walled(g);
         // An L-shaped item so that no shift is ambiguous.
         for k in 20..50 {
             m.set(CellCoord::new(k, 30), CellState::Occupied);

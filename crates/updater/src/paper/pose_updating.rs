@@ -460,15 +460,7 @@ mod tests {
 
     fn room() -> OccupancyGrid {
         let g = GridGeometry::new(160, 100, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for x in 0..160 {
-            m.set(CellCoord::new(x, 0), CellState::Occupied);
-            m.set(CellCoord::new(x, 99), CellState::Occupied);
-        }
-        for y in 0..100 {
-            m.set(CellCoord::new(0, y), CellState::Occupied);
-            m.set(CellCoord::new(159, y), CellState::Occupied);
-        }
+        let mut m = OccupancyGrid::walled(g);
         // Asymmetric furniture.
         for x in 40..52 {
             for y in 70..99 {

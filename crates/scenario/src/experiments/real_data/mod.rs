@@ -224,7 +224,8 @@ pub fn run_real_data(datasets: &[Dataset], params: &RealDataParams) -> Result<Ve
     datasets.iter().map(|d| run_dataset(d, params)).collect()
 }
 
-fn invalid(name: &str, e: impl std::fmt::Display) -> ExperimentError {
+/// An error of one dataset (or preset) of the experiment, named.
+fn dataset_error(name: &str, e: impl std::fmt::Display) -> ExperimentError {
     ExperimentError::Invalid(format!("{name}: {e}"))
 }
 
@@ -237,10 +238,10 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
         (probe.truth().to_vec(), probe.odometry().to_vec())
     };
     if truth.is_empty() {
-        return Err(invalid(&d.name, "the log has no reference poses (truth records)"));
+        return Err(dataset_error(&d.name, "the log has no reference poses (truth records)"));
     }
     let map_options = ReplayOptions { max_truth_gap_ns: MAP_POSE_GAP_NS, ..replay };
-    let map = map_log(source(map_options), None, &params.mapper).map_err(|e| invalid(&d.name, e))?.map;
+    let map = map_log(source(map_options), None, &params.mapper).map_err(|e| dataset_error(&d.name, e))?.map;
     let mut scan_stamps: Vec<u64> = d.log.scans().map(|s| s.stamp_ns).collect();
     scan_stamps.sort_unstable();
     scan_stamps.dedup();
@@ -262,8 +263,8 @@ fn run_dataset(d: &Dataset, params: &RealDataParams) -> Result<DatasetResult, Ex
             estimates: Vec::new(),
         };
         for (k, &seed) in params.seeds.iter().enumerate() {
-            let (run, _) =
-                localise_log(source(replay), &map, c.params, None, seed, &mut []).map_err(|e| invalid(&d.name, e))?;
+            let (run, _) = localise_log(source(replay), &map, c.params, None, seed, &mut [])
+                .map_err(|e| dataset_error(&d.name, e))?;
             let (error, series) = error_stats(&run.estimates, &truth);
             if k == 0 {
                 (r.series, r.estimates) = (series, run.estimates);
@@ -312,7 +313,7 @@ fn run_updaters(
     };
     let mut updaters = Vec::new();
     for preset in &params.updater_presets {
-        let up = UpdaterParams::preset(preset).map_err(|e| invalid(&d.name, e))?;
+        let up = UpdaterParams::preset(preset).map_err(|e| dataset_error(&d.name, e))?;
         let mut inputs = vec![("reference".to_string(), PoseInput::LoggedTruth)];
         if let Some((name, track)) = &estimate {
             inputs.push((name.clone(), PoseInput::Track(track.clone())));
@@ -321,12 +322,12 @@ fn run_updaters(
         for (poses, input) in inputs {
             let source = LogSource::new(d.log.clone(), d.source.clone(), options);
             let r = update_log(source, map.clone(), up.clone(), input, &NoClock, &mut [])
-                .map_err(|e| invalid(&d.name, e))?;
+                .map_err(|e| dataset_error(&d.name, e))?;
             let mut result = updater_result(preset, &poses, map, r.map, &r.stats)?;
             match (&reference_run, &result.map) {
                 (Some(reference), Some(after)) => {
                     result.same_as_reference =
-                        Some(same_changes(map, reference, after).map_err(|e| invalid(&d.name, e))?)
+                        Some(same_changes(map, reference, after).map_err(|e| dataset_error(&d.name, e))?)
                 }
                 (None, Some(after)) => reference_run = Some(after.clone()),
                 _ => {}
@@ -345,7 +346,7 @@ fn updater_result(
     stats: &mapkeeper_updater::UpdaterStats,
 ) -> Result<UpdaterResult, ExperimentError> {
     use mapkeeper_grid::CellState::{Free, Occupied};
-    let diff = before.diff(&after).map_err(|e| invalid(preset, e))?;
+    let diff = before.diff(&after).map_err(|e| dataset_error(preset, e))?;
     let to_occupied = diff.iter().filter(|(_, _, b)| *b == Occupied).count();
     let to_free = diff.iter().filter(|(_, _, b)| *b == Free).count();
     Ok(UpdaterResult {
