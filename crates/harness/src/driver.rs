@@ -2,14 +2,14 @@
 //! give the frame to the session, show the step and the report to the observers.
 
 use crate::HarnessError;
-use crate::session::{Session, StepReport};
+use crate::session::{Session, SessionStep};
 use crate::source::{RobotControl, SensorSource, Step};
 
 /// Something that watches a run: statistics, timelines, recorders. It sees the truth and the
 /// session (read-only: the maps, the particles), and it cannot act on the run, by type.
 pub trait Observer {
     /// Called once per step, after the session processed it and before the controls react.
-    fn on_step(&mut self, step: &Step, report: &StepReport, session: &Session<'_>);
+    fn on_step(&mut self, step: &Step, report: &SessionStep, session: &Session<'_>);
 }
 
 /// What an experiment does to a run: bias the estimate, stop or move the robot, recover.
@@ -30,7 +30,7 @@ pub trait Control {
     fn after_step(
         &mut self,
         _step: &Step,
-        _report: &StepReport,
+        _report: &SessionStep,
         _session: &mut Session<'_>,
         _robot: Option<&mut dyn RobotControl>,
     ) -> Result<(), HarnessError> {

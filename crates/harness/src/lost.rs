@@ -4,7 +4,7 @@
 //! simulated runs and the replay of a recorded log (`update_log` with the localiser) use the
 //! same policy; a replayed log has no robot to stop.
 
-use crate::{Control, HarnessError, RobotControl, Session, Step, StepReport};
+use crate::{Control, HarnessError, RobotControl, Session, SessionStep, Step};
 use mapkeeper_grid::Pose2;
 use mapkeeper_localiser::Covariance3;
 use mapkeeper_updater::{PoseRecovery, Verdict};
@@ -189,7 +189,7 @@ impl Control for LostPolicy {
     fn after_step(
         &mut self,
         step: &Step,
-        report: &StepReport,
+        report: &SessionStep,
         session: &mut Session<'_>,
         robot: Option<&mut dyn RobotControl>,
     ) -> Result<(), HarnessError> {

@@ -6,7 +6,7 @@
 
 use crate::HarnessError;
 use crate::driver::Observer;
-use crate::session::{Session, StepReport};
+use crate::session::{Session, SessionStep};
 use crate::source::Step;
 use mapkeeper_grid::{CellState, ChangeKind, OccupancyGrid};
 use mapkeeper_logs::{
@@ -55,7 +55,7 @@ impl McapRecorder {
         })
     }
 
-    fn record(&mut self, step: &Step, report: &StepReport, session: &Session<'_>) -> Result<(), McapWriteError> {
+    fn record(&mut self, step: &Step, report: &SessionStep, session: &Session<'_>) -> Result<(), McapWriteError> {
         let Some(w) = self.writer.as_mut() else { return Ok(()) };
         let t = step.frame.stamp_ns;
         self.last_stamp_ns = t;
@@ -172,7 +172,7 @@ fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
 }
 
 impl Observer for McapRecorder {
-    fn on_step(&mut self, step: &Step, report: &StepReport, session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, session: &Session<'_>) {
         if self.error.is_none()
             && let Err(e) = self.record(step, report, session)
         {

@@ -3,7 +3,7 @@
 //! only: they read the truth, the estimators never do.
 
 use crate::driver::Observer;
-use crate::session::{BaselineSample, StepReport};
+use crate::session::{BaselineSample, SessionStep};
 use crate::source::Step;
 use mapkeeper_grid::{Pose2, angle_diff};
 use mapkeeper_localiser::Estimate;
@@ -158,7 +158,7 @@ impl LocScore {
 }
 
 impl Observer for LocScore {
-    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &crate::Session<'_>) {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &crate::Session<'_>) {
         let Some(truth) = step.truth else { return };
         let stamp_ns = step.frame.stamp_ns;
         self.truth.push(StampedPose { stamp_ns, pose: truth.pose_in_map });
@@ -191,7 +191,7 @@ pub struct UpdaterWork {
 }
 
 impl Observer for UpdaterWork {
-    fn on_step(&mut self, _step: &Step, report: &StepReport, _session: &crate::Session<'_>) {
+    fn on_step(&mut self, _step: &Step, report: &SessionStep, _session: &crate::Session<'_>) {
         let Some(u) = report.updater.as_ref().filter(|u| u.outcome == StepOutcome::Processed) else { return };
         self.beams += u.n_valid as u64;
         if let Some(ns) = report.updater_ns {

@@ -36,7 +36,7 @@ pub enum Skip {
 
 /// What the session did with one frame.
 #[derive(Clone, Debug, PartialEq)]
-pub struct StepReport {
+pub struct SessionStep {
     /// The frame's stamp, nanoseconds.
     pub stamp_ns: u64,
     /// The robot pose the updater was given (the localiser's estimate after this frame, the
@@ -57,7 +57,7 @@ pub struct StepReport {
     pub skipped: Option<Skip>,
 }
 
-impl StepReport {
+impl SessionStep {
     fn skipped(stamp_ns: u64, why: Skip) -> Self {
         Self {
             stamp_ns,
@@ -227,7 +227,7 @@ impl<'c> Session<'c> {
         Some(SensorFrame { stamp_ns: frame.stamp_ns, odometry: frame.odometry, scans })
     }
 
-    /// From the next step on, the pose the updater is given (and [`StepReport::pose_in_map`])
+    /// From the next step on, the pose the updater is given (and [`SessionStep::pose_in_map`])
     /// is the pose source's pose moved by `bias`; `None` removes it. The localiser itself is
     /// not touched. [`Session::set_estimate`] removes the bias (the estimate is re-initialised).
     pub fn set_pose_bias(&mut self, bias: Option<PoseBias>) {
@@ -241,7 +241,7 @@ impl<'c> Session<'c> {
 
     /// An experiment's oracle: on the next step (the next [`Session::process`], which consumes
     /// it) the updater is given `pose_in_map` instead of the pose source's pose, and
-    /// [`StepReport::pose_in_map`] is that pose (moved by the pose bias, if one is in force).
+    /// [`SessionStep::pose_in_map`] is that pose (moved by the pose bias, if one is in force).
     /// The pose source is stepped as usual: the chain localiser runs on untouched, and a step
     /// it skips (no odometry) discards the override. With [`PoseSource::None`] the updater is
     /// given the override. Only an experiment control that sees the truth sets it (e.g. an
@@ -258,7 +258,7 @@ impl<'c> Session<'c> {
     /// Steps every estimator with one frame: the pose source first, then the updater with
     /// that pose (or the override, [`Session::set_updater_pose_override`]; and the frame's
     /// odometry, or the pose where there is none), then the baseline.
-    pub fn process(&mut self, frame: &SensorFrame) -> StepReport {
+    pub fn process(&mut self, frame: &SensorFrame) -> SessionStep {
         let before = self.last_odometry;
         if let Some(o) = frame.odometry {
             self.last_odometry = Some((frame.stamp_ns, o));
@@ -269,14 +269,14 @@ impl<'c> Session<'c> {
         let (pose, localiser) = match &mut self.pose {
             PoseSource::Localiser(loc) => {
                 let Some(odometry) = frame.odometry else {
-                    return StepReport::skipped(frame.stamp_ns, Skip::NoOdometry);
+                    return SessionStep::skipped(frame.stamp_ns, Skip::NoOdometry);
                 };
                 let r = loc.update(odometry, &frame.scans);
                 (Some(r.estimate.pose_in_map), Some(r))
             }
             PoseSource::Track(track) => match interpolate(track, frame.stamp_ns) {
                 Some(p) => (Some(p), None),
-                None => return StepReport::skipped(frame.stamp_ns, Skip::NoPose),
+                None => return SessionStep::skipped(frame.stamp_ns, Skip::NoPose),
             },
             PoseSource::None => (None, None),
         };
@@ -308,7 +308,7 @@ impl<'c> Session<'c> {
         if let Some(b) = self.baseline.as_mut() {
             b.feed(frame);
         }
-        StepReport {
+        SessionStep {
             stamp_ns: frame.stamp_ns,
             pose_in_map: pose,
             localiser,

@@ -8,7 +8,7 @@ use mapkeeper_harness::jobs::localise::{InitFrom, localise_log};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
 use mapkeeper_harness::{
     Control, HarnessError, LogSource, NoClock, Observer, OdometryAt, PoseSource, ReplayOptions, RobotControl,
-    SensorSource, Session, Step, StepReport, run,
+    SensorSource, Session, SessionStep, Step, run,
 };
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, TruePose};
@@ -106,7 +106,7 @@ impl Control for Trace<'_> {
     fn after_step(
         &mut self,
         s: &Step,
-        _: &StepReport,
+        _: &SessionStep,
         _: &mut Session<'_>,
         _: Option<&mut dyn RobotControl>,
     ) -> Result<(), HarnessError> {
@@ -116,7 +116,7 @@ impl Control for Trace<'_> {
 }
 
 impl Observer for Trace<'_> {
-    fn on_step(&mut self, s: &Step, _: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, s: &Step, _: &SessionStep, _session: &Session<'_>) {
         self.0.borrow_mut().push(format!("{} observe {}", self.1, s.frame.stamp_ns));
     }
 }

@@ -4,7 +4,7 @@
 
 use mapkeeper_grid::Pose2;
 use mapkeeper_harness::{
-    Control, NoClock, Observer, PoseSource, RobotControl, SensorSource, Session, SourceError, Step, StepReport, Truth,
+    Control, NoClock, Observer, PoseSource, RobotControl, SensorSource, Session, SessionStep, SourceError, Step, Truth,
 };
 use mapkeeper_localiser::{FilterParams, Localiser};
 use mapkeeper_scenario::{GeneratorParams, LostPolicy, SimSource, ValidationParams, generate_worlds};
@@ -40,7 +40,7 @@ impl<S: SensorSource> SensorSource for GarbageTruth<S> {
 struct Estimates(Vec<String>);
 
 impl Observer for Estimates {
-    fn on_step(&mut self, _step: &Step, r: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, _step: &Step, r: &SessionStep, _session: &Session<'_>) {
         let u =
             r.updater.as_ref().map(|u| (u.outcome, u.verdict, u.n_dc, u.changed_cells.len(), u.pose_recovery.clone()));
         self.0.push(format!(

@@ -3,7 +3,7 @@
 
 use crate::driver::Observer;
 use crate::replay::LogSource;
-use crate::session::{PoseSource, Session, StepReport};
+use crate::session::{PoseSource, Session, SessionStep};
 use crate::source::Step;
 use crate::{HarnessError, NoClock};
 use mapkeeper_grid::{OccupancyGrid, Pose2, angle_diff};
@@ -70,7 +70,7 @@ struct Recorder {
 }
 
 impl Observer for Recorder {
-    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let Some(r) = report.localiser else {
             self.run.no_odometry += 1;
             return;

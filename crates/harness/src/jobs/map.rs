@@ -6,7 +6,7 @@ use crate::HarnessError;
 use crate::NoClock;
 use crate::driver::Observer;
 use crate::replay::LogSource;
-use crate::session::{PoseSource, Session, StepReport};
+use crate::session::{PoseSource, Session, SessionStep};
 use crate::source::Step;
 use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
@@ -113,7 +113,7 @@ impl EstimateMapper {
 }
 
 impl Observer for EstimateMapper {
-    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let Some(pose) = report.pose_in_map else { return };
         self.steps += 1;
         if !self.steps.is_multiple_of(self.stride) {
@@ -169,7 +169,7 @@ impl TruthMapper {
 }
 
 impl Observer for TruthMapper {
-    fn on_step(&mut self, step: &Step, _report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, _report: &SessionStep, _session: &Session<'_>) {
         let Some(truth) = step.truth else { return };
         let now = (step.frame.stamp_ns, truth.pose_in_map);
         let before = self.last_truth.replace(now);
@@ -193,7 +193,7 @@ struct Placer {
 }
 
 impl Observer for Placer {
-    fn on_step(&mut self, step: &Step, _report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, _report: &SessionStep, _session: &Session<'_>) {
         match step.truth {
             Some(t) => {
                 self.placed.extend(step.frame.scans.iter().map(|s| (s.clone(), s.lidar_in_map(&t.pose_in_map))));
@@ -321,8 +321,8 @@ mod tests {
         }
     }
 
-    fn report(pose: Option<Pose2>) -> StepReport {
-        StepReport {
+    fn report(pose: Option<Pose2>) -> SessionStep {
+        SessionStep {
             stamp_ns: 0,
             pose_in_map: pose,
             localiser: None,

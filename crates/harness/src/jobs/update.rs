@@ -6,7 +6,7 @@ use crate::clock::Clock;
 use crate::driver::{Control, Observer};
 use crate::lost::{DEFAULT_LOST_WAIT_S, LostCounts, LostEpisode, LostPolicy};
 use crate::replay::LogSource;
-use crate::session::{PoseSource, Session, StepReport};
+use crate::session::{PoseSource, Session, SessionStep};
 use crate::source::Step;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_localiser::{FilterParams, Localiser};
@@ -105,7 +105,7 @@ impl Rows {
 }
 
 impl Observer for Rows {
-    fn on_step(&mut self, _step: &Step, report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, _step: &Step, report: &SessionStep, _session: &Session<'_>) {
         if let Some(pose) = report.pose_in_map {
             self.poses.push(StampedPose { stamp_ns: report.stamp_ns, pose });
         }

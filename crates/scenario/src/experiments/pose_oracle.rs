@@ -27,7 +27,7 @@
 
 use crate::experiments::ExperimentError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
-use mapkeeper_harness::{Control, HarnessError, Observer, RobotControl, Session, Step, StepReport};
+use mapkeeper_harness::{Control, HarnessError, Observer, RobotControl, Session, SessionStep, Step};
 use mapkeeper_sim::seeds::stream_rng;
 use rand::rngs::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -294,7 +294,7 @@ impl GivenPoseStats {
     }
 }
 
-/// Scores the pose the updater was given (`StepReport::pose_in_map` of the steps with an
+/// Scores the pose the updater was given (`SessionStep::pose_in_map` of the steps with an
 /// updater call) against the truth.
 #[derive(Clone, Debug, Default)]
 pub struct GivenPoseError {
@@ -318,7 +318,7 @@ impl GivenPoseError {
 }
 
 impl Observer for GivenPoseError {
-    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let (Some(pose), Some(truth), Some(_)) = (report.pose_in_map, step.truth, report.updater.as_ref()) else {
             return;
         };

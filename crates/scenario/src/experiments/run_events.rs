@@ -7,7 +7,7 @@
 use crate::experiments::ExperimentError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
 pub use mapkeeper_harness::lost::{LostCounts, LostEnd, LostEpisode, LostPolicy};
-use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, Step, StepReport};
+use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, SessionStep, Step};
 use mapkeeper_updater::{PoseRecovery, Verdict};
 use serde::{Deserialize, Serialize};
 
@@ -218,7 +218,7 @@ impl Control for KidnapControl {
     fn after_step(
         &mut self,
         step: &Step,
-        report: &StepReport,
+        report: &SessionStep,
         _session: &mut Session<'_>,
         _robot: Option<&mut dyn RobotControl>,
     ) -> Result<(), HarnessError> {
@@ -367,7 +367,7 @@ pub struct TimelineRecorder {
 }
 
 impl Observer for TimelineRecorder {
-    fn on_step(&mut self, step: &Step, report: &StepReport, _session: &Session<'_>) {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let (Some(u), Some(pose), Some(truth)) = (report.updater.as_ref(), report.pose_in_map, step.truth) else {
             return;
         };
