@@ -415,7 +415,7 @@ for name, data in {
     "unknown_field.json": edited(set_path(["bogus"], 1)),
     "summary_disagrees.json": pair(runs, {**summary, "rows": summary["rows"] + 1}),
     "summary_not_json.json": pair(runs, b"{\"tool\": "),
-    "not_json.json": b'{"format": "mapkeeper-validation-runs", "format_version": 2,\n  "seeds": [\n',
+    "not_json.json": b'{"format": "mapkeeper-validation-runs", "format_version": 3,\n  "seeds": [\n',
     "empty.json": b"",
 }.items():
     write("merge_json", name, data)

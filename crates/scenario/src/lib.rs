@@ -32,8 +32,8 @@ pub use experiments::run_events::{
     TimelineSample, TrackSample,
 };
 pub use experiments::runner::{
-    Clock, ErrorSample, LocStats, NoClock, RunInputs, RunnerParams, Trajectories, UpdaterCounts, WorldRun, run_world,
-    run_world_with,
+    Clock, ErrorSample, LocStats, NoClock, RunInputs, RunOptions, RunnerParams, Trajectories, UpdaterCounts, WorldRun,
+    run_world, run_world_with,
 };
 pub use experiments::validation::sweep::{SweepPlan, SweepSpec};
 pub use experiments::validation::{

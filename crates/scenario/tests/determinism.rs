@@ -37,7 +37,7 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
     assert_eq!(worlds_csv(&records(&a)), worlds_csv(&records(&b)));
     // The simulator run ahead of the estimators on a thread of its own: the same seeds.
     let mut pa = params();
-    pa.runner.simulate_ahead = true;
+    pa.runner.run.simulate_ahead = true;
     let c: Vec<SeedRun> = [5, 6].iter().map(|&s| run_seed(&pa, s, &NoClock, &|_| {}).expect("run")).collect();
     assert_eq!(summary_json(&summarise(&pa, &c, 0.0)).unwrap(), summary_json(&sa).unwrap());
     assert_eq!(worlds_csv(&records(&c)), worlds_csv(&records(&a)));
@@ -78,7 +78,7 @@ fn baseline_on_its_own_thread_gives_the_same_run() {
     let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
     let mut p = RunnerParams { record_trajectories: true, ..RunnerParams::default() };
     let a = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
-    p.parallel_baseline = false;
+    p.run.parallel_baseline = false;
     let b = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
     assert_eq!(a, b);
     assert!(a.baseline.updates > 0);

@@ -3,7 +3,7 @@
 //! every episode, attempt, recovery, give-up and the time stopped are counted.
 
 use mapkeeper_scenario::experiments::setup::tour_from;
-use mapkeeper_scenario::{Kidnap, LostEnd, NoClock, RunInputs, RunnerParams, WorldRun, run_world};
+use mapkeeper_scenario::{Kidnap, LostEnd, NoClock, RunInputs, RunOptions, RunnerParams, WorldRun, run_world};
 use mapkeeper_sim::{StartPose, World, ground_truth_map};
 
 /// A run of 14 s down the west aisle on the world's own map, the estimate kidnapped by
@@ -27,7 +27,7 @@ fn kidnapped_run_with(dx_m: f64, dy_m: f64, refuse: bool, ahead: bool) -> (World
         max_sim_time_s: 14.0,
         kidnap: Some(kidnap),
         record_trajectories: true,
-        simulate_ahead: ahead,
+        run: RunOptions { simulate_ahead: ahead, ..RunOptions::default() },
         ..RunnerParams::default()
     };
     if refuse {

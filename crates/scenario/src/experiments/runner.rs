@@ -69,15 +69,10 @@ pub struct RunnerParams {
     pub max_sim_time_s: f64,
     /// Record the true, chain and baseline trajectories (at every scan tick). Default false.
     pub record_trajectories: bool,
-    /// Run the baseline localiser on a thread of its own (same results, shorter wall time).
-    /// Default true.
-    pub parallel_baseline: bool,
-    /// Run the simulator on a thread of its own, ahead of the estimators (same results bit for
-    /// bit, [`crate::sim_source::AheadSource`]; shorter wall time when a core is free, a little
-    /// more CPU for the copies it keeps). Not part of the parameter files (how a run is
-    /// executed, not what it computes). Default false.
+    /// How the run is executed, not what it computes ([`RunOptions`]): never read from a
+    /// parameter file, never written with the parameters, not in a checkpoint's fingerprint.
     #[serde(skip)]
-    pub simulate_ahead: bool,
+    pub run: RunOptions,
     /// Displace the chain localiser's estimate once during the run (a kidnapping of the
     /// estimate; the robot keeps driving). Default none.
     pub kidnap: Option<Kidnap>,
@@ -109,6 +104,25 @@ pub struct RunnerParams {
     /// (`mapkeeper_harness::Session::set_deskew`). Default true (written only when false).
     #[serde(default = "deskew_default", skip_serializing_if = "is_deskew_default")]
     pub deskew: bool,
+}
+
+/// How a run is executed, apart from what it computes ([`RunnerParams`]): no option changes a
+/// bit of any output, only the threads the run uses (tests: `determinism.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Run the baseline localiser on a thread of its own, fed the same frames in the same
+    /// order (shorter wall time). Default true.
+    pub parallel_baseline: bool,
+    /// Run the simulator on a thread of its own, ahead of the estimators
+    /// ([`crate::sim_source::AheadSource`]; shorter wall time when a core is free, a little
+    /// more CPU for the copies it keeps). Default false.
+    pub simulate_ahead: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self { parallel_baseline: true, simulate_ahead: false }
+    }
 }
 
 fn deskew_default() -> bool {
@@ -146,8 +160,7 @@ impl Default for RunnerParams {
             lost_wait_s: mapkeeper_harness::DEFAULT_LOST_WAIT_S,
             max_sim_time_s: 300.0,
             record_trajectories: false,
-            parallel_baseline: true,
-            simulate_ahead: false,
+            run: RunOptions::default(),
             kidnap: None,
             record_timeline: false,
             fresh_map: None,
@@ -350,7 +363,7 @@ pub struct RunInputs<'a> {
 
 /// Runs one world. All random streams derive from `seed` and `label` (e.g. `"W007"`); the
 /// updater's time per processed scan is read from `clock`. With
-/// [`RunnerParams::parallel_baseline`] the baseline localiser runs on its own thread, fed the
+/// [`RunOptions::parallel_baseline`] the baseline localiser runs on its own thread, fed the
 /// same scan ticks in the same order, so the results are the same either way.
 pub fn run_world(
     inputs: &RunInputs<'_>,
@@ -376,7 +389,7 @@ fn baseline(
     }
     let mut b = Localiser::new(baseline_map, params.filter, stream_seed(seed, &format!("baseline/{label}")))?;
     b.init_pose(start_est, cov)?;
-    Ok(Some(if params.parallel_baseline { Baseline::threaded(b) } else { Baseline::inline(b) }))
+    Ok(Some(if params.run.parallel_baseline { Baseline::threaded(b) } else { Baseline::inline(b) }))
 }
 
 /// The run's updater on M_{i-1} with its memory, if the run has one.
@@ -425,7 +438,7 @@ pub fn run_world_with(
     let updater = updater(params, prev_map, prev_memory)?;
     let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
     session.set_deskew(params.deskew);
-    let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), params.simulate_ahead);
+    let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), params.run.simulate_ahead);
     let mut score = LocScore::new(params.record_trajectories);
     let mut work = UpdaterWork::default();
     let mut timeline = TimelineRecorder::default();

@@ -45,7 +45,7 @@ pub(super) fn simulate_ahead_if_cores_free(
 ) -> rayon::ThreadPool {
     let ahead = runs < pool.current_num_threads();
     for p in &mut plan.params {
-        p.runner.simulate_ahead = ahead;
+        p.runner.run.simulate_ahead = ahead;
     }
     pool
 }

@@ -260,7 +260,6 @@ impl Default for RecoveryParams {
             start_error_m: 0.0,
             start_error_yaw_rad: 0.0,
             run_baseline: false,
-            parallel_baseline: false,
             ..RunnerParams::default()
         };
         Self {

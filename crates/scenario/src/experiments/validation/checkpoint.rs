@@ -17,8 +17,10 @@ use std::path::{Path, PathBuf};
 
 /// Version of the checkpoint files; other versions are refused. 2: world rows carry structure
 /// retention and change classes; a version-1 checkpoint would resume without them, and the
-/// resumed outputs would differ from an uninterrupted run's.
-const FORMAT: u32 = 2;
+/// resumed outputs would differ from an uninterrupted run's. 3: the fingerprint's parameters no
+/// longer hold `runner.parallel_baseline` (a [`crate::RunOptions`]); a version-2 checkpoint
+/// would be refused as another run's instead of as an older one.
+const FORMAT: u32 = 3;
 
 /// What computed a job: compared field for field before a checkpoint is used.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -42,16 +44,14 @@ struct JobFile {
     run: SeedRun,
 }
 
+/// What a checkpoint must match: the serialised parameters (how the run is executed,
+/// [`crate::RunOptions`], is not among them), the world, the seed.
 fn fingerprint(params: &ValidationParams, seed: u64) -> Result<Fingerprint, ExperimentError> {
-    let mut p = params.clone();
-    // How the run is executed, not what it computes.
-    p.runner.simulate_ahead = false;
-    p.runner.parallel_baseline = true;
-    let params = serde_json::to_value(&p).map_err(|e| ExperimentError::Invalid(format!("parameters: {e}")))?;
-    let world = match &p.world_data {
+    let world = match &params.world_data {
         Some(w) => format!("{:016x}", mapkeeper_sim::seeds::fnv1a64(w.to_toml_string()?.as_bytes())),
         None => "default".to_string(),
     };
+    let params = serde_json::to_value(params).map_err(|e| ExperimentError::Invalid(format!("parameters: {e}")))?;
     Ok(Fingerprint { params, world, seed })
 }
 

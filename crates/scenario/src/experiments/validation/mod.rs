@@ -470,8 +470,9 @@ impl std::str::FromStr for Shard {
 
 /// Value of `runs.json`'s `format` field.
 pub const RUNS_FORMAT: &str = "mapkeeper-validation-runs";
-/// Version of the `runs.json` layout.
-pub const RUNS_FORMAT_VERSION: u32 = 2;
+/// Version of the `runs.json` layout (3: `params.runner.parallel_baseline` left the parameters
+/// for [`crate::RunOptions`], how a run is executed).
+pub const RUNS_FORMAT_VERSION: u32 = 3;
 
 /// `runs.json`: the machine-readable record of a validation folder, from which `summary.json`,
 /// `worlds.csv`, `edits.json`, `report.md` and the plots are recomputed exactly (what
