@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 
 /// What a result says of a claim.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Verdict {
+pub enum ClaimVerdict {
     /// The result agrees with the claim.
     Reproduced,
     /// The result contradicts it.
@@ -19,14 +19,14 @@ pub enum Verdict {
     Inconclusive,
 }
 
-impl Verdict {
+impl ClaimVerdict {
     /// The word in the table.
     pub fn name(self) -> &'static str {
         match self {
-            Verdict::Reproduced => "reproduced",
-            Verdict::NotReproduced => "not reproduced",
-            Verdict::Differs => "differs",
-            Verdict::Inconclusive => "inconclusive",
+            ClaimVerdict::Reproduced => "reproduced",
+            ClaimVerdict::NotReproduced => "not reproduced",
+            ClaimVerdict::Differs => "differs",
+            ClaimVerdict::Inconclusive => "inconclusive",
         }
     }
 }
@@ -39,7 +39,7 @@ pub struct Claim {
     /// The measured result.
     pub result: String,
     /// The verdict.
-    pub verdict: Verdict,
+    pub verdict: ClaimVerdict,
     /// Why this verdict (the rule applied).
     pub why: String,
 }
@@ -61,43 +61,46 @@ pub fn sign_by_interval(ci: Option<[f64; 2]>) -> Option<i8> {
 /// The verdict on "B is better than A" from the paired difference B − A (positive = better) and
 /// its interval, and whether the paper also claims "in every world/trial" (`share` of units where
 /// B was better, checked when `every` is set).
-pub fn better_verdict(mean: f64, ci: Option<[f64; 2]>, share: Option<f64>, every: bool) -> (Verdict, String) {
+pub fn better_verdict(mean: f64, ci: Option<[f64; 2]>, share: Option<f64>, every: bool) -> (ClaimVerdict, String) {
     let every_met = share.is_none_or(|s| s >= 1.0);
     match sign_by_interval(ci) {
         Some(1) if !every || every_met => {
-            (Verdict::Reproduced, "the 95 % interval of the difference lies above 0".into())
+            (ClaimVerdict::Reproduced, "the 95 % interval of the difference lies above 0".into())
         }
         Some(1) => (
-            Verdict::Differs,
+            ClaimVerdict::Differs,
             format!(
                 "better on average (interval above 0) but not in every world ({:.0} %)",
                 100.0 * share.unwrap_or(0.0)
             ),
         ),
-        Some(-1) => (Verdict::NotReproduced, "the 95 % interval lies below 0: worse, not better".into()),
+        Some(-1) => (ClaimVerdict::NotReproduced, "the 95 % interval lies below 0: worse, not better".into()),
         Some(_) if mean > 0.0 && share.is_some_and(|s| s >= 1.0) => (
-            Verdict::Inconclusive,
+            ClaimVerdict::Inconclusive,
             "better in every unit of this run, but the 95 % interval spans 0: more seeds needed".into(),
         ),
-        Some(_) => (Verdict::NotReproduced, "the 95 % interval spans 0: no difference shown".into()),
+        Some(_) => (ClaimVerdict::NotReproduced, "the 95 % interval spans 0: no difference shown".into()),
         None if mean > 0.0 && every && every_met => {
-            (Verdict::Reproduced, "better in every world (one seed: no interval)".into())
+            (ClaimVerdict::Reproduced, "better in every world (one seed: no interval)".into())
         }
         None if mean < 0.0 && share.is_some_and(|s| s == 0.0) => {
-            (Verdict::NotReproduced, "worse in every world (one seed: no interval)".into())
+            (ClaimVerdict::NotReproduced, "worse in every world (one seed: no interval)".into())
         }
-        None => (Verdict::Inconclusive, "one seed gives no interval: run with --seeds 3 or more".into()),
+        None => (ClaimVerdict::Inconclusive, "one seed gives no interval: run with --seeds 3 or more".into()),
     }
 }
 
 /// A rate against a target the paper does not state: reproduced at or above `good`, differs
 /// from `fair` up, not reproduced below.
-pub fn rate_verdict(rate: f64, good: f64, fair: f64, what: &str) -> (Verdict, String) {
+pub fn rate_verdict(rate: f64, good: f64, fair: f64, what: &str) -> (ClaimVerdict, String) {
     if rate >= good {
-        (Verdict::Reproduced, format!("{what} {:.1} % ≥ {:.0} % (the project's threshold)", 100.0 * rate, 100.0 * good))
+        (
+            ClaimVerdict::Reproduced,
+            format!("{what} {:.1} % ≥ {:.0} % (the project's threshold)", 100.0 * rate, 100.0 * good),
+        )
     } else if rate >= fair {
         (
-            Verdict::Differs,
+            ClaimVerdict::Differs,
             format!(
                 "{what} {:.1} %: between {:.0} % and {:.0} % (the project's thresholds)",
                 100.0 * rate,
@@ -107,7 +110,7 @@ pub fn rate_verdict(rate: f64, good: f64, fair: f64, what: &str) -> (Verdict, St
         )
     } else {
         (
-            Verdict::NotReproduced,
+            ClaimVerdict::NotReproduced,
             format!("{what} {:.1} % < {:.0} % (the project's threshold)", 100.0 * rate, 100.0 * fair),
         )
     }
@@ -129,13 +132,13 @@ the rule in its last column (`crates/scenario/src/results/claims.rs`).\n\n| clai
 
 /// Several verdicts on the parts of one claim (e.g. three metrics) as one: all reproduced →
 /// reproduced; none → the first part's; else differs.
-fn combine(parts: &[Verdict]) -> Verdict {
-    if parts.iter().all(|v| *v == Verdict::Reproduced) {
-        Verdict::Reproduced
-    } else if parts.iter().all(|v| *v != Verdict::Reproduced) {
-        parts.first().copied().unwrap_or(Verdict::Inconclusive)
+fn combine(parts: &[ClaimVerdict]) -> ClaimVerdict {
+    if parts.iter().all(|v| *v == ClaimVerdict::Reproduced) {
+        ClaimVerdict::Reproduced
+    } else if parts.iter().all(|v| *v != ClaimVerdict::Reproduced) {
+        parts.first().copied().unwrap_or(ClaimVerdict::Inconclusive)
     } else {
-        Verdict::Differs
+        ClaimVerdict::Differs
     }
 }
 
@@ -187,11 +190,11 @@ pub fn validation_claims(s: &crate::experiments::validation::Summary) -> Vec<Cla
         let alarms = h.suspend_share + h.lost_share;
         let (verdict, why) = if h.stuck_worlds > 0 || alarms > 0.05 {
             (
-                Verdict::Reproduced,
+                ClaimVerdict::Reproduced,
                 "the check held back a well-localised robot (stuck worlds, or > 5 % Suspend/Lost)".into(),
             )
         } else {
-            (Verdict::Differs, "the limit did not show: no stuck world and ≤ 5 % Suspend/Lost".into())
+            (ClaimVerdict::Differs, "the limit did not show: no stuck world and ≤ 5 % Suspend/Lost".into())
         };
         claims.push(Claim {
             claim: format!(
@@ -269,14 +272,14 @@ pub fn check_detection_claims(s: &crate::experiments::check_detection::CheckDete
         });
         let fa = d.false_alarm_rate;
         let (verdict, why) = if fa <= 0.01 {
-            (Verdict::Reproduced, format!("false alarms {:.2} % ≤ 1 % (the project's threshold)", 100.0 * fa))
+            (ClaimVerdict::Reproduced, format!("false alarms {:.2} % ≤ 1 % (the project's threshold)", 100.0 * fa))
         } else if fa <= 0.05 {
             (
-                Verdict::Differs,
+                ClaimVerdict::Differs,
                 format!("false alarms {:.2} %: between 1 % and 5 % (the project's thresholds)", 100.0 * fa),
             )
         } else {
-            (Verdict::NotReproduced, format!("false alarms {:.2} % > 5 % (the project's threshold)", 100.0 * fa))
+            (ClaimVerdict::NotReproduced, format!("false alarms {:.2} % > 5 % (the project's threshold)", 100.0 * fa))
         };
         claims.push(Claim {
             claim: format!("§4.2, §5.3: a well-localised robot keeps updating (no Suspend/Lost on right poses, ≤ 0.05 m); preset `{preset}`"),
@@ -308,11 +311,11 @@ pub fn kidnap_claims(k: &crate::experiments::kidnap_robot::KidnapRobotSummary) -
     }];
     let fl = k.false_lost_well_localised_rate;
     let (verdict, why) = if fl <= 0.01 {
-        (Verdict::Reproduced, format!("{:.1} % ≤ 1 % (the project's threshold)", 100.0 * fl))
+        (ClaimVerdict::Reproduced, format!("{:.1} % ≤ 1 % (the project's threshold)", 100.0 * fl))
     } else if fl <= 0.1 {
-        (Verdict::Differs, format!("{:.1} %: between 1 % and 10 % (the project's thresholds)", 100.0 * fl))
+        (ClaimVerdict::Differs, format!("{:.1} %: between 1 % and 10 % (the project's thresholds)", 100.0 * fl))
     } else {
-        (Verdict::NotReproduced, format!("{:.1} % > 10 % (the project's threshold)", 100.0 * fl))
+        (ClaimVerdict::NotReproduced, format!("{:.1} % > 10 % (the project's threshold)", 100.0 * fl))
     };
     claims.push(Claim {
         claim: format!(
@@ -338,22 +341,22 @@ mod tests {
 
     #[test]
     fn verdicts_follow_the_intervals_and_the_every_world_clause() {
-        assert_eq!(better_verdict(2.0, Some([1.0, 3.0]), Some(1.0), true).0, Verdict::Reproduced);
-        assert_eq!(better_verdict(2.0, Some([1.0, 3.0]), Some(0.9), true).0, Verdict::Differs);
-        assert_eq!(better_verdict(2.0, Some([1.0, 3.0]), Some(0.9), false).0, Verdict::Reproduced);
-        assert_eq!(better_verdict(0.5, Some([-1.0, 2.0]), Some(0.6), true).0, Verdict::NotReproduced);
-        assert_eq!(better_verdict(0.5, Some([-1.0, 2.0]), Some(1.0), true).0, Verdict::Inconclusive);
-        assert_eq!(better_verdict(-3.0, Some([-4.0, -2.0]), Some(0.0), true).0, Verdict::NotReproduced);
-        assert_eq!(better_verdict(1.0, None, Some(1.0), true).0, Verdict::Reproduced);
-        assert_eq!(better_verdict(-1.0, None, Some(0.0), true).0, Verdict::NotReproduced);
-        assert_eq!(better_verdict(1.0, None, Some(0.7), true).0, Verdict::Inconclusive);
-        assert_eq!(rate_verdict(0.96, 0.95, 0.5, "x").0, Verdict::Reproduced);
-        assert_eq!(rate_verdict(0.6, 0.95, 0.5, "x").0, Verdict::Differs);
-        assert_eq!(rate_verdict(0.2, 0.95, 0.5, "x").0, Verdict::NotReproduced);
+        assert_eq!(better_verdict(2.0, Some([1.0, 3.0]), Some(1.0), true).0, ClaimVerdict::Reproduced);
+        assert_eq!(better_verdict(2.0, Some([1.0, 3.0]), Some(0.9), true).0, ClaimVerdict::Differs);
+        assert_eq!(better_verdict(2.0, Some([1.0, 3.0]), Some(0.9), false).0, ClaimVerdict::Reproduced);
+        assert_eq!(better_verdict(0.5, Some([-1.0, 2.0]), Some(0.6), true).0, ClaimVerdict::NotReproduced);
+        assert_eq!(better_verdict(0.5, Some([-1.0, 2.0]), Some(1.0), true).0, ClaimVerdict::Inconclusive);
+        assert_eq!(better_verdict(-3.0, Some([-4.0, -2.0]), Some(0.0), true).0, ClaimVerdict::NotReproduced);
+        assert_eq!(better_verdict(1.0, None, Some(1.0), true).0, ClaimVerdict::Reproduced);
+        assert_eq!(better_verdict(-1.0, None, Some(0.0), true).0, ClaimVerdict::NotReproduced);
+        assert_eq!(better_verdict(1.0, None, Some(0.7), true).0, ClaimVerdict::Inconclusive);
+        assert_eq!(rate_verdict(0.96, 0.95, 0.5, "x").0, ClaimVerdict::Reproduced);
+        assert_eq!(rate_verdict(0.6, 0.95, 0.5, "x").0, ClaimVerdict::Differs);
+        assert_eq!(rate_verdict(0.2, 0.95, 0.5, "x").0, ClaimVerdict::NotReproduced);
         let md = claims_md(&[Claim {
             claim: "a | b".into(),
             result: "r".into(),
-            verdict: Verdict::Differs,
+            verdict: ClaimVerdict::Differs,
             why: "w".into(),
         }]);
         assert!(md.contains("| a \\| b | r | **differs** | w |"), "{md}");
