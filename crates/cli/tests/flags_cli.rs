@@ -97,13 +97,13 @@ const FLAGS: &[Flag] = &[
     other("experiment check-detection", "--params", Path),
     other("experiment check-detection", "--out", Path),
     num("experiment check-detection", "--jobs", Count),
-    num("experiment table1", "--trials", Count),
-    ok("experiment table1", "--seed", Count, SEED_OK, SEED_WHY),
-    other("experiment table1", "--presets", Names),
-    other("experiment table1", "--localiser", Name),
-    other("experiment table1", "--params", Path),
-    other("experiment table1", "--out", Path),
-    num("experiment table1", "--jobs", Count),
+    num("experiment table1-held-pose", "--trials", Count),
+    ok("experiment table1-held-pose", "--seed", Count, SEED_OK, SEED_WHY),
+    other("experiment table1-held-pose", "--presets", Names),
+    other("experiment table1-held-pose", "--localiser", Name),
+    other("experiment table1-held-pose", "--params", Path),
+    other("experiment table1-held-pose", "--out", Path),
+    num("experiment table1-held-pose", "--jobs", Count),
     num("experiment kidnap-robot", "--trials", Count),
     ok("experiment kidnap-robot", "--seed", Count, SEED_OK, SEED_WHY),
     other("experiment kidnap-robot", "--preset", Name),
@@ -112,11 +112,23 @@ const FLAGS: &[Flag] = &[
     other("experiment kidnap-robot", "--out", Path),
     num("experiment kidnap-robot", "--jobs", Count),
     ok("recover", "--trials", Count, &["0"], "0 trials runs the demo, Table 1 and the lost robot only"),
+    ok(
+        "experiment recovery-suite",
+        "--trials",
+        Count,
+        &["0"],
+        "0 trials runs the demo, Table 1 and the lost robot only",
+    ),
     ok("recover", "--seed", Count, SEED_OK, SEED_WHY),
+    ok("experiment recovery-suite", "--seed", Count, SEED_OK, SEED_WHY),
     other("recover", "--out", Path),
+    other("experiment recovery-suite", "--out", Path),
     num("recover", "--jobs", Count),
+    num("experiment recovery-suite", "--jobs", Count),
     other("recover", "--localiser", Name),
+    other("experiment recovery-suite", "--localiser", Name),
     other("recover", "--params", Path),
+    other("experiment recovery-suite", "--params", Path),
     other("converge", "--localisers", Names),
     ok("converge", "--seeds", SeedList, &["0", "99999999999", "1,2"], "one seed (any u64) or a list of two"),
     ok("converge", "--errors", RealList, &["0", "1,2"], "start error 0 m is the reference case; a list of two"),
@@ -256,11 +268,13 @@ const FLAGS: &[Flag] = &[
     other("generate", "--world", Path),
     other("generate", "--route", Path),
     other("recover", "--world", Path),
+    other("experiment recovery-suite", "--world", Path),
     other("recover", "--route", Path),
+    other("experiment recovery-suite", "--route", Path),
     other("experiment check-detection", "--world", Path),
     other("experiment check-detection", "--route", Path),
-    other("experiment table1", "--world", Path),
-    other("experiment table1", "--route", Path),
+    other("experiment table1-held-pose", "--world", Path),
+    other("experiment table1-held-pose", "--route", Path),
     other("experiment kidnap-robot", "--world", Path),
     other("experiment kidnap-robot", "--route", Path),
     other("import-map", "--out", Path),
@@ -354,11 +368,12 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
     let v: Vec<String> = match cmd {
         "validate"
         | "recover"
+        | "experiment recovery-suite"
         | "converge"
         | "generate"
         | "simulate"
         | "experiment check-detection"
-        | "experiment table1"
+        | "experiment table1-held-pose"
         | "experiment kidnap-robot"
         | "experiment real-data"
         | "experiment sensor-realism" => vec!["--out".into(), o],
@@ -501,7 +516,8 @@ fn every_numeric_flag_refuses_nan_infinite_negative_zero_huge_and_malformed_valu
             cmds.push(c);
         }
     }
-    assert!(cmds.iter().any(|c| c == "experiment table1"), "{cmds:?}");
+    assert!(cmds.iter().any(|c| c == "experiment table1-held-pose"), "{cmds:?}");
+    assert!(cmds.iter().any(|c| c == "experiment recovery-suite"), "{cmds:?}");
     let mut seen = BTreeSet::new();
     let (mut refused, mut accepted) = (0, 0);
     for cmd in &cmds {

@@ -22,18 +22,14 @@ pub struct Args {
     /// The recorded log and how to read it.
     #[command(flatten)]
     pub input: LogInput,
-    /// Output folder (written atomically; an existing non-empty folder is refused without --force).
-    #[arg(long, value_name = "OUT")]
-    pub out: std::path::PathBuf,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let imported = args.input.read_imported()?;
-    let dir = super::output_dir(&args.out, args.force)?;
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
     imported.log.write(&dir.file("log.jsonl")?)?;
     let report = match &imported.report {
         Some(r) => serde_json::to_value(r)?,

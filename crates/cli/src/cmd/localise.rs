@@ -38,9 +38,8 @@ pub struct Args {
     /// The map to localise on (ROS map_server YAML).
     #[arg(long, value_name = "MAP.yaml")]
     pub map: PathBuf,
-    /// Output folder (written atomically; an existing non-empty folder is refused without --force).
-    #[arg(long, value_name = "OUT")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
     /// Initial pose in the map frame: x (m), y (m), yaw (rad), comma-separated; |x|, |y| ≤ 1e6 m,
     /// |yaw| ≤ 6.3 rad (a turn: a larger yaw is most likely in degrees).
     #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
@@ -66,9 +65,6 @@ pub struct Args {
     /// (a bag's time_increment) are deskewed by the odometry over their sweep first.
     #[arg(long)]
     pub no_deskew: bool,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
 }
 
 /// Runs the subcommand.
@@ -81,7 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = ReplayOptions { deskew: !args.no_deskew, ..ReplayOptions::default() };
     let source = LogSource::new(log, log_path.display().to_string(), options);
     let map = map_io::load_map(&args.map).with_context(|| format!("cannot load map {}", args.map.display()))?;
-    let dir = super::output_dir(&args.out, args.force)?;
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
 
     let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
     let mut observers: Vec<&mut dyn Observer> = recorder.iter_mut().map(|r| r as &mut dyn Observer).collect();

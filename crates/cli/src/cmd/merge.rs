@@ -20,26 +20,22 @@ pub struct Args {
     /// The result folders to merge.
     #[arg(required = true, value_name = "DIR")]
     pub dirs: Vec<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if args.dirs.first().is_some_and(|d| is_sweep_dir(d)) {
-        let out = super::output_dir(&args.out, args.force)?;
+        let out = super::output_dir(&args.output.out, args.output.force)?;
         let c = merge_sweeps(&args.dirs, &out)?;
         out.finish()?;
         let merged: Vec<&str> = c.rows.iter().filter(|r| r.seed.is_none()).map(|r| r.preset.as_str()).collect();
         outln!("merge: {} sweep folder(s), presets {merged:?}, {} worlds", args.dirs.len(), c.worlds);
-        outln!("wrote {}", args.out.display());
+        outln!("wrote {}", args.output.out.display());
         return Ok(());
     }
-    let out = super::output_dir(&args.out, args.force)?;
+    let out = super::output_dir(&args.output.out, args.output.force)?;
     let (_, summary) = merge_dirs(&args.dirs, &out)?;
     out.finish()?;
     outln!(
@@ -50,6 +46,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary.preset
     );
     out!("{}", summary.table());
-    outln!("wrote {}", args.out.display());
+    outln!("wrote {}", args.output.out.display());
     Ok(())
 }

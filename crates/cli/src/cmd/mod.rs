@@ -20,6 +20,7 @@ pub mod recover;
 pub mod render;
 pub mod run;
 pub mod sensor;
+pub mod shared_args;
 pub mod simulate;
 mod site;
 pub mod sweep_progress;

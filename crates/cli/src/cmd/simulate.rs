@@ -44,16 +44,12 @@ pub struct Args {
     /// Simulator parameters (TOML overriding any field of SimParams).
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
     /// Also write the drive as a ROS 2 MCAP bag (scans, odometry, /tf, /tf_static, true poses;
     /// docs/real-data.md) for Foxglove, ros2 bag or a team's own stack.
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
     /// Robot file and sensor realism.
     #[command(flatten)]
     pub sensor: super::sensor::SensorArgs,
@@ -73,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut params = load_params(SimParams::default(), args.params.as_deref(), SimParams::validate)?;
     args.sensor.apply(&mut params)?;
     let seconds = args.seconds.unwrap_or(if route.is_some() { 900.0 } else { 60.0 });
-    let dir = super::output_dir(&args.out, args.force)?;
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
     let spec = DriveSpec {
         world: &world,
         route: route.as_ref(),

@@ -52,15 +52,10 @@ pub struct Args {
     /// diagnostics; the file is named in summary.md).
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
-    /// Worker threads, 1 to 1024 (default: all cores; more threads than runs gain nothing).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
+    #[command(flatten)]
+    pub threads: super::shared_args::JobsArg,
 }
 
 /// Runs the subcommand.
@@ -89,9 +84,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Err(e) = params.validate() {
         bail!("--localisers / --seeds / --errors: {e}");
     }
-    let dir = super::output_dir(&args.out, args.force)?;
-    let pool = super::thread_pool(args.jobs)?;
-    let bar = pool.install(|| super::progress_bar("converge", params.jobs().len() as u64, "runs", &args.out));
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
+    let pool = super::thread_pool(args.threads.jobs)?;
+    let bar = pool.install(|| super::progress_bar("converge", params.jobs().len() as u64, "runs", &args.output.out));
     let w1 = World::default_warehouse();
     let runs = pool.install(|| run_convergence(&w1, &params, &|| bar.inc(1)))?;
     bar.finish_and_clear();

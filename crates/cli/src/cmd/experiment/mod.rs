@@ -69,23 +69,12 @@ pub struct Common {
     /// fields).
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// The world W_1: `warehouse` (the default), `lab`, or a world file (an imported map:
-    /// `mapkeeper import-map`); its tour and storage areas from the file, planned and derived
-    /// when absent.
-    #[arg(long, value_name = "NAME|FILE")]
-    pub world: Option<PathBuf>,
-    /// Route file overriding the world's route (the tour).
-    #[arg(long, value_name = "FILE")]
-    pub route: Option<PathBuf>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::OutputArgs,
+    #[command(flatten)]
+    pub threads: super::shared_args::JobsArg,
+    #[command(flatten)]
+    pub site: super::shared_args::WorldArgs,
 }
 
 /// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 on the `--jobs`
@@ -100,9 +89,9 @@ fn run_timed<R: Send>(
     unit: &str,
     work: impl FnOnce(&World, &(dyn Fn() + Sync)) -> anyhow::Result<R> + Send,
 ) -> anyhow::Result<(R, f64, StagedDir)> {
-    let out = c.out.clone().unwrap_or(default);
-    let dir = super::output_dir(&out, c.force)?;
-    let pool = super::thread_pool(c.jobs)?;
+    let out = c.output.out.clone().unwrap_or(default);
+    let dir = super::output_dir(&out, c.output.force)?;
+    let pool = super::thread_pool(c.threads.jobs)?;
     let bar = pool.install(|| super::progress_bar(&format!("experiment {name}"), total as u64, unit, &out));
     let start = Instant::now();
     let progress = || bar.inc(1);

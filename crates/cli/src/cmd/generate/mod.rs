@@ -8,7 +8,6 @@ use logs::write_logs;
 use mapkeeper_scenario::experiments::validation::report::write_scenario_set;
 use mapkeeper_scenario::{GeneratorParams, generate_worlds};
 use mapkeeper_sim::{Route, World};
-use std::path::PathBuf;
 
 /// Arguments of `mapkeeper generate`.
 #[derive(clap::Args, Debug)]
@@ -24,12 +23,8 @@ pub struct Args {
     /// Run seed (any whole number from 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
     /// Map resolution, metres per cell, 0.005 to 10 (5 mm is below the lidars' 1 cm range
     /// quantisation and gives ~13 M cells per map; 10 m leaves a handful of cells).
     #[arg(long, value_name = "METRES", default_value_t = 0.05, value_parser = super::resolution, allow_hyphen_values = true)]
@@ -43,13 +38,8 @@ pub struct Args {
     /// this many seconds, 0 to 600.
     #[arg(long, value_name = "SECONDS", value_parser = super::real_in(0.0, 600.0, "s"), allow_hyphen_values = true)]
     pub people_pause_s: Option<f64>,
-    /// The world W_1: `warehouse` (the default), `lab`, or a world file; its storage areas and
-    /// route from the file, derived and planned when absent (docs/world-format.md).
-    #[arg(long, value_name = "NAME|FILE")]
-    pub world: Option<PathBuf>,
-    /// Route file overriding the world's route.
-    #[arg(long, value_name = "FILE")]
-    pub route: Option<PathBuf>,
+    #[command(flatten)]
+    pub site: super::shared_args::WorldArgs,
     /// Also write one simulated drive of each world as a sensor log: jsonl or mcap.
     #[arg(long, value_name = "FORMAT", value_parser = ["jsonl", "mcap"])]
     pub logs: Option<String>,
@@ -66,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         people_pause_s: args.people_pause_s.unwrap_or(0.0),
         ..GeneratorParams::default()
     };
-    let (w1, route) = match super::load_site(args.world.as_deref(), args.route.as_deref(), true)? {
+    let (w1, route) = match super::load_site(args.site.world.as_deref(), args.site.route.as_deref(), true)? {
         Some((_, site)) => {
             params.storage_areas = site.storage;
             (site.world, site.route)
@@ -75,7 +65,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let geometry = w1.default_map_geometry(args.resolution).context("map geometry")?;
     let chain = generate_worlds(&w1, &route, args.worlds, args.seed, &params)?;
-    let dir = super::output_dir(&args.out, args.force)?;
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
     let manifest = write_scenario_set(&dir, &chain, &route, args.seed, &geometry)?;
     if let Some(format) = &args.logs {
         write_logs(&dir, &chain.worlds, &chain.routes, args.seed, format, args.jobs)?;

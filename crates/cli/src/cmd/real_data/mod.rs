@@ -59,12 +59,8 @@ pub struct Args {
     /// Localiser seeds: S, S + 1, …, 1 to 1000 (each configuration runs once per seed).
     #[arg(long, value_name = "K", default_value_t = 3, value_parser = super::count_in(1, 1000), allow_hyphen_values = true)]
     pub seeds: usize,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::OutputArgs,
 }
 
 fn default_out(seed: u64) -> PathBuf {
@@ -123,8 +119,8 @@ overrides of crates/scenario/params/odometry_tuned_localiser.toml, odometry-driv
         reference_fit: real_preset.scan_match,
     };
     let datasets = logs.iter().map(|p| read(p, &args.reading)).collect::<anyhow::Result<Vec<_>>>()?;
-    let out = args.out.clone().unwrap_or_else(|| default_out(args.seed));
-    let dir = super::output_dir(&out, args.force)?;
+    let out = args.output.out.clone().unwrap_or_else(|| default_out(args.seed));
+    let dir = super::output_dir(&out, args.output.force)?;
     let start = Instant::now();
     let results = run_real_data(&datasets, &params)?;
     let wall = start.elapsed().as_secs_f64();

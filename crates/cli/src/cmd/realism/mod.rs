@@ -48,12 +48,8 @@ pub struct Args {
     /// reference, is always run.
     #[arg(long, value_name = "C1,C2,…", value_delimiter = ',')]
     pub configs: Option<Vec<String>>,
-    /// The world W_1: `warehouse` (default), `lab`, or a world file (as `validate --world`).
-    #[arg(long, value_name = "NAME|FILE")]
-    pub world: Option<PathBuf>,
-    /// Route file overriding the world's route.
-    #[arg(long, value_name = "FILE")]
-    pub route: Option<PathBuf>,
+    #[command(flatten)]
+    pub site: super::shared_args::WorldArgs,
     /// Robot: an embedded robot's name or a robot file (as `validate --robot`).
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: Option<PathBuf>,
@@ -67,15 +63,10 @@ pub struct Args {
     /// override it).
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::OutputArgs,
+    #[command(flatten)]
+    pub threads: super::shared_args::JobsArg,
 }
 
 /// The parameter file.
@@ -105,7 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         shard: None,
         localiser: args.localiser.clone(),
         ground_truth: GroundTruth::Exact,
-        site: super::load_site(args.world.as_deref(), args.route.as_deref(), true)?,
+        site: super::load_site(args.site.world.as_deref(), args.site.route.as_deref(), true)?,
     };
     let world_name = spec.site.as_ref().map_or_else(|| "warehouse".to_string(), |(n, _)| n.clone());
     let mut vp = spec.plan()?.params.swap_remove(0);
@@ -113,9 +104,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         mapkeeper_sim::RobotFile::named_or_load(path).context("--robot")?.apply(&mut vp.runner.sim);
         vp.runner.sim.validate().context("--robot")?;
     }
-    let out = args.out.clone().unwrap_or_else(|| default_out(p.first_seed, p.worlds));
-    let dir = super::output_dir(&out, args.force)?;
-    let pool = super::thread_pool(args.jobs)?;
+    let out = args.output.out.clone().unwrap_or_else(|| default_out(p.first_seed, p.worlds));
+    let dir = super::output_dir(&out, args.output.force)?;
+    let pool = super::thread_pool(args.threads.jobs)?;
     let chains = (p.run_configs().len() * p.seeds) as u64;
     let bar = pool.install(|| super::progress_bar("experiment sensor-realism", chains, "chains", &out));
     let start = Instant::now();

@@ -35,15 +35,10 @@ pub struct Args {
     /// Run seed (any whole number from 0 to 2^64 − 1).
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores; more threads than runs gain nothing).
-    #[arg(long, value_name = "N", value_parser = super::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: super::shared_args::OutputArgs,
+    #[command(flatten)]
+    pub threads: super::shared_args::JobsArg,
     /// Localiser preset of the chain localiser: mapkeeper, mapkeeper-real, amcl or amcl-joint (docs/localiser.md); a
     /// --params file's `[runner.filter]` fields override it. Recorded in summary.json
     /// (`params.runner.localiser`, `params.runner.filter`) and report.md.
@@ -52,13 +47,8 @@ pub struct Args {
     /// Parameter file (TOML, any field of the recovery parameters; see docs/recovery.md).
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
-    /// The world W_1: `warehouse` (the default), `lab`, or a world file; its route (the tour)
-    /// and storage areas from the file, planned and derived when absent.
-    #[arg(long, value_name = "NAME|FILE")]
-    pub world: Option<PathBuf>,
-    /// Route file overriding the world's route (the tour).
-    #[arg(long, value_name = "FILE")]
-    pub route: Option<PathBuf>,
+    #[command(flatten)]
+    pub site: super::shared_args::WorldArgs,
     /// Skip the best case (map = current world) of the kidnap suite.
     #[arg(long)]
     pub no_best_case: bool,
@@ -77,12 +67,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_best_case {
         params.kidnap.best_case = false;
     }
-    let (w1, _) = super::experiment::site_world(args.world.as_deref(), args.route.as_deref(), &mut params)?;
+    let (w1, _) = super::experiment::site_world(args.site.world.as_deref(), args.site.route.as_deref(), &mut params)?;
     params.validate().context("--trials / --no-best-case / --world")?;
-    let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
-    let dir = super::output_dir(&out, args.force)?;
+    let out = args.output.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
+    let dir = super::output_dir(&out, args.output.force)?;
     let cases = if params.kidnap.best_case { 2 } else { 1 };
-    let pool = super::thread_pool(args.jobs)?;
+    let pool = super::thread_pool(args.threads.jobs)?;
     let bar = pool.install(|| super::progress_bar("recover", 4 + (cases * args.trials) as u64, "steps", &out));
     let start = Instant::now();
     let progress = |_: Progress| bar.inc(1);

@@ -54,16 +54,12 @@ pub struct Args {
     /// Start error of the localisers, metres, 0 to 100 (the warehouse is 15 m × 22 m).
     #[arg(long, value_name = "METRES", default_value_t = 0.05, value_parser = super::real_in(0.0, super::MAX_START_ERROR_M, "m"), allow_hyphen_values = true)]
     pub start_error: f64,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
     /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, truth, estimate, particle
     /// cloud, verdicts, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
     /// Robot file and sensor realism (with --world).
     #[command(flatten)]
     pub sensor: super::sensor::SensorArgs,
@@ -106,7 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     params.set_localiser(in_world).context("--localiser")?;
     params.updater_poses = args.poses.updater_poses()?;
     args.sensor.apply(&mut params.sim)?;
-    let dir = super::output_dir(&args.out, args.force)?;
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
     let start = Instant::now();
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline, prev_memory: None };
     let r = match args.mcap.as_deref() {

@@ -61,9 +61,8 @@ pub(super) fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> 
         preset: args.preset.clone(),
         params: args.params.clone(),
         sync_window_s: 0.05,
-        out: args.out.clone(),
+        output: args.output.clone(),
         mcap: args.mcap.clone(),
         no_deskew: false,
-        force: args.force,
     })
 }

@@ -82,9 +82,8 @@ pub struct Args {
     /// (0 to 10 s, far longer than any lidar's scan period; 0 = only scans with equal stamps).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.05, value_parser = super::real_in(0.0, MAX_SYNC_WINDOW_S, "s"), allow_hyphen_values = true)]
     pub sync_window_s: f64,
-    /// Output folder.
-    #[arg(long, value_name = "OUT")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub output: super::shared_args::RequiredOutputArgs,
     /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, the poses given, the
     /// verdict per scan, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
     #[arg(long, value_name = "FILE.mcap")]
@@ -93,9 +92,6 @@ pub struct Args {
     /// (a bag's time_increment) are deskewed by the odometry over their sweep first.
     #[arg(long)]
     pub no_deskew: bool,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
 }
 
 /// Runs the subcommand.
@@ -107,7 +103,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (log, log_path, imported) = args.input.read_with_origin()?;
     let source = LogSource::new(log, log_path.display().to_string(), options);
     let poses = pose_input(&args, imported)?;
-    let dir = super::output_dir(&args.out, args.force)?;
+    let dir = super::output_dir(&args.output.out, args.output.force)?;
     let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
     let mut observers: Vec<&mut dyn Observer> = recorder.iter_mut().map(|r| r as &mut dyn Observer).collect();
     let r = update_log(source, map, params, poses, &super::Wall::start(), &mut observers).context("map update")?;

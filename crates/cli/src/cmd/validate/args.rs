@@ -63,24 +63,12 @@ pub struct Args {
     /// the best achievable map are reported beside it.
     #[arg(long, value_name = "exact|observed", default_value = "exact", value_parser = str::parse::<GroundTruth>)]
     pub ground_truth: GroundTruth,
-    /// The world W_1: an embedded world, `warehouse` (the default) or `lab` (the paper's
-    /// lab, §5.5), or a world file (docs/world-format.md). Its storage areas and route come
-    /// from the file, or are derived and planned when it has none; the resolved world is
-    /// written as OUT/world.toml.
-    #[arg(long, value_name = "NAME|FILE")]
-    pub world: Option<PathBuf>,
-    /// Route file (docs/world-format.md) overriding the world's route.
-    #[arg(long, value_name = "FILE")]
-    pub route: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Worker threads, 1 to 1024 (default: all cores; more threads than runs gain nothing).
-    #[arg(long, value_name = "N", value_parser = crate::cmd::jobs, allow_hyphen_values = true)]
-    pub jobs: Option<usize>,
-    /// Replace an existing non-empty output folder.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub site: crate::cmd::shared_args::WorldArgs,
+    #[command(flatten)]
+    pub output: crate::cmd::shared_args::OutputArgs,
+    #[command(flatten)]
+    pub threads: crate::cmd::shared_args::JobsArg,
     /// Resume a killed run (needs --out): every finished (preset, seed) job is kept in
     /// `.NAME.jobs/` beside OUT until the run completes; with --resume those jobs are read back
     /// rather than run again (the outputs are the same), and an OUT already complete is left as

@@ -32,7 +32,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     apply_overrides(&args, &mut plan)?;
-    let out = args.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
+    let out = args.output.out.clone().unwrap_or_else(|| default_out(args.seed, args.worlds, args.shard));
     if let Some(&w) = args.mcap_worlds.iter().find(|&&w| w > args.worlds) {
         anyhow::bail!("--mcap-worlds: world {w} is beyond --worlds {}", args.worlds);
     }
@@ -40,7 +40,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         outln!("validate: {} is complete (--resume): nothing to run", out.display());
         return Ok(());
     }
-    let (top, dirs) = output_dirs(&out, &plan, sweep, args.force)?;
+    let (top, dirs) = output_dirs(&out, &plan, sweep, args.output.force)?;
     plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
     let checkpoints = Checkpoints::beside(&out);
     let done = finished_jobs(&plan, &checkpoints, &out, args.resume)?;
@@ -48,7 +48,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let wall = super::Wall::start();
     let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };
     let to_run = done.iter().filter(|d| d.is_none()).count();
-    let pool = simulate_ahead_if_cores_free(&mut plan, to_run, super::thread_pool(args.jobs)?);
+    let pool = simulate_ahead_if_cores_free(&mut plan, to_run, super::thread_pool(args.threads.jobs)?);
     let threads = pool.current_num_threads();
     let progress = SweepProgress::new(&plan, &args.localiser, threads, done.iter().map(Option::is_some).collect());
     outln!("{}", plan_line(&args, &plan, &out, to_run, threads));
