@@ -24,6 +24,9 @@ pub enum HarnessError {
     /// The baseline localiser's thread panicked.
     #[error("the baseline localiser's thread panicked")]
     BaselinePanicked,
+    /// The fresh map's thread ([`crate::jobs::map::ThreadedEstimateMapper`]) panicked.
+    #[error("the fresh map's thread panicked")]
+    MapperPanicked,
     /// Parameters (a preset, a parameter file) were refused.
     #[error(transparent)]
     Params(#[from] mapkeeper_common::ParamsError),

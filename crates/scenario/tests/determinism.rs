@@ -69,17 +69,25 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
 }
 
 #[test]
-fn baseline_on_its_own_thread_gives_the_same_run() {
+fn baseline_and_fresh_map_on_threads_of_their_own_give_the_same_run() {
     use mapkeeper_scenario::{RunInputs, RunnerParams, run_world};
     use mapkeeper_sim::{World, ground_truth_map};
     let world = World::default_warehouse();
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05).unwrap());
     let route = ValidationParams::short_route(8.0);
     let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
-    let mut p = RunnerParams { record_trajectories: true, ..RunnerParams::default() };
+    let fresh_map = ValidationParams::default().runner.fresh_map;
+    assert!(fresh_map.is_some(), "the validation makes a fresh map");
+    let mut p = RunnerParams { record_trajectories: true, fresh_map, ..RunnerParams::default() };
+    assert!(p.run.parallel_baseline && p.run.parallel_fresh_map, "threads by default");
     let a = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
     p.run.parallel_baseline = false;
     let b = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
+    p.run.parallel_fresh_map = false;
+    let c = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
     assert_eq!(a, b);
+    assert_eq!(a, c);
     assert!(a.baseline.updates > 0);
+    let fresh = a.fresh_map.as_ref().expect("a fresh map");
+    assert!(fresh.count(mapkeeper_grid::CellState::Occupied) > 0);
 }

@@ -11,6 +11,8 @@ use crate::source::Step;
 use mapkeeper_grid::mapper::{LogOddsMapper, MapperParams};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sensor::{BeamValidity, LaserScan, deskew_all};
+use std::sync::mpsc::{SyncSender, sync_channel};
+use std::thread::JoinHandle;
 
 /// What one beam contributes to a map.
 enum Beam {
@@ -110,16 +112,79 @@ impl EstimateMapper {
         let mapper = LogOddsMapper::new(geometry, params).map_err(|e| HarnessError::Invalid(format!("mapper: {e}")))?;
         Ok(Self { mapper, stride: stride.max(1), steps: 0, scans: 0, beams: BeamCounts::default() })
     }
+
+    /// Counts a step with a pose; whether its scans are integrated (every `stride`-th).
+    fn takes_step(&mut self) -> bool {
+        self.steps += 1;
+        self.steps.is_multiple_of(self.stride)
+    }
+
+    fn integrate(&mut self, scans: &[LaserScan], robot_in_map: &Pose2) {
+        self.scans += integrate_frame(&mut self.mapper, scans, robot_in_map, 0.0, &mut self.beams);
+    }
 }
 
 impl Observer for EstimateMapper {
     fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let Some(pose) = report.pose_in_map else { return };
-        self.steps += 1;
-        if !self.steps.is_multiple_of(self.stride) {
-            return;
+        if self.takes_step() {
+            self.integrate(&step.frame.scans, &pose);
         }
-        self.scans += integrate_frame(&mut self.mapper, &step.frame.scans, &pose, 0.0, &mut self.beams);
+    }
+}
+
+/// An [`EstimateMapper`] on a thread of its own: the scans and pose of each step it integrates
+/// are queued to the thread, which integrates them in the order they came, so the map and the
+/// counts are those of the same [`EstimateMapper`] stepped inline, bit for bit
+/// ([`Self::finish`] returns it). The loop's thread only counts steps and copies the scans of
+/// the integrated ones.
+#[derive(Debug)]
+pub struct ThreadedEstimateMapper {
+    /// Steps with a pose seen, and the stride (the worker's mapper counts the same way).
+    counter: EstimateMapperCounter,
+    tx: SyncSender<(Vec<LaserScan>, Pose2)>,
+    worker: JoinHandle<EstimateMapper>,
+}
+
+/// The step counting of an [`EstimateMapper`], kept on the loop's thread.
+#[derive(Clone, Copy, Debug)]
+struct EstimateMapperCounter {
+    stride: u64,
+    steps: u64,
+}
+
+impl ThreadedEstimateMapper {
+    /// Moves `mapper` to a thread of its own.
+    pub fn spawn(mapper: EstimateMapper) -> Self {
+        let counter = EstimateMapperCounter { stride: mapper.stride, steps: mapper.steps };
+        let (tx, rx) = sync_channel::<(Vec<LaserScan>, Pose2)>(64);
+        let worker = std::thread::spawn(move || {
+            let mut m = mapper;
+            for (scans, pose) in rx {
+                m.integrate(&scans, &pose);
+            }
+            m
+        });
+        Self { counter, tx, worker }
+    }
+
+    /// Waits for the queued steps and returns the mapper, its step count included.
+    pub fn finish(self) -> Result<EstimateMapper, HarnessError> {
+        drop(self.tx);
+        let mut m = self.worker.join().map_err(|_| HarnessError::MapperPanicked)?;
+        m.steps = self.counter.steps;
+        Ok(m)
+    }
+}
+
+impl Observer for ThreadedEstimateMapper {
+    fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
+        let Some(pose) = report.pose_in_map else { return };
+        self.counter.steps += 1;
+        if self.counter.steps.is_multiple_of(self.counter.stride) {
+            // The worker stops only when the channel closes, so a send cannot fail while it lives.
+            drop(self.tx.send((step.frame.scans.clone(), pose)));
+        }
     }
 }
 
@@ -358,5 +423,30 @@ mod tests {
         assert_eq!(est.beams, truth.beams);
         assert_eq!(est.mapper.to_grid(), truth.mapper.to_grid());
         assert!(est.mapper.to_grid().count(mapkeeper_grid::CellState::Occupied) > 0);
+    }
+
+    #[test]
+    fn the_threaded_estimate_mapper_makes_the_inline_ones_map_and_counts() {
+        let g = GridGeometry::new(80, 60, 0.1, Pose2::new(-1.0, -3.0, 0.0)).unwrap();
+        let mut inline = EstimateMapper::new(g, MapperParams::default(), 3).unwrap();
+        let mut threaded = ThreadedEstimateMapper::spawn(EstimateMapper::new(g, MapperParams::default(), 3).unwrap());
+        let session = crate::Session::new(crate::PoseSource::None, None, None, &crate::NoClock);
+        for k in 0..40 {
+            let pose = Pose2::new(0.1 * f64::from(k), 0.05 * f64::from(k % 7), 0.03 * f64::from(k));
+            let ranges = (0..21).map(|i| 2.0 + 0.13 * (i as f32) + 0.07 * (k % 5) as f32).collect();
+            let step = Step {
+                frame: SensorFrame { stamp_ns: k as u64, odometry: None, scans: vec![scan(ranges)] },
+                truth: None,
+            };
+            let r = report(if k % 4 == 1 { None } else { Some(pose) });
+            inline.on_step(&step, &r, &session);
+            threaded.on_step(&step, &r, &session);
+        }
+        let threaded = threaded.finish().unwrap();
+        assert_eq!((threaded.steps, threaded.scans), (inline.steps, inline.scans));
+        assert_eq!((inline.steps, inline.scans), (30, 10));
+        assert_eq!(threaded.beams, inline.beams);
+        assert_eq!(threaded.mapper.to_grid(), inline.mapper.to_grid());
+        assert!(inline.mapper.to_grid().count(mapkeeper_grid::CellState::Occupied) > 0);
     }
 }

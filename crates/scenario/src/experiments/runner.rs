@@ -20,7 +20,7 @@ use crate::experiments::run_events::{
 };
 use crate::sim_source::{SimSource, Simulated};
 use mapkeeper_grid::{OccupancyGrid, Pose2};
-use mapkeeper_harness::jobs::map::EstimateMapper;
+use mapkeeper_harness::jobs::map::{EstimateMapper, ThreadedEstimateMapper};
 use mapkeeper_harness::{Baseline, Control, LocScore, Observer, PoseSource, Session, UpdaterWork};
 pub use mapkeeper_harness::{Clock, ErrorSample, LocStats, NoClock, Trajectories};
 use mapkeeper_localiser::{FilterParams, Localiser};
@@ -117,11 +117,16 @@ pub struct RunOptions {
     /// ([`crate::sim_source::AheadSource`]; shorter wall time when a core is free, a little
     /// more CPU for the copies it keeps). Default false.
     pub simulate_ahead: bool,
+    /// Integrate the fresh map ([`RunnerParams::fresh_map`]) on a thread of its own, fed the
+    /// same scans and poses in the same order
+    /// ([`mapkeeper_harness::jobs::map::ThreadedEstimateMapper`]; shorter wall time when a core
+    /// is free). Default true.
+    pub parallel_fresh_map: bool,
 }
 
 impl Default for RunOptions {
     fn default() -> Self {
-        Self { parallel_baseline: true, simulate_ahead: false }
+        Self { parallel_baseline: true, simulate_ahead: false, parallel_fresh_map: true }
     }
 }
 
@@ -405,15 +410,38 @@ fn updater(
     Ok(Some(MapUpdater::with_memory(prev_map.clone(), params.updater.clone(), memory)?))
 }
 
-/// The mapper of the run's fresh map on M_{i-1}'s grid, if the run makes one.
-fn fresh_mapper(params: &RunnerParams, prev_map: &OccupancyGrid) -> Result<Option<EstimateMapper>, ExperimentError> {
-    params
-        .fresh_map
-        .map(|f| {
-            EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
-                .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })
+/// The mapper of a run's fresh map: on the loop's thread or on one of its own (the same map).
+enum FreshMapper {
+    Inline(EstimateMapper),
+    Threaded(ThreadedEstimateMapper),
+}
+
+impl FreshMapper {
+    fn observer(&mut self) -> &mut dyn Observer {
+        match self {
+            Self::Inline(m) => m,
+            Self::Threaded(m) => m,
+        }
+    }
+
+    fn finish(self) -> Result<OccupancyGrid, ExperimentError> {
+        Ok(match self {
+            Self::Inline(m) => m.mapper.to_grid(),
+            Self::Threaded(m) => m.finish()?.mapper.to_grid(),
         })
-        .transpose()
+    }
+}
+
+/// The mapper of the run's fresh map on M_{i-1}'s grid, if the run makes one.
+fn fresh_mapper(params: &RunnerParams, prev_map: &OccupancyGrid) -> Result<Option<FreshMapper>, ExperimentError> {
+    let Some(f) = params.fresh_map else { return Ok(None) };
+    let m = EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
+        .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })?;
+    Ok(Some(if params.run.parallel_fresh_map {
+        FreshMapper::Threaded(ThreadedEstimateMapper::spawn(m))
+    } else {
+        FreshMapper::Inline(m)
+    }))
 }
 
 /// [`run_world`] with `extra` observers seeing every step after the run's own (an MCAP
@@ -451,7 +479,7 @@ pub fn run_world_with(
     let result = {
         let mut observers: Vec<&mut dyn Observer> = vec![&mut score, &mut work];
         if let Some(f) = fresh.as_mut() {
-            observers.push(f);
+            observers.push(f.observer());
         }
         if params.record_timeline {
             observers.push(&mut timeline);
@@ -473,9 +501,10 @@ pub fn run_world_with(
         }
         mapkeeper_harness::run(&mut source, &mut session, &mut controls, &mut observers)
     };
-    // Join the baseline before reporting any error of the loop.
+    // Join the baseline and the fresh map's threads before reporting any error of the loop.
     let out = session.finish()?;
     let source = source.finish().map_err(mapkeeper_harness::HarnessError::from)?;
+    let fresh_map = fresh.map(FreshMapper::finish).transpose()?;
     result?;
     let baseline_stats = if params.run_baseline { score.score_baseline(&out.baseline) } else { LocStats::default() };
     let (map, updater, memory) = match &out.updater {
@@ -502,7 +531,7 @@ pub fn run_world_with(
         timeline: timeline.samples,
         lost: lost_counts,
         lost_episodes,
-        fresh_map: fresh.map(|f| f.mapper.to_grid()),
+        fresh_map,
         memory,
         given_pose: oracle.map(|_| given.stats()),
     })
