@@ -268,6 +268,19 @@ truncate_m = 0.3
 better_margin_m = 0.015
 fit_ok_m = 0.2
 
+[global_search]
+enabled = false
+confident_inlier_ratio = 0.9
+tolerance_m = 0.25
+yaw_step_rad = 0.02
+max_points = 120
+levels = 6
+candidates = 6
+min_score = 0.45
+max_nodes = 400000
+min_inlier_ratio = 0.55
+ambiguity_ratio_margin = 0.08
+
 [registration]
 enabled = false
 max_points = 240
