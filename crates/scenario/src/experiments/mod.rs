@@ -1,9 +1,14 @@
-//! The experiments: the closed loop of one world through the harness ([`runner`], with the
-//! simulator as a source, [`crate::sim_source`], and the experiments' controls and observers,
-//! [`run_events`]), the hundred-world validation ([`validation`]) with its structure retention
-//! and change-class scores ([`erosion`]), the robustness experiments and kidnap suite
-//! ([`recovery`]), the localisers' convergence from a start error ([`convergence`]), and the
-//! pose source of the updater ([`pose_oracle`]).
+//! The experiments. At the top, what every experiment shares: the closed loop of one world
+//! through the harness ([`runner`], with the simulator as a source, [`crate::sim_source`], and
+//! the experiments' controls and observers, [`run_events`]), the pose source of the updater
+//! ([`pose_oracle`]), the worlds, tour and scores of the robustness experiments ([`setup`]) and
+//! the one trial runner ([`trials`]). Then one module per experiment, each with its parameters,
+//! its run and its report, none importing another: the hundred-world validation
+//! ([`validation`], with its structure retention and change-class scores,
+//! [`validation::erosion`], and the sensor-realism sweep of its chain), the recovery suite
+//! ([`recovery`]), check detection ([`check_detection`]), Table 1 with a held pose
+//! ([`table1_hold`]), kidnaps of the robot ([`kidnap_robot`]), real logs ([`real_data`]) and the
+//! localisers' convergence from a start error ([`convergence`]).
 
 pub mod check_detection;
 pub mod convergence;
