@@ -48,13 +48,8 @@ fn fill_rect(m: &mut OccupancyGrid, x0: f64, y0: f64, x1: f64, y1: f64, state: C
 
 /// A 14 × 20.9 m room with one-cell walls, free inside.
 fn room() -> OccupancyGrid {
-    let g = GridGeometry::new(280, 418, 0.05, Pose2::IDENTITY).unwrap();
-    let mut m = OccupancyGrid::filled(g, CellState::Free);
-    fill_rect(&mut m, 0.0, 0.0, 14.0, 0.05, CellState::Occupied);
-    fill_rect(&mut m, 0.0, 20.85, 14.0, 20.9, CellState::Occupied);
-    fill_rect(&mut m, 0.0, 0.0, 0.05, 20.9, CellState::Occupied);
-    fill_rect(&mut m, 13.95, 0.0, 14.0, 20.9, CellState::Occupied);
-    m
+    // 14 m × 20.9 m at 0.05 m, walled all round.
+    OccupancyGrid::walled(GridGeometry::new(280, 418, 0.05, Pose2::IDENTITY).unwrap())
 }
 
 fn box_positions() -> Vec<(f64, f64)> {
