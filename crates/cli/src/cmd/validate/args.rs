@@ -15,7 +15,8 @@ W_i (i ≥ 2) drive the route with a chain localiser on M_{i-1} (feeding the upd
 Output in OUT (default results/validate-s<SEED>-<N>w-<counter>): runs.json, summary.json, worlds.csv, \
 report.md, report.html (the report as one self-contained page, with a world stepper), edits.json, plots/ \
 (Fig. 24-27, SVG and PNG), seed-S/maps (M_i, G_i and E_i, the errors of M_i against G_i as a PNG, of W_1 and \
-the saved worlds: W_2, W_50, W_100, W_N, or --save-maps), seed-S/trajectories (TUM: true, chain, baseline). Results are identical whatever --jobs; only \
+the saved worlds: W_2, W_50, W_100, W_N, or --save-maps), seed-S/trajectories (TUM: true, chain, baseline), and with --world \
+world.toml (the world as resolved: its storage areas and route, read, derived or planned). Results are identical whatever --jobs; only \
 wall_time_s and median_scan_us vary (not with --no-timing).\n\n\
 Sharding: --shard k/N runs the k-th of N contiguous slices of the seeds; `mapkeeper merge` combines the \
 shards' folders into the folder of the whole run.\n\n\
