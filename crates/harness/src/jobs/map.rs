@@ -113,12 +113,6 @@ impl EstimateMapper {
         Ok(Self { mapper, stride: stride.max(1), steps: 0, scans: 0, beams: BeamCounts::default() })
     }
 
-    /// Counts a step with a pose; whether its scans are integrated (every `stride`-th).
-    fn takes_step(&mut self) -> bool {
-        self.steps += 1;
-        self.steps.is_multiple_of(self.stride)
-    }
-
     fn integrate(&mut self, scans: &[LaserScan], robot_in_map: &Pose2) {
         self.scans += integrate_frame(&mut self.mapper, scans, robot_in_map, 0.0, &mut self.beams);
     }
@@ -127,7 +121,7 @@ impl EstimateMapper {
 impl Observer for EstimateMapper {
     fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let Some(pose) = report.pose_in_map else { return };
-        if self.takes_step() {
+        if takes_step(&mut self.steps, self.stride) {
             self.integrate(&step.frame.scans, &pose);
         }
     }
@@ -140,23 +134,23 @@ impl Observer for EstimateMapper {
 /// the integrated ones.
 #[derive(Debug)]
 pub struct ThreadedEstimateMapper {
-    /// Steps with a pose seen, and the stride (the worker's mapper counts the same way).
-    counter: EstimateMapperCounter,
+    /// The mapper's stride and its steps with a pose, counted on the loop's thread.
+    stride: u64,
+    steps: u64,
     tx: SyncSender<(Vec<LaserScan>, Pose2)>,
     worker: JoinHandle<EstimateMapper>,
 }
 
-/// The step counting of an [`EstimateMapper`], kept on the loop's thread.
-#[derive(Clone, Copy, Debug)]
-struct EstimateMapperCounter {
-    stride: u64,
-    steps: u64,
+/// Counts a step with a pose; whether its scans are integrated (every `stride`-th).
+fn takes_step(steps: &mut u64, stride: u64) -> bool {
+    *steps += 1;
+    steps.is_multiple_of(stride)
 }
 
 impl ThreadedEstimateMapper {
     /// Moves `mapper` to a thread of its own.
     pub fn spawn(mapper: EstimateMapper) -> Self {
-        let counter = EstimateMapperCounter { stride: mapper.stride, steps: mapper.steps };
+        let (stride, steps) = (mapper.stride, mapper.steps);
         let (tx, rx) = sync_channel::<(Vec<LaserScan>, Pose2)>(64);
         let worker = std::thread::spawn(move || {
             let mut m = mapper;
@@ -165,14 +159,14 @@ impl ThreadedEstimateMapper {
             }
             m
         });
-        Self { counter, tx, worker }
+        Self { stride, steps, tx, worker }
     }
 
     /// Waits for the queued steps and returns the mapper, its step count included.
     pub fn finish(self) -> Result<EstimateMapper, HarnessError> {
         drop(self.tx);
         let mut m = self.worker.join().map_err(|_| HarnessError::MapperPanicked)?;
-        m.steps = self.counter.steps;
+        m.steps = self.steps;
         Ok(m)
     }
 }
@@ -180,8 +174,7 @@ impl ThreadedEstimateMapper {
 impl Observer for ThreadedEstimateMapper {
     fn on_step(&mut self, step: &Step, report: &SessionStep, _session: &Session<'_>) {
         let Some(pose) = report.pose_in_map else { return };
-        self.counter.steps += 1;
-        if self.counter.steps.is_multiple_of(self.counter.stride) {
+        if takes_step(&mut self.steps, self.stride) {
             // The worker stops only when the channel closes, so a send cannot fail while it lives.
             drop(self.tx.send((step.frame.scans.clone(), pose)));
         }
