@@ -53,3 +53,11 @@ pub struct WorldArgs {
     #[arg(long, value_name = "FILE")]
     pub route: Option<PathBuf>,
 }
+
+impl WorldArgs {
+    /// The world with its scenario resolved, as the commands that generate worlds need it
+    /// ([`super::load_site`] with storage areas required); `None` without either flag.
+    pub fn load(&self) -> anyhow::Result<Option<(String, mapkeeper_scenario::Site)>> {
+        super::load_site(self.world.as_deref(), self.route.as_deref(), true)
+    }
+}

@@ -34,11 +34,10 @@ pub(super) fn load_file<F: ExperimentFile>(c: &Common, quick: bool) -> anyhow::R
 /// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
 /// parameters' tour, exploration route and storage areas taken from it; and its name.
 pub(crate) fn site_world(
-    world: Option<&std::path::Path>,
-    route: Option<&std::path::Path>,
+    site: &crate::cmd::shared_args::WorldArgs,
     recovery: &mut RecoveryParams,
 ) -> anyhow::Result<(World, String)> {
-    let Some((name, site)) = crate::cmd::load_site(world, route, true)? else {
+    let Some((name, site)) = site.load()? else {
         return Ok((World::default_warehouse(), "warehouse".into()));
     };
     recovery.tour = site.route;

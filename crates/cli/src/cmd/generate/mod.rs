@@ -56,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         people_pause_s: args.people_pause_s.unwrap_or(0.0),
         ..GeneratorParams::default()
     };
-    let (w1, route) = match super::load_site(args.site.world.as_deref(), args.site.route.as_deref(), true)? {
+    let (w1, route) = match args.site.load()? {
         Some((_, site)) => {
             params.storage_areas = site.storage;
             (site.world, site.route)

@@ -96,7 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         shard: None,
         localiser: args.localiser.clone(),
         ground_truth: GroundTruth::Exact,
-        site: super::load_site(args.site.world.as_deref(), args.site.route.as_deref(), true)?,
+        site: args.site.load()?,
     };
     let world_name = spec.site.as_ref().map_or_else(|| "warehouse".to_string(), |(n, _)| n.clone());
     let mut vp = spec.plan()?.params.swap_remove(0);

@@ -91,7 +91,7 @@ pub(super) fn spec_of(args: &Args) -> anyhow::Result<SweepSpec> {
         shard: args.shard,
         localiser: args.localiser.clone(),
         ground_truth: args.ground_truth,
-        site: crate::cmd::load_site(args.site.world.as_deref(), args.site.route.as_deref(), true)?,
+        site: args.site.load()?,
     })
 }
 
