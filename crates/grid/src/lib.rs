@@ -38,7 +38,7 @@ mod traversal;
 pub use atomic::{AtomicFile, Leftover, OutputError, StagedDir, check_output_file, hidden_sibling, write_atomic};
 pub use distance::DistanceField;
 pub use grid::{CellCoord, CellState, ChangeKind, GridGeometry, MAX_CELLS, MAX_SIDE, OccupancyGrid};
-pub use pose::{Point2, Pose2, angle_diff, wrap_angle};
+pub use pose::{Point2, Pose2, PreparedPose, angle_diff, wrap_angle};
 pub use ray_caster::{FreeDiscs, RayCaster, RayDir};
 pub use traversal::{RayHit, RayStop, SegmentWalk, cast_ray, traverse, traverse_indexed};
 
