@@ -14,7 +14,7 @@
 //! weights at a hit.
 
 use crate::params::{BeamCombination, BeamSelection, FilterParams, UnknownCells};
-use mapkeeper_grid::{CellState, DistanceField, OccupancyGrid, Point2, Pose2};
+use mapkeeper_grid::{CellState, DistanceField, OccupancyGrid, Point2, Pose2, PreparedPose};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 
 /// Offset that makes a truncating cast act as `floor` for every coordinate of interest (grid
@@ -27,7 +27,8 @@ pub struct LikelihoodField {
     width: usize,
     height: usize,
     inv_resolution: f64,
-    map_in_grid: Pose2,
+    /// The map frame in the grid's frame, its sine and cosine computed once.
+    map_in_grid: PreparedPose,
     combination: BeamCombination,
     values: Vec<f32>,
     off_map_value: f32,
@@ -74,7 +75,7 @@ impl LikelihoodField {
             width: geometry.width(),
             height: geometry.height(),
             inv_resolution: 1.0 / geometry.resolution_m(),
-            map_in_grid: geometry.origin().inverse(),
+            map_in_grid: geometry.origin().inverse().prepare(),
             combination: params.beam_combination,
             values,
             off_map_value: far,
