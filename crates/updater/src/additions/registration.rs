@@ -252,9 +252,21 @@ impl Registrar {
         if !(fu.is_finite() && fv.is_finite()) || fu.abs() > 1e9 || fv.abs() > 1e9 {
             return None;
         }
-        let (x0, y0) = (fu.floor(), fv.floor());
-        let (a, b) = (fu - x0, fv - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
+        // floor without a libm call (|fu|, |fv| ≤ 1e9): the same integers, so the same offsets.
+        let floor = |x: f64| {
+            let t = x as i64;
+            t - i64::from((t as f64) > x)
+        };
+        let (x0, y0) = (floor(fu), floor(fv));
+        let (a, b) = (fu - x0 as f64, fv - y0 as f64);
+        let (w, h) = (self.geometry.width() as i64, self.geometry.height() as i64);
+        if x0 >= 0 && y0 >= 0 && x0 + 1 < w && y0 + 1 < h {
+            // All four inside: one index, no per-corner bounds tests.
+            let i = (y0 * w + x0) as usize;
+            let d = |k: usize| self.dist_cells.get(k).map_or(f64::from(self.cap_cells), |&v| f64::from(v));
+            let up = i + w as usize;
+            return Some(([d(i), d(i + 1), d(up), d(up + 1)], a, b));
+        }
         Some(([self.at(x0, y0), self.at(x0 + 1, y0), self.at(x0, y0 + 1), self.at(x0 + 1, y0 + 1)], a, b))
     }
 
@@ -317,7 +329,24 @@ impl Registrar {
     /// Truncated squared cost of the points at `pose`.
     fn cost(&self, pose: Pose2, truncate_m: f64) -> f64 {
         let c2 = truncate_m * truncate_m;
-        self.points.iter().map(|e| self.distance_m(pose.transform_point(*e)).powi(2).min(c2)).sum()
+        let t = pose.prepare();
+        self.points.iter().map(|e| self.distance_m(t.transform_point(*e)).powi(2).min(c2)).sum()
+    }
+
+    /// [`Registrar::cost`] if it is below `bound`, else `None`: the terms are never negative, so
+    /// the running sum only grows and the sum stops once it reaches `bound` (the same sum,
+    /// term for term, when it does not).
+    fn cost_below(&self, pose: Pose2, truncate_m: f64, bound: f64) -> Option<f64> {
+        let c2 = truncate_m * truncate_m;
+        let t = pose.prepare();
+        let mut sum = 0.0f64;
+        for e in &self.points {
+            sum += self.distance_m(t.transform_point(*e)).powi(2).min(c2);
+            if sum >= bound {
+                return None;
+            }
+        }
+        Some(sum)
     }
 
     /// The best yaw of the 1-D search at the given position (ties: the smallest offset).
@@ -326,8 +355,9 @@ impl Registrar {
         let mut best = (self.cost(given, p.truncate_m), given);
         for k in (1..=n).flat_map(|k| [k, -k]) {
             let cand = Pose2::new(given.x, given.y, given.yaw + k as f64 * p.yaw_step_rad);
-            let c = self.cost(cand, p.truncate_m);
-            if c < best.0 {
+            // Only a strictly lower cost replaces the best, so a candidate may stop counting
+            // once it reaches the best's.
+            if let Some(c) = self.cost_below(cand, p.truncate_m, best.0) {
                 best = (c, cand);
             }
         }
@@ -339,9 +369,10 @@ impl Registrar {
         let mut pose = start;
         for _ in 0..p.iterations {
             let (mut h, mut b) = ([[0.0f64; 3]; 3], [0.0f64; 3]);
+            let t = pose.prepare();
             let (sin, cos) = pose.yaw.sin_cos();
             for e in &self.points {
-                let q = pose.transform_point(*e);
+                let q = t.transform_point(*e);
                 let s = self.sample(q);
                 if !(s.d_m > 0.0 && s.d_m <= p.truncate_m) {
                     continue;
@@ -416,9 +447,10 @@ impl Registrar {
         let (mut used, mut inliers, mut sq) = (0usize, 0usize, 0.0f64);
         let mut info = [[0.0f64; 3]; 3];
         let mut range_sq = 0.0;
+        let t = pose.prepare();
         let (sin, cos) = pose.yaw.sin_cos();
         for e in &self.points {
-            let s = self.sample(pose.transform_point(*e));
+            let s = self.sample(t.transform_point(*e));
             if s.d_m > p.truncate_m {
                 continue;
             }
@@ -630,6 +662,35 @@ mod tests {
         none.ranges_m.iter_mut().for_each(|r| *r = f32::NAN);
         let r = reg.register(truth, &[none], f64::INFINITY, &on());
         assert_eq!(r.refused, Some(Refusal::TooFewPoints));
+    }
+
+    #[test]
+    fn a_bounded_cost_is_the_cost_or_none() {
+        // The yaw search's early stop: the same sum, bit for bit, below the bound; None at or
+        // above it; including points near and beyond the grid's edges.
+        let map = room();
+        let truth = Pose2::new(5.0, 4.0, 0.3);
+        let mut reg = Registrar::new(&map, &on());
+        reg.collect(&[scan(&map, truth)], f64::INFINITY, 240);
+        assert!(reg.points.len() > 100);
+        let mut seen = (0, 0);
+        for k in -40..=40 {
+            let pose = Pose2::new(truth.x + 0.011 * k as f64, truth.y - 0.007 * k as f64, truth.yaw + 0.004 * k as f64);
+            let full = reg.cost(pose, 0.25);
+            for bound in [full * 0.5, full, f64::from_bits(full.to_bits() + 1), full * 2.0, f64::INFINITY] {
+                match reg.cost_below(pose, 0.25, bound) {
+                    Some(c) => {
+                        assert_eq!(c.to_bits(), full.to_bits(), "{pose:?} {bound}");
+                        seen.0 += 1;
+                    }
+                    None => {
+                        assert!(full >= bound, "{pose:?}: {full} < {bound} but stopped");
+                        seen.1 += 1;
+                    }
+                }
+            }
+        }
+        assert!(seen.0 > 0 && seen.1 > 0, "{seen:?}");
     }
 
     #[test]
