@@ -194,12 +194,10 @@ pub struct Registrar {
     points: Vec<Point2>,
 }
 
-/// One evaluation of a point: boundary distance (metres) and its gradient in the map frame.
+/// One evaluation of a point for judging a fit: boundary distance (metres) and the normal.
 #[derive(Clone, Copy, Debug)]
 struct Sample {
     d_m: f64,
-    gx: f64,
-    gy: f64,
     /// Gradient of the cell-centre field, normalised (the surface normal), for the constraint.
     nx: f64,
     ny: f64,
@@ -278,25 +276,49 @@ impl Registrar {
         (d - 0.5).max(0.0) * self.geometry.resolution_m()
     }
 
-    /// Bilinear sample at a map-frame point.
+    /// The interpolated cell-centre distance (cells) at a map-frame point and its gradient in
+    /// the map frame (cells per cell); `None` where [`Registrar::corners`] has none.
     #[inline]
-    fn sample(&self, p: Point2) -> Sample {
-        let r = self.geometry.resolution_m();
-        let Some(([d00, d10, d01, d11], a, b)) = self.corners(p) else {
-            return Sample { d_m: f64::INFINITY, gx: 0.0, gy: 0.0, nx: 0.0, ny: 0.0 };
-        };
+    fn field_at(&self, p: Point2) -> Option<(f64, f64, f64)> {
+        let ([d00, d10, d01, d11], a, b) = self.corners(p)?;
         let d = d00 * (1.0 - a) * (1.0 - b) + d10 * a * (1.0 - b) + d01 * (1.0 - a) * b + d11 * a * b;
-        // Gradient in grid units (cells per cell), then rotated into the map frame.
+        // Gradient in grid units, then rotated into the map frame.
         let du = (d10 - d00) * (1.0 - b) + (d11 - d01) * b;
         let dv = (d01 - d00) * (1.0 - a) + (d11 - d10) * a;
         let (sin, cos) = self.origin_sin_cos;
-        let (wx, wy) = (cos * du - sin * dv, sin * du + cos * dv);
-        let norm = wx.hypot(wy);
-        let (nx, ny) = if norm > 1e-9 { (wx / norm, wy / norm) } else { (0.0, 0.0) };
-        // The boundary distance: half a cell less, floored at 0 (flat inside occupied cells).
+        Some((d, cos * du - sin * dv, sin * du + cos * dv))
+    }
+
+    /// The boundary distance (metres) and its map-frame gradient (zero where the distance is
+    /// 0): [`Registrar::sample`]'s `d_m`, `gx` and `gy`, without the normal's `hypot`.
+    #[inline]
+    fn distance_and_gradient(&self, p: Point2) -> (f64, f64, f64) {
+        match self.field_at(p) {
+            Some((d, wx, wy)) => self.boundary(d, wx, wy),
+            None => (f64::INFINITY, 0.0, 0.0),
+        }
+    }
+
+    /// From the field's value and gradient: the boundary distance, half a cell less than the
+    /// cell-centre distance and floored at 0 (flat inside occupied cells), in metres, and its
+    /// gradient.
+    #[inline(always)]
+    fn boundary(&self, d: f64, wx: f64, wy: f64) -> (f64, f64, f64) {
         let boundary = (d - 0.5).max(0.0);
         let (gx, gy) = if boundary > 0.0 { (wx, wy) } else { (0.0, 0.0) };
-        Sample { d_m: boundary * r, gx, gy, nx, ny }
+        (boundary * self.geometry.resolution_m(), gx, gy)
+    }
+
+    /// Bilinear sample at a map-frame point, with the normal.
+    #[inline]
+    fn sample(&self, p: Point2) -> Sample {
+        let Some((d, wx, wy)) = self.field_at(p) else {
+            return Sample { d_m: f64::INFINITY, nx: 0.0, ny: 0.0 };
+        };
+        let norm = wx.hypot(wy);
+        let (nx, ny) = if norm > 1e-9 { (wx / norm, wy / norm) } else { (0.0, 0.0) };
+        let (d_m, _, _) = self.boundary(d, wx, wy);
+        Sample { d_m, nx, ny }
     }
 
     /// Collects the step's end points in the robot frame (an even subsample of the valid beams
@@ -372,21 +394,20 @@ impl Registrar {
             let t = pose.prepare();
             let (sin, cos) = pose.yaw.sin_cos();
             for e in &self.points {
-                let q = t.transform_point(*e);
-                let s = self.sample(q);
-                if !(s.d_m > 0.0 && s.d_m <= p.truncate_m) {
+                let (d_m, gx, gy) = self.distance_and_gradient(t.transform_point(*e));
+                if !(d_m > 0.0 && d_m <= p.truncate_m) {
                     continue;
                 }
                 // d_m = r · boundary(u, v) with u, v in cells: per metre, the grid gradient.
                 let (dqx, dqy) = (-sin * e.x - cos * e.y, cos * e.x - sin * e.y);
-                let j = [s.gx, s.gy, s.gx * dqx + s.gy * dqy];
+                let j = [gx, gy, gx * dqx + gy * dqy];
                 for (row, &jr) in h.iter_mut().zip(&j) {
                     for (cell, &jc) in row.iter_mut().zip(&j) {
                         *cell += jr * jc;
                     }
                 }
                 for (bk, &jk) in b.iter_mut().zip(&j) {
-                    *bk += jk * s.d_m;
+                    *bk += jk * d_m;
                 }
             }
             // A little damping keeps a near-singular step bounded.
