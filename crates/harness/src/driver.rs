@@ -49,7 +49,10 @@ pub fn step_once(
     for c in controls.iter_mut() {
         c.before_step(&step, session, source.control())?;
     }
-    let report = session.process(&step.frame);
+    // With the localiser run ahead, the session is given the next frame too, if the source
+    // already has it (after the controls acted on this step, so the frame is the one to come).
+    let next = if session.localises_ahead() { source.peek_frame() } else { None };
+    let report = session.process_with_next(&step.frame, next);
     for o in observers.iter_mut() {
         o.on_step(&step, &report, session);
     }
