@@ -35,14 +35,16 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
     assert_eq!(summary_json(&sa).unwrap(), summary_json(&sb).unwrap());
     let records = |r: &[SeedRun]| r.iter().map(SeedRun::record).collect::<Vec<_>>();
     assert_eq!(worlds_csv(&records(&a)), worlds_csv(&records(&b)));
-    // The simulator run ahead of the estimators on a thread of its own: the same seeds.
+    // The simulator run ahead of the estimators and the chain localiser ahead of the updater,
+    // each on a thread of its own: the same seeds.
     let mut pa = params();
     pa.runner.run.simulate_ahead = true;
+    pa.runner.run.localise_ahead = true;
     let c: Vec<SeedRun> = [5, 6].iter().map(|&s| run_seed(&pa, s, &NoClock, &|_| {}).expect("run")).collect();
     assert_eq!(summary_json(&summarise(&pa, &c, 0.0)).unwrap(), summary_json(&sa).unwrap());
     assert_eq!(worlds_csv(&records(&c)), worlds_csv(&records(&a)));
     for (ra, rc) in a.iter().zip(&c) {
-        assert_eq!(ra.saved, rc.saved, "seed {}: saved worlds differ with the simulator ahead", ra.seed);
+        assert_eq!(ra.saved, rc.saved, "seed {}: saved worlds differ with the simulator and localiser ahead", ra.seed);
     }
     for (ra, rb) in a.iter().zip(&b) {
         assert_eq!(ra.initial_map, rb.initial_map);

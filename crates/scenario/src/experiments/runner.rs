@@ -122,11 +122,18 @@ pub struct RunOptions {
     /// ([`mapkeeper_harness::jobs::map::ThreadedEstimateMapper`]; shorter wall time when a core
     /// is free). Default true.
     pub parallel_fresh_map: bool,
+    /// With [`RunOptions::simulate_ahead`], run the chain localiser one frame ahead of the
+    /// updater on a thread of its own, going back to a saved state when a control acts on it
+    /// or on the robot before its update is used (`mapkeeper_harness::Session::set_localise_ahead`).
+    /// Default false, and `validate` leaves it off: on the 2-core machine it gained no wall time
+    /// (docs/benchmarks.md, "Issue 29, third round"), the second core being already taken by
+    /// the simulator, the baseline and the fresh map.
+    pub localise_ahead: bool,
 }
 
 impl Default for RunOptions {
     fn default() -> Self {
-        Self { parallel_baseline: true, simulate_ahead: false, parallel_fresh_map: true }
+        Self { parallel_baseline: true, simulate_ahead: false, parallel_fresh_map: true, localise_ahead: false }
     }
 }
 
@@ -444,6 +451,22 @@ fn fresh_mapper(params: &RunnerParams, prev_map: &OccupancyGrid) -> Result<Optio
     }))
 }
 
+/// The session of one world: the chain localiser, the updater and the baseline, with the
+/// run's deskewing and threads.
+fn session<'c>(
+    params: &RunnerParams,
+    chain: Localiser,
+    updater: Option<MapUpdater>,
+    baseline: Option<Baseline>,
+    clock: &'c dyn Clock,
+) -> Session<'c> {
+    let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
+    session.set_deskew(params.deskew);
+    // The localiser runs ahead only with a source that shows the next frame.
+    session.set_localise_ahead(params.run.localise_ahead && params.run.simulate_ahead);
+    session
+}
+
 /// [`run_world`] with `extra` observers seeing every step after the run's own (an MCAP
 /// recorder, say); observers cannot change the run.
 pub fn run_world_with(
@@ -464,8 +487,7 @@ pub fn run_world_with(
     chain.init_pose(start_est, cov)?;
     let baseline = baseline(params, baseline_map, seed, label, start_est, cov)?;
     let updater = updater(params, prev_map, prev_memory)?;
-    let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
-    session.set_deskew(params.deskew);
+    let mut session = session(params, chain, updater, baseline, clock);
     let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), params.run.simulate_ahead);
     let mut score = LocScore::new(params.record_trajectories);
     let mut work = UpdaterWork::default();
