@@ -165,6 +165,12 @@ impl PreparedPose {
         self.pose
     }
 
+    /// `(sin, cos)` of the pose's yaw, as `yaw.sin_cos()` gives them.
+    #[inline]
+    pub fn sin_cos(&self) -> (f64, f64) {
+        (self.sin, self.cos)
+    }
+
     /// [`Pose2::transform_point`].
     #[inline(always)]
     pub fn transform_point(&self, p: Point2) -> Point2 {

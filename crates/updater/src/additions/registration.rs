@@ -348,16 +348,10 @@ impl Registrar {
         }
     }
 
-    /// Truncated squared cost of the points at `pose`.
-    fn cost(&self, pose: Pose2, truncate_m: f64) -> f64 {
-        let c2 = truncate_m * truncate_m;
-        let t = pose.prepare();
-        self.points.iter().map(|e| self.distance_m(t.transform_point(*e)).powi(2).min(c2)).sum()
-    }
-
-    /// [`Registrar::cost`] if it is below `bound`, else `None`: the terms are never negative, so
-    /// the running sum only grows and the sum stops once it reaches `bound` (the same sum,
-    /// term for term, when it does not).
+    /// The truncated squared cost of the points at `pose` (the sum of
+    /// `min(distance², truncate_m²)` in the points' order) if it is below `bound`, else `None`:
+    /// the terms are never negative, so the running sum only grows and stops once it reaches
+    /// `bound` (the same sum, term for term, when it does not).
     fn cost_below(&self, pose: Pose2, truncate_m: f64, bound: f64) -> Option<f64> {
         let c2 = truncate_m * truncate_m;
         let t = pose.prepare();
@@ -374,7 +368,8 @@ impl Registrar {
     /// The best yaw of the 1-D search at the given position (ties: the smallest offset).
     fn yaw_search(&self, given: Pose2, p: &RegistrationParams) -> Pose2 {
         let n = (p.yaw_search_rad / p.yaw_step_rad).floor() as i64;
-        let mut best = (self.cost(given, p.truncate_m), given);
+        // Every term is at most truncate_m², so the given pose's cost is always below +∞.
+        let mut best = (self.cost_below(given, p.truncate_m, f64::INFINITY).unwrap_or(f64::INFINITY), given);
         for k in (1..=n).flat_map(|k| [k, -k]) {
             let cand = Pose2::new(given.x, given.y, given.yaw + k as f64 * p.yaw_step_rad);
             // Only a strictly lower cost replaces the best, so a candidate may stop counting
@@ -392,7 +387,7 @@ impl Registrar {
         for _ in 0..p.iterations {
             let (mut h, mut b) = ([[0.0f64; 3]; 3], [0.0f64; 3]);
             let t = pose.prepare();
-            let (sin, cos) = pose.yaw.sin_cos();
+            let (sin, cos) = t.sin_cos();
             for e in &self.points {
                 let (d_m, gx, gy) = self.distance_and_gradient(t.transform_point(*e));
                 if !(d_m > 0.0 && d_m <= p.truncate_m) {
@@ -469,7 +464,7 @@ impl Registrar {
         let mut info = [[0.0f64; 3]; 3];
         let mut range_sq = 0.0;
         let t = pose.prepare();
-        let (sin, cos) = pose.yaw.sin_cos();
+        let (sin, cos) = t.sin_cos();
         for e in &self.points {
             let s = self.sample(t.transform_point(*e));
             if s.d_m > p.truncate_m {
@@ -697,7 +692,9 @@ mod tests {
         let mut seen = (0, 0);
         for k in -40..=40 {
             let pose = Pose2::new(truth.x + 0.011 * k as f64, truth.y - 0.007 * k as f64, truth.yaw + 0.004 * k as f64);
-            let full = reg.cost(pose, 0.25);
+            let t = pose.prepare();
+            let full =
+                reg.points.iter().fold(0.0f64, |s, e| s + reg.distance_m(t.transform_point(*e)).powi(2).min(0.0625));
             for bound in [full * 0.5, full, f64::from_bits(full.to_bits() + 1), full * 2.0, f64::INFINITY] {
                 match reg.cost_below(pose, 0.25, bound) {
                     Some(c) => {
