@@ -30,8 +30,9 @@
 
 use crate::grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
 use crate::pose::Point2;
-use crate::traversal::SegmentWalk;
+use crate::traversal::traverse;
 use serde::{Deserialize, Serialize};
+use std::ops::ControlFlow;
 
 /// Errors of the mapper.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -211,24 +212,19 @@ impl LogOddsMapper {
     /// if `endpoint_is_hit` (and `l_free` otherwise). If `to` lies outside the grid, no cell
     /// gets `l_occ`. Non-finite points change nothing. No allocation.
     pub fn integrate_ray(&mut self, from: Point2, to: Point2, endpoint_is_hit: bool) {
-        // The end cell by index (`None` outside the grid, where no visited cell can be it).
-        let end =
-            if endpoint_is_hit { self.geometry.world_to_cell(to).and_then(|c| self.geometry.index(c)) } else { None };
-        let Some(mut walk) = SegmentWalk::start(&self.geometry, from, to) else { return };
+        let end = if endpoint_is_hit { self.geometry.world_to_cell(to) } else { None };
+        let width = self.geometry.width();
         let inc = self.inc;
         let cells = &mut self.log_odds;
-        loop {
-            // The walk only visits cells inside the grid.
-            let i = walk.index();
+        let _ = traverse(&self.geometry, from, to, |c| {
+            // `traverse` only visits cells inside the grid.
+            let i = c.iy as usize * width + c.ix as usize;
+            let delta = if Some(c) == end { inc.occ } else { inc.free };
             if let Some(l) = cells.get_mut(i) {
-                let delta = if Some(i) == end { inc.occ } else { inc.free };
-                // `clamp` for the finite values held here (min < max), without its assertion.
-                *l = (*l + delta).max(inc.min).min(inc.max);
+                *l = (*l + delta).clamp(inc.min, inc.max);
             }
-            if !walk.advance() {
-                return;
-            }
-        }
+            ControlFlow::<()>::Continue(())
+        });
     }
 
     /// The trinary map: occupied where the probability is ≥ `occ_threshold`, free where it is
