@@ -392,7 +392,7 @@ impl Localiser {
         }
         let reference = self.odom_at_filter.unwrap_or(*robot_in_odom);
         let odometry = OdometryDelta::between(&reference, robot_in_odom);
-        self.gate_open(&reference, robot_in_odom, &odometry) || self.force_update || self.odom_at_filter.is_none()
+        self.sensor_update_due(&reference, robot_in_odom, &odometry)
     }
 
     /// Re-initialises at `pose_in_map` with a Gaussian of covariance `covariance` (x m, y m, yaw
@@ -529,10 +529,7 @@ impl Localiser {
         self.last_match = None;
         let reference = self.odom_at_filter.unwrap_or(robot_in_odom);
         let odometry = OdometryDelta::between(&reference, &robot_in_odom);
-        if !(self.gate_open(&reference, &robot_in_odom, &odometry)
-            || self.force_update
-            || self.odom_at_filter.is_none())
-        {
+        if !self.sensor_update_due(&reference, &robot_in_odom, &odometry) {
             return self.report(UpdateOutcome::Gated, 0, 0, false, 0.0);
         }
 
@@ -602,6 +599,12 @@ impl Localiser {
         let m = matcher.match_scan(&predicted, self.match_beams.endpoints())?;
         self.last_match = Some(m);
         m.accepted.then(|| OdometryDelta::between(&from.pose_in_map, &m.pose_in_map))
+    }
+
+    /// Whether a sensor update runs at odometry `now`: the gates open, or an update forced by an
+    /// initialisation or the first reading.
+    fn sensor_update_due(&self, reference: &Pose2, now: &Pose2, delta: &OdometryDelta) -> bool {
+        self.gate_open(reference, now, delta) || self.force_update || self.odom_at_filter.is_none()
     }
 
     /// Whether the odometry has moved enough since the last filter update (`update_gate`).
