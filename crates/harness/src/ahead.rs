@@ -46,10 +46,12 @@ pub struct AheadCounts {
 pub(crate) struct LocaliserAhead {
     /// The worker's queue (`None` once closed, which ends the worker).
     jobs: Option<Sender<Job>>,
-    done: Receiver<(Box<Localiser>, UpdateReport)>,
+    /// The worker's answers: the filter, its report and the frame it processed (handed back
+    /// to be compared with the frame that comes).
+    done: Receiver<(Box<Localiser>, UpdateReport, SensorFrame)>,
     worker: Option<JoinHandle<()>>,
-    /// The frame being processed ahead (the filter is on the worker meanwhile).
-    pending: Option<SensorFrame>,
+    /// Whether an update runs ahead (the filter is on the worker meanwhile).
+    pending: bool,
     /// The filter's state before the update running ahead.
     saved: Option<FilterState>,
     counts: AheadCounts,
@@ -57,10 +59,7 @@ pub(crate) struct LocaliserAhead {
 
 impl std::fmt::Debug for LocaliserAhead {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LocaliserAhead")
-            .field("pending", &self.pending.is_some())
-            .field("counts", &self.counts)
-            .finish()
+        f.debug_struct("LocaliserAhead").field("pending", &self.pending).field("counts", &self.counts).finish()
     }
 }
 
@@ -72,7 +71,7 @@ impl LocaliserAhead {
         let worker = std::thread::spawn(move || {
             for mut job in rx {
                 let report = job.localiser.update(job.odometry, &job.input.scans);
-                if tx.send((job.localiser, report)).is_err() {
+                if tx.send((job.localiser, report, job.input)).is_err() {
                     return;
                 }
             }
@@ -81,7 +80,7 @@ impl LocaliserAhead {
             jobs: Some(jobs),
             done,
             worker: Some(worker),
-            pending: None,
+            pending: false,
             saved: None,
             counts: AheadCounts::default(),
         }
@@ -89,7 +88,7 @@ impl LocaliserAhead {
 
     /// Whether an update is running ahead (the filter is on the worker).
     pub(crate) fn is_pending(&self) -> bool {
-        self.pending.is_some()
+        self.pending
     }
 
     /// What happened to the updates sent ahead so far.
@@ -100,7 +99,7 @@ impl LocaliserAhead {
     /// While an update runs ahead, the particles of the filter as it was before it (what the
     /// filter holds at this point of a run in one thread).
     pub(crate) fn saved_particles(&self) -> Option<&[Pose2]> {
-        self.pending.as_ref().and(self.saved.as_ref()).map(FilterState::particles)
+        self.saved.as_ref().filter(|_| self.pending).map(FilterState::particles)
     }
 
     /// Saves `localiser`'s state and sends it to update with `odometry` and `input` on the
@@ -110,7 +109,7 @@ impl LocaliserAhead {
             Some(s) => localiser.save_state(s),
             None => self.saved = Some(localiser.state()),
         }
-        self.pending = Some(input.clone());
+        self.pending = true;
         self.counts.sent += 1;
         let sent = self.jobs.as_ref().is_some_and(|q| q.send(Job { localiser, odometry, input }).is_ok());
         if !sent {
@@ -123,12 +122,14 @@ impl LocaliserAhead {
     /// processed; otherwise (another frame, or `None`: a control acts on the filter) taken
     /// back to the state before it, without a report.
     pub(crate) fn take(&mut self, input: Option<&SensorFrame>) -> Option<(Box<Localiser>, Option<UpdateReport>)> {
-        let pending = self.pending.take()?;
-        let (mut localiser, report) = match self.done.recv() {
+        if !std::mem::take(&mut self.pending) {
+            return None;
+        }
+        let (mut localiser, report, processed) = match self.done.recv() {
             Ok(r) => r,
             Err(_) => self.worker_died(),
         };
-        if input.is_some_and(|f| same_frame(&pending, f)) {
+        if input.is_some_and(|f| same_frame(&processed, f)) {
             self.counts.used += 1;
             return Some((localiser, Some(report)));
         }
