@@ -6,7 +6,7 @@
 use crate::LocaliserError;
 use crate::cluster::{ClusterScratch, best_cluster};
 use crate::kld::{BinKey, Bins, count_bins, kld_bound};
-use crate::likelihood_field::{BeamSet, LikelihoodField};
+use crate::likelihood_field::{BeamSet, LikelihoodField, ParticleFrames};
 use crate::motion_model::{OdometryDelta, sample_motion};
 use crate::params::{BeamSelection, EstimateFrom, FilterParams, LidarUpdates, Resampler, UpdateGate};
 use crate::resample::{multinomial_draw, systematic_resample};
@@ -151,6 +151,7 @@ pub struct Localiser {
     ess: f64,
     // Scratch, reused between updates.
     beams: BeamSet,
+    frames: ParticleFrames,
     log_w: Vec<f64>,
     next: Vec<Pose2>,
     indices: Vec<usize>,
@@ -264,6 +265,7 @@ impl Localiser {
             },
             ess: 0.0,
             beams: BeamSet::new(),
+            frames: ParticleFrames::new(),
             log_w: Vec::new(),
             next: Vec::new(),
             indices: Vec::new(),
@@ -643,9 +645,10 @@ impl Localiser {
     fn correct(&mut self) -> Correction {
         // Correction, in the log domain: ln wᵢ ← ln wᵢ + e·Σ ln p(z | xᵢ) (product) or
         // + Σ_lidars ln(1 + Σ p³) (AMCL cube sum).
-        self.log_w.clear();
-        for (p, &w) in self.particles.iter().zip(&self.weights) {
-            self.log_w.push(w.ln() + self.field.log_likelihood(p, &self.beams));
+        self.field.log_likelihoods(&self.particles, &self.beams, &mut self.frames, &mut self.log_w);
+        self.log_w.truncate(self.weights.len());
+        for (lw, &w) in self.log_w.iter_mut().zip(&self.weights) {
+            *lw += w.ln(); // IEEE addition commutes: ln w + score, bit for bit
         }
         let beams = self.beams.len();
         let (ess, ln_avg) = match normalise_log_weights(&self.log_w, &mut self.weights) {

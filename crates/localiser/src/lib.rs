@@ -65,7 +65,7 @@ mod scan_match;
 pub use cluster::{ClusterScratch, ClusterStats, best_cluster};
 pub use filter::{Covariance3, Degeneracy, Estimate, FilterState, Localiser, Recovery, UpdateOutcome, UpdateReport};
 pub use kld::{BinKey, Bins, count_bins, kld_bound};
-pub use likelihood_field::{BeamSet, LikelihoodField, beam_likelihood, beam_log_likelihood, beam_term};
+pub use likelihood_field::{BeamSet, LikelihoodField, ParticleFrames, beam_likelihood, beam_log_likelihood, beam_term};
 pub use params::{
     BeamCombination, BeamSelection, EstimateFrom, FilterParams, Kinematics, LOCALISER_PRESETS, LidarUpdates,
     MAX_PARTICLES_LIMIT, MotionParams, Resampler, UnknownCells, UpdateGate,
