@@ -88,6 +88,7 @@ const FLAGS: &[Flag] = &[
     num("validate", "--route-length", Real),
     num("validate", "--shard", Shard),
     num("validate", "--update-every", Count),
+    num("validate", "--fresh-map-every", Count),
     ok("validate", "--route-clearance", Real, &["0"], "edits may touch the route (0 m clearance)"),
     num("experiment check-detection", "--trials", Count),
     ok("experiment check-detection", "--seed", Count, SEED_OK, SEED_WHY),

@@ -666,6 +666,50 @@ fn update_every_k_updates_only_every_kth_world_and_reports_the_check_under_heavy
 }
 
 #[test]
+fn fresh_map_every_k_changes_the_fresh_map_only_and_the_report_says_its_rate() {
+    let dir = common::scratch("validate", "fresh-map-every");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let mut a = vec!["validate", "--preset", "mapkeeper", "--worlds", "3", "--route-length", "12", "--no-timing"];
+        a.extend_from_slice(extra);
+        a.extend(["--out", common::s(&out)]);
+        let args = common::validate_args(&a);
+        let o = common::mapkeeper(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        let csv = std::fs::read_to_string(out.join("worlds.csv")).unwrap();
+        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        (v, csv, report)
+    };
+    let (v2, csv2, report2) = run("default", &[]);
+    let (v6, csv6, report6) = run("six", &["--fresh-map-every", "6"]);
+    assert_eq!(v2["params"]["runner"]["fresh_map"]["scan_stride"], 2);
+    assert_eq!(v6["params"]["runner"]["fresh_map"]["scan_stride"], 6);
+    assert!(report2.contains("fed the scans of every 2nd processed step"), "{report2}");
+    assert!(report6.contains("fed the scans of every 6th processed step"), "{report6}");
+    assert!(report6.contains("M_1 took every 2nd step of its exploration run"), "{report6}");
+    assert!(report6.contains("poses every 0.5 m along it, cast once per world"), "{report6}");
+    assert!(report6.contains("Both localisers (`mapkeeper`) are given every frame of the drive"), "{report6}");
+    // The same updated maps and localisation; only the fresh map's columns differ.
+    let table =
+        |csv: &str| -> Vec<Vec<String>> { csv.lines().map(|l| l.split(',').map(String::from).collect()).collect() };
+    let (a, b) = (table(&csv2), table(&csv6));
+    assert_eq!(a[0], b[0]);
+    let mut fresh_differs = false;
+    for (ra, rb) in a.iter().zip(&b).skip(1) {
+        for ((name, x), y) in a[0].iter().zip(ra).zip(rb) {
+            if name.contains("fresh") {
+                fresh_differs |= x != y;
+            } else {
+                assert_eq!(x, y, "{name}");
+            }
+        }
+    }
+    assert!(fresh_differs, "a sixth of the scans should give another fresh map");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn harder_worlds_vary_route_and_start_per_world_and_people_stop() {
     let dir = common::scratch("validate", "harder");
     let out = dir.join("v");

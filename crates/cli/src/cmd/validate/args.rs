@@ -85,6 +85,11 @@ pub struct Args {
     /// summary.json gains `heavy_change` (Suspend and Lost shares, stuck worlds).
     #[arg(long, value_name = "K", value_parser = crate::cmd::count_in(1, 10_000), allow_hyphen_values = true)]
     pub update_every: Option<usize>,
+    /// Integrate the fresh map F_i (each world remapped from its run alone, the comparator of
+    /// updating) from every k-th processed step, 1 to 10000 [default: M_1's stride, 2]: larger k
+    /// costs less and maps from fewer scans. The report says the rate it used.
+    #[arg(long, value_name = "K", value_parser = crate::cmd::count_in(1, 10_000), allow_hyphen_values = true)]
+    pub fresh_map_every: Option<usize>,
     /// Smallest distance from an edited item to the route, metres (the generator's
     /// `route_clearance_m`, default 0.98: the robot's width plus 0.3 m); smaller values put
     /// edits near the route.

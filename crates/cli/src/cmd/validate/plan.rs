@@ -62,6 +62,9 @@ pub(super) fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Resu
         if let Some(k) = args.update_every {
             p.update_every = k;
         }
+        if let (Some(k), Some(f)) = (args.fresh_map_every, p.runner.fresh_map.as_mut()) {
+            f.scan_stride = u32::try_from(k).context("--fresh-map-every")?;
+        }
         if let Some(c) = args.route_clearance {
             p.generator.route_clearance_m = c;
         }
@@ -69,7 +72,7 @@ pub(super) fn apply_overrides(args: &Args, plan: &mut SweepPlan) -> anyhow::Resu
         if let Some(s) = args.people_pause_s {
             p.generator.people_pause_s = s;
         }
-        p.validate().context("--update-every / --route-clearance / --people-pause-s")?;
+        p.validate().context("--update-every / --fresh-map-every / --route-clearance / --people-pause-s")?;
         args.sensor.apply(&mut p.runner.sim)?;
     }
     Ok(())

@@ -341,6 +341,18 @@ fn pose_source_lines(s: &mut String, summary: &Summary) {
     s.push_str("\n\n");
 }
 
+/// "every", "every 2nd", "every 3rd", ….
+fn every_kth(k: u32) -> String {
+    let suffix = match (k % 10, k % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    if k == 1 { "every".into() } else { format!("every {k}{suffix}") }
+}
+
 /// Both ground truth variants and the best achievable map.
 fn ground_truth_section(s: &mut String, summary: &Summary) {
     let _ = writeln!(
@@ -352,15 +364,19 @@ fn ground_truth_section(s: &mut String, summary: &Summary) {
         s,
         "The tables and figures above use the `{}` ground truth. `exact`: the raster of all of W_i's geometry \
          over the whole grid (faces no lidar ever sees are occupied; the floor outside the walls counts). \
-         `observed`: what noise-free lidars see from the exploration route at true poses in W_i (the paper's \
-         G_i were SLAM maps of such a run), unknown elsewhere, scored over the interior of the outer walls. \
+         `observed`: what noise-free lidars see from the exploration route at true poses in W_i (poses every \
+         {} m along it, cast once per world; the paper's G_i were SLAM maps of such a run), unknown elsewhere, \
+         scored over the interior of the outer walls. \
          M*_i is the best achievable map: M*_1 = M_1, and M*_i is M*_{{i-1}} with every cell the route observes \
          in W_i set to its state in W_i (a perfect updater on this route). F_i is a fresh map of W_i's run \
-         alone (the log-odds mapper of M_1 fed the run's scans at the chain localiser's estimates, no prior): \
-         what remapping every time instead of updating would give. Achieved = (M_i − M_1) / (M*_i − M_1) on \
+         alone (the log-odds mapper of M_1 fed the scans of {} processed step at the chain localiser's estimates, no \
+         prior; M_1 took {} step of its exploration run): what remapping every time instead of updating would give. Achieved = (M_i − M_1) / (M*_i − M_1) on \
          the means: the share of the achievable improvement M_i reaches. The log-odds chain is the \
          `log-odds` preset (`--presets paper,mapkeeper,log-odds` puts it beside).\n",
-        summary.ground_truth.name()
+        summary.ground_truth.name(),
+        crate::worlds::observed::OBSERVATION_STEP_M,
+        summary.params.runner.fresh_map.as_ref().map_or("every".into(), |f| every_kth(f.scan_stride)),
+        every_kth(summary.params.mapping.scan_stride),
     );
     let _ = writeln!(
         s,
@@ -468,6 +484,13 @@ fn localisation_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
             v.mean_error_m, v.mean_max_error_m, v.max_error_m, v.rmse_m, v.mean_trace, v.mean_lambda_max
         );
     }
+    let f = &summary.params.runner.filter;
+    let _ = writeln!(
+        s,
+        "\nBoth localisers (`{}`) are given every frame of the drive, the baseline on M_1 and the chain on \
+         M_{{i-1}}; each runs its sensor update when its own gate opens (after {} m or {:.2} rad of travel).",
+        summary.localiser, f.update_min_d_m, f.update_min_a_rad
+    );
     let _ = writeln!(
         s,
         "\nWorlds where the updated map gave the lower mean error: {:.0} %; the lower mean covariance trace: {:.0} % \
