@@ -14,8 +14,9 @@ use crate::grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
 use crate::pose::Point2;
 use crate::traversal::{RayHit, RayStop, SegmentWalk, cast_ray, entry_distance_grid, floor_i64};
 
-/// Jumps shorter than this many cells are not worth restarting the walk for.
-const MIN_JUMP_CELLS: f64 = 12.0;
+/// Jumps shorter than this many cells are not worth restarting the walk for (6 rather than 12:
+/// +7 % rays per second on both maps of the traversal bench, the same hits).
+const MIN_JUMP_CELLS: f64 = 6.0;
 
 /// A ray direction prepared for one [`RayCaster`]: the map-frame angle with its sine and
 /// cosine (for end points), and the sine and cosine relative to the grid's axes (for the walk).
