@@ -14,7 +14,7 @@ use mapkeeper_grid::{Point2, Pose2, angle_diff};
 use mapkeeper_sensor::{LaserScan, OdometryReading, TruePose};
 use rapier2d::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// Everything configurable about a run except the world and the seed.
 ///
@@ -127,7 +127,8 @@ impl EventHandler for Collector {
 
 /// A running simulation.
 pub struct Simulator {
-    world: World,
+    /// W_i, never changed by a run (shared by the copies).
+    world: Arc<World>,
     params: SimParams,
     seed: u64,
     tick: u64,
@@ -146,7 +147,8 @@ pub struct Simulator {
     cmd_omega: f64,
     prev_true: Pose2,
     blocked: bool,
-    statics: StaticCaster,
+    /// The static obstacles binned for the lidars, never changed (shared by the copies).
+    statics: Arc<StaticCaster>,
     agent_shapes: Vec<(Shape, Point2, f64)>,
     scratch: Vec<Option<f64>>,
     /// The robot's recent true poses (motion distortion and latency only).
@@ -311,7 +313,7 @@ impl Simulator {
             v.clear();
         }
         Ok(Self {
-            world: world.clone(),
+            world: Arc::new(world.clone()),
             odometry: Odometry::new(&params.odometry, seed),
             robot_radius: rp.length_m.hypot(rp.width_m) / 2.0,
             params,
@@ -330,7 +332,7 @@ impl Simulator {
             cmd_omega: 0.0,
             prev_true: start,
             blocked: false,
-            statics,
+            statics: Arc::new(statics),
             agent_shapes: Vec::new(),
             scratch: Vec::new(),
             history,
