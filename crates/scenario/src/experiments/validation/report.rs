@@ -366,12 +366,12 @@ fn ground_truth_section(s: &mut String, summary: &Summary) {
          over the whole grid (faces no lidar ever sees are occupied; the floor outside the walls counts). \
          `observed`: what noise-free lidars see from the exploration route at true poses in W_i (poses every \
          {} m along it, cast once per world; the paper's G_i were SLAM maps of such a run), unknown elsewhere, \
-         scored over the interior of the outer walls. \
-         M*_i is the best achievable map: M*_1 = M_1, and M*_i is M*_{{i-1}} with every cell the route observes \
+         scored over the interior of the outer walls. M*_i is the best achievable map: M*_1 = M_1, and M*_i is M*_{{i-1}} with every cell the route observes \
          in W_i set to its state in W_i (a perfect updater on this route). F_i is a fresh map of W_i's run \
-         alone (the log-odds mapper of M_1 fed the scans of {} processed step at the chain localiser's estimates, no \
-         prior; M_1 took {} step of its exploration run): what remapping every time instead of updating would give. Achieved = (M_i − M_1) / (M*_i − M_1) on \
-         the means: the share of the achievable improvement M_i reaches. The log-odds chain is the \
+         alone (the log-odds mapper of M_1 fed the scans of {} processed step at the chain localiser's \
+         estimates, no prior; M_1 took {} step of its exploration run): what remapping every time instead of \
+         updating would give. Achieved = (M_i − M_1) / (M*_i − M_1) on the means: the share of the \
+         achievable improvement M_i reaches. The log-odds chain is the \
          `log-odds` preset (`--presets paper,mapkeeper,log-odds` puts it beside).\n",
         summary.ground_truth.name(),
         crate::worlds::observed::OBSERVATION_STEP_M,
