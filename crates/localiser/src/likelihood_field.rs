@@ -111,14 +111,11 @@ impl LikelihoodField {
     /// `sin_cos` per call and a handful of flops plus one table read per beam.
     #[inline]
     pub fn log_likelihood(&self, robot_in_map: &Pose2, beams: &BeamSet) -> f64 {
-        let g = self.map_in_grid.compose(robot_in_map);
-        let (s, c) = g.yaw.sin_cos();
-        let k = self.inv_resolution;
-        let (px, py, c, s) = (g.x * k, g.y * k, c * k, s * k);
+        let frame = self.grid_frame(robot_in_map);
         let sum = |ends: &[[f64; 2]]| {
             let mut sum = 0.0f64;
             for &[ex, ey] in ends {
-                sum += self.lookup(px + c * ex - s * ey, py + s * ex + c * ey) as f64;
+                sum += self.term(frame, ex, ey);
             }
             sum
         };
@@ -134,7 +131,7 @@ impl LikelihoodField {
     /// hit the cache; each pose's terms are still added in the same order. `frames` is scratch
     /// space kept between calls (no allocation after warm-up).
     pub fn log_likelihoods(&self, poses: &[Pose2], beams: &BeamSet, frames: &mut ParticleFrames, out: &mut Vec<f64>) {
-        frames.set(poses, &self.map_in_grid, self.inv_resolution);
+        frames.set(poses, self);
         out.clear();
         match self.combination {
             BeamCombination::Product => {
@@ -161,24 +158,35 @@ impl LikelihoodField {
     /// Adds each endpoint's term to each pose's sum, endpoint by endpoint.
     #[inline]
     fn add_terms(&self, frames: &ParticleFrames, ends: &[[f64; 2]], sums: &mut [f64]) {
-        let f = frames;
         for &[ex, ey] in ends {
-            let poses = f.px.iter().zip(&f.py).zip(f.c.iter().zip(&f.s));
-            for (sum, ((&px, &py), (&c, &s))) in sums.iter_mut().zip(poses) {
-                *sum += self.lookup(px + c * ex - s * ey, py + s * ex + c * ey) as f64;
+            for (sum, &frame) in sums.iter_mut().zip(&frames.frames) {
+                *sum += self.term(frame, ex, ey);
             }
         }
     }
+
+    /// The robot's frame in grid cells: its position, and its yaw's cosine and sine scaled by
+    /// the inverse resolution (one `sin_cos`).
+    #[inline]
+    fn grid_frame(&self, robot_in_map: &Pose2) -> [f64; 4] {
+        let g = self.map_in_grid.compose(robot_in_map);
+        let (s, c) = g.yaw.sin_cos();
+        let k = self.inv_resolution;
+        [g.x * k, g.y * k, c * k, s * k]
+    }
+
+    /// The term of the endpoint `(ex, ey)` (robot frame) for the robot at `frame`.
+    #[inline(always)]
+    fn term(&self, [px, py, c, s]: [f64; 4], ex: f64, ey: f64) -> f64 {
+        self.lookup(px + c * ex - s * ey, py + s * ex + c * ey) as f64
+    }
 }
 
-/// Scratch space of [`LikelihoodField::log_likelihoods`]: each pose's frame in grid cells (the
-/// position, and the yaw's cosine and sine scaled by the inverse resolution), one array each.
+/// Scratch space of [`LikelihoodField::log_likelihoods`]: each pose's frame in grid cells, and
+/// the partial sums of one group of beams.
 #[derive(Clone, Debug, Default)]
 pub struct ParticleFrames {
-    px: Vec<f64>,
-    py: Vec<f64>,
-    c: Vec<f64>,
-    s: Vec<f64>,
+    frames: Vec<[f64; 4]>,
     partial: Vec<f64>,
 }
 
@@ -188,19 +196,10 @@ impl ParticleFrames {
         Self::default()
     }
 
-    /// The frames of `poses`, computed as [`LikelihoodField::log_likelihood`] computes them.
-    fn set(&mut self, poses: &[Pose2], map_in_grid: &PreparedPose, k: f64) {
-        for v in [&mut self.px, &mut self.py, &mut self.c, &mut self.s] {
-            v.clear();
-        }
-        for pose in poses {
-            let g = map_in_grid.compose(pose);
-            let (s, c) = g.yaw.sin_cos();
-            self.px.push(g.x * k);
-            self.py.push(g.y * k);
-            self.c.push(c * k);
-            self.s.push(s * k);
-        }
+    /// The frames of `poses` in `field`'s grid.
+    fn set(&mut self, poses: &[Pose2], field: &LikelihoodField) {
+        self.frames.clear();
+        self.frames.extend(poses.iter().map(|p| field.grid_frame(p)));
     }
 }
 
