@@ -600,7 +600,8 @@ fn check_intervals(all: &Path) {
         close(&s["localisation"]["error_diff_mean_m"], mean, "error_diff_mean_m");
         ci(&s["localisation"]["error_diff_ci95_m"], bounds, "error_diff_ci95_m");
         let report = std::fs::read_to_string(all.join(preset).join("report.md")).unwrap();
-        assert!(report.contains("(95 % CI, 2 seeds)"), "the report states the seed count");
+        assert!(report.contains("(95 % CI over 2 seeds)"), "the report states the seed count");
+        assert_eq!(s["interval_units"], "seeds");
     }
     // One pair: no-update − paper, on the updated maps and the chain's error.
     let c = json(&all.join("summary.json"));

@@ -116,6 +116,72 @@ pub fn paired_diff(diffs: &[f64]) -> PairedDiff {
     PairedDiff { mean: m, ci95, n }
 }
 
+/// What the units of a validation's 95 % intervals are.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IntervalUnits {
+    /// The seeds: each seed's chain of worlds is one unit (two seeds or more; also the value
+    /// when there is no interval at all).
+    #[default]
+    Seeds,
+    /// Batches of consecutive worlds of the one seed ([`WORLD_BATCHES`] of them): how precisely
+    /// this chain's worlds pin its mean, not how much another chain's mean would differ.
+    WorldBatches,
+}
+
+impl IntervalUnits {
+    /// The units in a report's words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            IntervalUnits::Seeds => "the seeds as units",
+            IntervalUnits::WorldBatches => "batches of consecutive worlds of the one seed as units (batch means)",
+        }
+    }
+}
+
+/// How many batches of consecutive worlds make one seed's interval (batch means: 9 degrees of
+/// freedom).
+pub const WORLD_BATCHES: usize = 10;
+
+/// The fewest worlds in a batch: one seed needs at least `WORLD_BATCHES × MIN_WORLDS_PER_BATCH`
+/// world rows for an interval.
+pub const MIN_WORLDS_PER_BATCH: usize = 2;
+
+/// The half-width of the 95 % batch-means interval of the mean of `series`, values in order
+/// that depend on the ones before them (the worlds of one seed: each map is made from the
+/// previous one). The series is cut into [`WORLD_BATCHES`] runs of consecutive values (sizes
+/// differing by one at most); their means are nearly independent when a batch is longer than
+/// the dependence, and the half-width is t(0.975, B−1) · s_B/√B with s_B their standard
+/// deviation. A trend over the series (the gain growing with the worlds) widens it: the
+/// interval is then conservative. `None` below `WORLD_BATCHES × MIN_WORLDS_PER_BATCH` values or
+/// with a value that is not finite.
+pub fn batch_means_half_width(series: &[f64]) -> Option<f64> {
+    let (n, b) = (series.len(), WORLD_BATCHES);
+    if n < b * MIN_WORLDS_PER_BATCH || !series.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let means: Vec<f64> = (0..b).map(|k| mean(series[k * n / b..(k + 1) * n / b].iter().copied())).collect();
+    let m = mean(means.iter().copied());
+    let var = means.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (b - 1) as f64;
+    Some(t_quantile_975(b - 1)? * (var / b as f64).sqrt())
+}
+
+/// The mean over seeds of each seed's mean of its per-world values (`per_seed`, one series per
+/// seed with worlds, in world order), with its 95 % interval and the interval's units: with two
+/// seeds or more, [`paired_diff`] over the seeds' means; with one,
+/// [`batch_means_half_width`] of its worlds around the same mean.
+pub fn chain_diff(per_seed: &[Vec<f64>]) -> (PairedDiff, IntervalUnits) {
+    let means: Vec<f64> = per_seed.iter().map(|v| mean(v.iter().copied())).collect();
+    let d = paired_diff(&means);
+    match per_seed {
+        [one] => match batch_means_half_width(one) {
+            Some(h) => (PairedDiff { ci95: Some([d.mean - h, d.mean + h]), ..d }, IntervalUnits::WorldBatches),
+            None => (d, IntervalUnits::Seeds),
+        },
+        _ => (d, IntervalUnits::Seeds),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -178,5 +244,37 @@ mod tests {
         assert_eq!(paired_diff(&[5.0]), PairedDiff { mean: 5.0, ci95: None, n: 1 });
         assert_eq!(paired_diff(&[]).ci95, None);
         assert_eq!(paired_diff(&[0.5, 0.5]).ci95, Some([0.5, 0.5]), "no spread, no width");
+    }
+
+    #[test]
+    fn one_seed_gets_a_batch_means_interval_and_several_seeds_the_paired_one() {
+        // 20 values in 10 batches of 2: the batch means are 0, 1, …, 9 (s² = 55/6).
+        let series: Vec<f64> = (0..20).map(|i| f64::from(i / 2) + if i % 2 == 0 { -0.5 } else { 0.5 }).collect();
+        let half = batch_means_half_width(&series).unwrap();
+        let want = 2.2622 * (55.0 / 6.0 / 10.0f64).sqrt();
+        assert!((half - want).abs() < 1e-12, "{half} vs {want}");
+        // Batches of unequal size (99 worlds: 9 and 10), and a constant series has no width.
+        assert_eq!(batch_means_half_width(&[3.0; 99]), Some(0.0));
+        // Too short, or not finite: no interval.
+        assert_eq!(batch_means_half_width(&series[..19]), None);
+        let mut bad = series.clone();
+        bad[7] = f64::NAN;
+        assert_eq!(batch_means_half_width(&bad), None);
+
+        let (d, units) = chain_diff(std::slice::from_ref(&series));
+        assert_eq!(units, IntervalUnits::WorldBatches);
+        assert_eq!(d.mean, mean(series.iter().copied()));
+        assert_eq!(d.n, 1);
+        let [lo, hi] = d.ci95.unwrap();
+        assert!((hi - lo - 2.0 * half).abs() < 1e-12 && ((lo + hi) / 2.0 - d.mean).abs() < 1e-12);
+        // Too few worlds for batches: no interval, as before.
+        let (d, units) = chain_diff(&[series[..10].to_vec()]);
+        assert_eq!((d.ci95, units), (None, IntervalUnits::Seeds));
+        // Two seeds or more: the seeds are the units, each seed's mean one value, bit for bit
+        // the paired interval of those means.
+        let two = [series.clone(), series.iter().map(|x| x + 1.0).collect::<Vec<_>>()];
+        let (d, units) = chain_diff(&two);
+        assert_eq!(units, IntervalUnits::Seeds);
+        assert_eq!(d, paired_diff(&[mean(two[0].iter().copied()), mean(two[1].iter().copied())]));
     }
 }

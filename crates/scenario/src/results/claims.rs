@@ -3,7 +3,7 @@
 //! it (reproduced, not reproduced, differs, or inconclusive) and why. The verdict rules are here,
 //! in one place, and the thresholds the paper does not give are named in the "why".
 
-use crate::stats::with_ci;
+use crate::stats::{IntervalUnits, with_ci};
 use std::fmt::Write as _;
 
 /// What a result says of a claim.
@@ -146,14 +146,23 @@ fn combine(parts: &[ClaimVerdict]) -> ClaimVerdict {
 pub fn validation_claims(s: &crate::experiments::validation::Summary) -> Vec<Claim> {
     let q = &s.map_quality;
     let mut claims = Vec::new();
+    // With one seed the interval is over its worlds: a verdict on this chain, which another
+    // seed's chain may not share.
+    let scope = |(verdict, why): (ClaimVerdict, String)| match s.interval_units {
+        IntervalUnits::WorldBatches if s.map_quality.cc.diff_ci95.is_some() => (
+            verdict,
+            format!("{why} (interval over this seed's worlds: a verdict on this chain; --seeds 3 for one over seeds)"),
+        ),
+        _ => (verdict, why),
+    };
     for (name, m) in [("CC", &q.cc), ("MS", &q.ms), ("OPDF", &q.opdf)] {
-        let (verdict, why) = better_verdict(m.diff_mean, m.diff_ci95, Some(m.updated_better_fraction), true);
+        let (verdict, why) = scope(better_verdict(m.diff_mean, m.diff_ci95, Some(m.updated_better_fraction), true));
         claims.push(Claim {
             claim: format!("§5.3.2, Fig. 24: M_i/G_i is above M_1/G_i in every world ({name})"),
             result: format!(
-                "M_i − M_1 {} points over {} seed(s); M_i better in {:.0} % of worlds",
+                "M_i − M_1 {} points (95 % CI over {}); M_i better in {:.0} % of worlds",
                 with_ci(m.diff_mean, m.diff_ci95, 2),
-                s.seeds.len(),
+                s.interval_over(),
                 100.0 * m.updated_better_fraction
             ),
             verdict,
@@ -164,12 +173,13 @@ pub fn validation_claims(s: &crate::experiments::validation::Summary) -> Vec<Cla
     // error_diff is chain − baseline (negative = the chain on M_{i-1} is better): flip it.
     let gain = -l.error_diff_mean_m;
     let ci = l.error_diff_ci95_m.map(|[lo, hi]| [-hi, -lo]);
-    let (verdict, why) = better_verdict(gain, ci, Some(l.updated_better_fraction), false);
+    let (verdict, why) = scope(better_verdict(gain, ci, Some(l.updated_better_fraction), false));
     claims.push(Claim {
         claim: "§5.3.2, Fig. 25: localising on M_{i-1} gives lower position errors than on M_1".into(),
         result: format!(
-            "mean error on M_1 − on M_{{i-1}}: {} m; lower on M_{{i-1}} in {:.0} % of worlds",
+            "mean error on M_1 − on M_{{i-1}}: {} m (95 % CI over {}); lower on M_{{i-1}} in {:.0} % of worlds",
             with_ci(gain, ci, 4),
+            s.interval_over(),
             100.0 * l.updated_better_fraction
         ),
         verdict,

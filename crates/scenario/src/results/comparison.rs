@@ -8,11 +8,11 @@ use crate::experiments::pose_oracle::UpdaterPoses;
 use crate::experiments::run_events::{LostCounts, VerdictCounts};
 use crate::experiments::validation::erosion::{ChangeClassSummary, RetentionSummary};
 use crate::experiments::validation::html::{Part, page_html, world_steppers};
-use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, summarise_records};
+use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, WorldRow, summarise_records};
 use crate::results::ResultsError;
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
 use crate::stats::with_ci;
-use crate::stats::{PairedDiff, mean, paired_diff};
+use crate::stats::{IntervalUnits, PairedDiff, chain_diff, mean, paired_diff};
 use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -61,12 +61,13 @@ pub struct ComparisonRow {
     pub change_classes: Option<ChangeClassSummary>,
 }
 
-/// A mean difference over seeds with its paired 95 % interval (`null` with one seed).
+/// A mean difference over seeds with its 95 % interval (over the seeds, or with one seed over
+/// batches of its worlds: [`PresetDiff::interval_units`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct DiffCi {
     /// Mean over the common seeds of the per-seed difference.
     pub mean: f64,
-    /// Paired 95 % Student-t interval over the seeds, `[lo, hi]`.
+    /// 95 % Student-t interval, `[lo, hi]`.
     pub ci95: Option<[f64; 2]>,
 }
 
@@ -87,6 +88,10 @@ pub struct PresetDiff {
     pub b: String,
     /// The seeds both ran (the paired units).
     pub seeds: Vec<u64>,
+    /// The units of the intervals: the seeds, or with one seed batches of the worlds both
+    /// presets ran in it (the differences paired world by world).
+    #[serde(default)]
+    pub interval_units: IntervalUnits,
     /// CC of M_i/G_i, a − b.
     pub cc: DiffCi,
     /// MS of M_i/G_i, a − b.
@@ -104,19 +109,45 @@ fn preset_diff(a: &ValidationRecord, b: &ValidationRecord) -> PresetDiff {
         .filter_map(|sa| b.seeds.iter().find(|sb| sb.seed == sa.seed).map(|sb| (sa, sb)))
         .filter(|(sa, sb)| !sa.rows.is_empty() && !sb.rows.is_empty())
         .collect();
-    let per_seed = |f: &dyn Fn(&crate::experiments::validation::WorldRow) -> f64| -> DiffCi {
+    // With one common seed, the worlds both ran, paired world by world, give the interval.
+    let one_seed_worlds: Option<Vec<(&WorldRow, &WorldRow)>> = match common.as_slice() {
+        [(sa, sb)] => Some(
+            sa.rows.iter().filter_map(|wa| sb.rows.iter().find(|wb| wb.world == wa.world).map(|wb| (wa, wb))).collect(),
+        ),
+        _ => None,
+    };
+    let mut interval_units = IntervalUnits::Seeds;
+    let mut per_seed = |f: &dyn Fn(&WorldRow) -> f64| -> DiffCi {
         let d: Vec<f64> =
             common.iter().map(|(sa, sb)| mean(sa.rows.iter().map(f)) - mean(sb.rows.iter().map(f))).collect();
-        paired_diff(&d).into()
+        let mut diff = paired_diff(&d);
+        if let Some(worlds) = &one_seed_worlds {
+            // The mean stays the difference of the two means; the interval is the batch means'
+            // of the world-by-world differences, around it.
+            let (by_world, units) = chain_diff(&[worlds.iter().map(|(wa, wb)| f(wa) - f(wb)).collect()]);
+            if let Some([lo, hi]) = by_world.ci95 {
+                let half = (hi - lo) / 2.0;
+                diff.ci95 = Some([diff.mean - half, diff.mean + half]);
+                interval_units = units;
+            }
+        }
+        diff.into()
     };
+    let (cc, ms, opdf, error_m) = (
+        per_seed(&|w| w.updated_map.cc),
+        per_seed(&|w| w.updated_map.ms),
+        per_seed(&|w| w.updated_map.opdf),
+        per_seed(&|w| w.loc_updated.mean_error_m),
+    );
     PresetDiff {
         a: a.params.preset.clone(),
         b: b.params.preset.clone(),
         seeds: common.iter().map(|(sa, _)| sa.seed).collect(),
-        cc: per_seed(&|w| w.updated_map.cc),
-        ms: per_seed(&|w| w.updated_map.ms),
-        opdf: per_seed(&|w| w.updated_map.opdf),
-        error_m: per_seed(&|w| w.loc_updated.mean_error_m),
+        interval_units,
+        cc,
+        ms,
+        opdf,
+        error_m,
     }
 }
 
@@ -277,7 +308,12 @@ impl Comparison {
                 "\n## Presets against each other\n\nPer seed, the mean over worlds of preset a's M_i/G_i minus preset b's \
              (points; positive: a's maps are better) and of the chain localiser's mean error (m; negative: a \
              localises better), averaged over the seeds both ran, with the paired 95 % Student-t interval over \
-             those seeds (none with one seed).\n"
+             those seeds. With one seed (marked \"1, worlds\"), the interval is over {} batches of consecutive worlds \
+             of the world-by-world differences: how precisely this seed's chain of worlds pins the difference, not \
+             how much another seed's would differ (docs/evaluation.md, \"Intervals\"); none with fewer than {} \
+             worlds.\n",
+                crate::stats::WORLD_BATCHES,
+                crate::stats::WORLD_BATCHES * crate::stats::MIN_WORLDS_PER_BATCH
             );
             let _ = writeln!(s, "| a − b | seeds | CC | MS | OPDF | error on M_i-1 (m) |");
             let _ = writeln!(s, "|---|---|---|---|---|---|");
@@ -287,7 +323,10 @@ impl Comparison {
                     "| {} − {} | {} | {} | {} | {} | {} |",
                     d.a,
                     d.b,
-                    d.seeds.len(),
+                    match d.interval_units {
+                        IntervalUnits::Seeds => d.seeds.len().to_string(),
+                        IntervalUnits::WorldBatches => format!("{}, worlds", d.seeds.len()),
+                    },
                     with_ci(d.cc.mean, d.cc.ci95, 2),
                     with_ci(d.ms.mean, d.ms.ci95, 2),
                     with_ci(d.opdf.mean, d.opdf.ci95, 2),

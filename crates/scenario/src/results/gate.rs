@@ -17,15 +17,18 @@
 //!
 //! The tolerance of a metric is `max(floor, t(0.975, n − 1) · s · √(2/n))` over its n per-seed
 //! values with standard deviation s: the half-width of the 95 % interval of a difference of two
-//! n-seed means, so run-to-run noise on other seeds stays inside it. With one seed, or seeds
-//! that agree exactly, the floor alone (per metric, in [`floor`]). A run with the same seeds and
+//! n-seed means, so run-to-run noise on other seeds stays inside it. With one seed, the same
+//! from the batch means of its worlds for the metrics that are means over worlds (B = 10 batches
+//! of consecutive worlds, `t(0.975, B − 1) · s_B · √(2/B)`: what noise within the one chain
+//! moves its mean by; [`crate::stats::batch_means_half_width`]), the floor for the others and
+//! for seeds that agree exactly (per metric, in [`floor`]). A run with the same seeds and
 //! code is bit-identical, so any move at all is a change of the code; the tolerance says which
 //! moves matter. The file is JSON with sorted keys, the same bytes for the same results.
 
 use crate::experiments::validation::{ValidationRecord, WorldRow};
 use crate::results::ResultsError;
 use crate::results::merge::load_result_dir;
-use crate::stats::{frac, mean, paired_diff};
+use crate::stats::{batch_means_half_width, frac, mean, paired_diff};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -136,32 +139,42 @@ pub fn floor(metric: &str) -> f64 {
     }
 }
 
-/// The metric of per-seed values `xs` (module docs).
-fn metric(name: &str, xs: &[f64], better: Better) -> Metric {
+/// The metric of per-seed values `xs` (module docs); with one seed, the half-width comes from
+/// the batch means of its per-world values `one_seed_series` when the metric is a mean over
+/// worlds and there are enough of them.
+fn metric(name: &str, xs: &[f64], one_seed_series: Option<&[f64]>, better: Better) -> Metric {
     // The half-width of the mean's 95 % interval, t · s/√n, times √2: that of a difference of two
     // such means.
     let d = paired_diff(xs);
-    let spread = d.ci95.map_or(0.0, |[lo, hi]| (hi - lo) / 2.0 * std::f64::consts::SQRT_2);
-    Metric { value: d.mean, tolerance: spread.max(floor(name)), better }
+    let half = match (d.ci95, one_seed_series) {
+        (Some([lo, hi]), _) => (hi - lo) / 2.0,
+        (None, Some(series)) if xs.len() == 1 => batch_means_half_width(series).unwrap_or(0.0),
+        _ => 0.0,
+    };
+    Metric { value: d.mean, tolerance: (half * std::f64::consts::SQRT_2).max(floor(name)), better }
 }
 
-/// The per-seed values of every metric of one seed's rows.
-fn seed_values(rows: &[WorldRow]) -> Vec<(&'static str, f64, Better)> {
-    let avg = |f: &dyn Fn(&WorldRow) -> f64| mean(rows.iter().map(f));
-    let share = |f: &dyn Fn(&WorldRow) -> bool| frac(rows.iter().map(f));
+/// The metric values of one seed's rows, each with its per-world values when it is their mean
+/// (for the one-seed tolerance).
+fn seed_values(rows: &[WorldRow]) -> Vec<(&'static str, f64, Better, Option<Vec<f64>>)> {
+    let avg = |f: &dyn Fn(&WorldRow) -> f64| (mean(rows.iter().map(f)), Some(rows.iter().map(f).collect()));
+    let share = |f: &dyn Fn(&WorldRow) -> bool| {
+        (frac(rows.iter().map(f)), Some(rows.iter().map(|r| if f(r) { 1.0 } else { 0.0 }).collect()))
+    };
     let processed = rows.iter().map(|r| r.updater.processed).sum::<u64>().max(1) as f64;
     let lost = rows.iter().map(|r| r.updater.lost).sum::<u64>() as f64;
     let retention = rows.last().and_then(|r| r.retention.as_ref()).map_or(f64::NAN, |r| r.updated_map);
+    let with = |name, (value, series), better| (name, value, better, series);
     vec![
-        ("cc_gain", avg(&|r| r.updated_map.cc - r.static_map.cc), Better::Higher),
-        ("ms_gain", avg(&|r| r.updated_map.ms - r.static_map.ms), Better::Higher),
-        ("opdf_gain", avg(&|r| r.updated_map.opdf - r.static_map.opdf), Better::Higher),
-        ("cc_better", share(&|r| r.updated_map.cc > r.static_map.cc), Better::Higher),
-        ("ms_better", share(&|r| r.updated_map.ms > r.static_map.ms), Better::Higher),
-        ("opdf_better", share(&|r| r.updated_map.opdf > r.static_map.opdf), Better::Higher),
-        ("retention_last", retention, Better::Higher),
-        ("error_updated_m", avg(&|r| r.loc_updated.mean_error_m), Better::Lower),
-        ("lost_share", lost / processed, Better::Lower),
+        with("cc_gain", avg(&|r| r.updated_map.cc - r.static_map.cc), Better::Higher),
+        with("ms_gain", avg(&|r| r.updated_map.ms - r.static_map.ms), Better::Higher),
+        with("opdf_gain", avg(&|r| r.updated_map.opdf - r.static_map.opdf), Better::Higher),
+        with("cc_better", share(&|r| r.updated_map.cc > r.static_map.cc), Better::Higher),
+        with("ms_better", share(&|r| r.updated_map.ms > r.static_map.ms), Better::Higher),
+        with("opdf_better", share(&|r| r.updated_map.opdf > r.static_map.opdf), Better::Higher),
+        ("retention_last", retention, Better::Higher, None),
+        with("error_updated_m", avg(&|r| r.loc_updated.mean_error_m), Better::Lower),
+        ("lost_share", lost / processed, Better::Lower, None),
     ]
 }
 
@@ -170,10 +183,11 @@ fn seed_values(rows: &[WorldRow]) -> Vec<(&'static str, f64, Better)> {
 fn preset_metrics(record: &ValidationRecord) -> BTreeMap<String, Metric> {
     let per_seed: Vec<_> = record.seeds.iter().map(|s| seed_values(&s.rows)).collect();
     let mut out = BTreeMap::new();
-    for (k, &(name, _, better)) in per_seed.first().map(Vec::as_slice).unwrap_or_default().iter().enumerate() {
+    for (k, &(name, _, better, _)) in per_seed.first().map(Vec::as_slice).unwrap_or_default().iter().enumerate() {
         let xs: Vec<f64> = per_seed.iter().map(|v| v[k].1).collect();
+        let one_seed_series = per_seed.first().and_then(|v| v[k].3.as_deref());
         if xs.iter().all(|x| x.is_finite()) {
-            out.insert(name.to_string(), metric(name, &xs, better));
+            out.insert(name.to_string(), metric(name, &xs, one_seed_series, better));
         }
     }
     out
@@ -309,11 +323,27 @@ mod tests {
         // Four seeds: t(0.975, 3) · s · √(2/4), t = 3.1824.
         let xs = [9.0, 10.0, 11.0, 10.0];
         let s = (xs.iter().map(|x| (x - 10.0f64).powi(2)).sum::<f64>() / 3.0).sqrt();
-        let m = metric("cc_gain", &xs, Better::Higher);
+        let m = metric("cc_gain", &xs, None, Better::Higher);
         assert!((m.value - 10.0).abs() < 1e-12);
         assert!((m.tolerance - 3.1824 * s * 0.5f64.sqrt()).abs() < 1e-9, "{m:?}");
-        assert_eq!(metric("cc_gain", &[3.0, 3.0, 3.0], Better::Higher).tolerance, 0.25);
-        assert_eq!(metric("lost_share", &[0.1], Better::Lower).tolerance, 0.002);
+        assert_eq!(metric("cc_gain", &[3.0, 3.0, 3.0], None, Better::Higher).tolerance, 0.25);
+        assert_eq!(metric("lost_share", &[0.1], None, Better::Lower).tolerance, 0.002);
+        // Several seeds: the per-world values play no part.
+        assert_eq!(metric("cc_gain", &xs, Some(&[0.0, 100.0]), Better::Higher), m);
+    }
+
+    #[test]
+    fn one_seed_takes_its_tolerance_from_the_batch_means_of_its_worlds() {
+        // 40 worlds, batch means 0, 2, 4, …, 18 (s_B² = 4 · 55/6): t(0.975, 9) · s_B · √(2/10).
+        let series: Vec<f64> = (0..40).map(|i| f64::from(2 * (i / 4))).collect();
+        let value = mean(series.iter().copied());
+        let m = metric("cc_gain", &[value], Some(&series), Better::Higher);
+        let want = 2.2622 * (4.0 * 55.0 / 6.0f64).sqrt() * 0.2f64.sqrt();
+        assert!((m.tolerance - want).abs() < 1e-9, "{m:?} vs {want}");
+        assert_eq!(m.value, value);
+        // A quiet chain, or too few worlds for batches: the floor.
+        assert_eq!(metric("cc_gain", &[1.0], Some(&[1.0; 40]), Better::Higher).tolerance, 0.25);
+        assert_eq!(metric("cc_gain", &[value], Some(&series[..19]), Better::Higher).tolerance, 0.25);
     }
 
     fn baseline(cc: f64, err: f64) -> Baseline {

@@ -29,7 +29,7 @@ use crate::experiments::validation::erosion::{
     retention_summary,
 };
 pub use crate::stats::histogram_median;
-use crate::stats::{PairedDiff, frac, mean, median, paired_diff};
+use crate::stats::{IntervalUnits, PairedDiff, chain_diff, frac, mean, median};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
 use crate::worlds::mapping::{MappingParams, build_initial_map};
 use crate::worlds::observed::{OBSERVATION_STEP_M, restrict_to, route_poses, visible_cells};
@@ -783,8 +783,9 @@ pub struct MetricSummary {
     /// points (equal to `updated_mean − static_mean` when every seed has as many worlds).
     #[serde(default)]
     pub diff_mean: f64,
-    /// Paired 95 % interval of `diff_mean` with the seeds as units (Student t; the worlds of a
-    /// seed are not independent), `[lo, hi]`; `null` with one seed.
+    /// 95 % interval of `diff_mean` (Student t), `[lo, hi]`: paired with the seeds as units (the
+    /// worlds of a seed are not independent), or with one seed over batches of its consecutive
+    /// worlds (the summary's `interval_units`); `null` with one seed of fewer than 20 worlds.
     #[serde(default)]
     pub diff_ci95: Option<[f64; 2]>,
 }
@@ -874,7 +875,7 @@ pub struct Localisation {
     /// minus the baseline's, metres (negative: the chain on M_{i-1} is better).
     #[serde(default)]
     pub error_diff_mean_m: f64,
-    /// Paired 95 % interval of `error_diff_mean_m` over seeds, `[lo, hi]`; `null` with one seed.
+    /// 95 % interval of `error_diff_mean_m`, `[lo, hi]`, in the units of `diff_ci95`'s.
     #[serde(default)]
     pub error_diff_ci95_m: Option<[f64; 2]>,
 }
@@ -930,6 +931,10 @@ pub struct Summary {
     pub localiser: String,
     /// Wall time of the whole run, seconds (0 when not measured).
     pub wall_time_s: f64,
+    /// The units of every 95 % interval of this summary: `seeds`, or with one seed
+    /// `world-batches` (docs/evaluation.md, "Intervals").
+    #[serde(default)]
+    pub interval_units: IntervalUnits,
     /// M_1/G_1, mean over seeds.
     pub initial_map: Scores,
     /// The ground truth of `initial_map` and `map_quality` (`exact` or `observed`).
@@ -977,10 +982,25 @@ fn default_localiser() -> String {
     "mapkeeper".into()
 }
 
-/// Per seed, the mean over its worlds of `f(row)`; their mean and paired 95 % interval.
+/// Per seed, the mean over its worlds of `f(row)`; their mean and 95 % interval, over the seeds
+/// or, with one seed, over batches of its worlds ([`chain_diff`]; the units are
+/// [`interval_units`]'s).
 fn per_seed_diff(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> f64) -> PairedDiff {
-    let per_seed: Vec<f64> = runs.iter().filter(|r| !r.rows.is_empty()).map(|r| mean(r.rows.iter().map(&f))).collect();
-    paired_diff(&per_seed)
+    let per_seed: Vec<Vec<f64>> =
+        runs.iter().filter(|r| !r.rows.is_empty()).map(|r| r.rows.iter().map(&f).collect()).collect();
+    chain_diff(&per_seed).0
+}
+
+/// The units of the intervals of a summary of `runs`: the seeds, or with one seed of enough
+/// worlds, batches of its worlds (as [`chain_diff`] decides for finite values).
+pub fn interval_units(runs: &[SeedRecord]) -> IntervalUnits {
+    let with_rows: Vec<&SeedRecord> = runs.iter().filter(|r| !r.rows.is_empty()).collect();
+    match with_rows.as_slice() {
+        [one] if one.rows.len() >= crate::stats::WORLD_BATCHES * crate::stats::MIN_WORLDS_PER_BATCH => {
+            IntervalUnits::WorldBatches
+        }
+        _ => IntervalUnits::Seeds,
+    }
 }
 
 /// The three scores of a row against the run's own ground truth (`other` false) or the other one.
@@ -1076,6 +1096,7 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
         preset: params.preset.clone(),
         localiser: params.runner.localiser.clone(),
         wall_time_s,
+        interval_units: interval_units(runs),
         initial_map: Scores {
             cc: mean(runs.iter().map(|r| r.initial_scores.cc)),
             ms: mean(runs.iter().map(|r| r.initial_scores.ms)),

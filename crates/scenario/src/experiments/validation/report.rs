@@ -13,7 +13,7 @@
 use crate::experiments::validation::figures::{Figure, write_figures};
 use crate::experiments::validation::{Scores, SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
 use crate::results::ResultsError;
-use crate::stats::with_ci;
+use crate::stats::{IntervalUnits, MIN_WORLDS_PER_BATCH, WORLD_BATCHES, with_ci};
 use crate::worlds::generator::WorldChain;
 use mapkeeper_grid::GridGeometry;
 use mapkeeper_grid::StagedDir;
@@ -278,11 +278,10 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
          CC {:.2}, MS {:.2}, OPDF {:.2}.\n",
         summary.initial_map.cc, summary.initial_map.ms, summary.initial_map.opdf
     );
-    let n = summary.seeds.len();
     let _ = writeln!(
         s,
-        "| metric | M_1/G_i mean | M_i/G_i mean | M_i − M_1 (95 % CI, {n} seed{}) | M_1/G_N | M_N/G_N | worlds with M_i better | paper claim |",
-        if n == 1 { "" } else { "s" }
+        "| metric | M_1/G_i mean | M_i/G_i mean | M_i − M_1 (95 % CI over {}) | M_1/G_N | M_N/G_N | worlds with M_i better | paper claim |",
+        summary.interval_over()
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
     for (name, m) in [("CC (%)", &q.cc), ("MS (%)", &q.ms), ("OPDF (%)", &q.opdf)] {
@@ -297,13 +296,7 @@ pub fn report_md_with_figures(summary: &Summary, figures: &[Figure]) -> String {
             100.0 * m.updated_better_fraction
         );
     }
-    let _ = writeln!(
-        s,
-        "\nM_i − M_1: each seed's mean over its worlds of M_i/G_i − M_1/G_i, averaged over the seeds; the \
-         interval is the paired 95 % Student-t interval with the seeds as units (the worlds of one seed are \
-         not independent: each map is made from the previous one){}.\n",
-        if n < 2 { "; with one seed there is no interval (run with --seeds 3 or more)" } else { "" }
-    );
+    let _ = writeln!(s, "\n{}\n", summary.interval_note());
     figure_lines(&mut s, figures, &["fig24a_cc", "fig24b_ms", "fig24c_opdf"]);
     ground_truth_section(&mut s, summary);
     erosion_section(&mut s, summary);
@@ -495,10 +488,11 @@ fn localisation_section(s: &mut String, summary: &Summary, figures: &[Figure]) {
         s,
         "\nWorlds where the updated map gave the lower mean error: {:.0} %; the lower mean covariance trace: {:.0} % \
          (paper: lower errors and lower uncertainty with the updated map). Chain − baseline mean error (each \
-         seed's mean over its worlds, averaged over {} seed(s), paired 95 % interval over seeds): {} m.\n",
+         seed's mean over its worlds, averaged over {} seed(s), 95 % interval over {}): {} m.\n",
         100.0 * l.updated_better_fraction,
         100.0 * l.updated_lower_trace_fraction,
         summary.seeds.len(),
+        summary.interval_over(),
         with_ci(l.error_diff_mean_m, l.error_diff_ci95_m, 4)
     );
     figure_lines(
@@ -749,17 +743,54 @@ pub fn write_scenario_set(
 }
 
 impl Summary {
+    /// What the intervals are over, in a few words: "3 seeds", "10 batches of seed 11's worlds".
+    pub fn interval_over(&self) -> String {
+        match (self.interval_units, self.seeds.as_slice()) {
+            (IntervalUnits::WorldBatches, [seed]) => format!("{WORLD_BATCHES} batches of seed {seed}'s worlds"),
+            (_, [_]) => "1 seed: none".to_owned(),
+            (_, seeds) => format!("{} seeds", seeds.len()),
+        }
+    }
+
+    /// The paragraph under the map-quality table: how M_i − M_1 and its interval are formed.
+    pub fn interval_note(&self) -> String {
+        let head = "M_i − M_1: each seed's mean over its worlds of M_i/G_i − M_1/G_i, averaged over the seeds; the \
+                    interval is the 95 % Student-t interval";
+        match (self.interval_units, self.seeds.len()) {
+            (IntervalUnits::WorldBatches, _) => format!(
+                "{head} of the batch means: the one seed's worlds cut into {WORLD_BATCHES} runs of consecutive worlds, \
+                 each run's mean one unit (the worlds are not independent: each map is made from the previous one; \
+                 batches of ten are nearly so). It says how precisely this seed's chain of worlds pins its mean, not \
+                 how much another seed's chain would differ: run with --seeds 3 or more for the interval over seeds \
+                 (docs/evaluation.md, \"Intervals\")."
+            ),
+            (_, n) if n >= 2 => format!(
+                "{head}, paired, with the seeds as units (the worlds of one seed are not independent: each map is made from \
+                 the previous one)."
+            ),
+            _ => format!(
+                "{head}; with one seed of fewer than {} updated worlds (W_2 … W_N) there is none (run with --seeds 3 \
+                 or more, or --worlds {} or more).",
+                WORLD_BATCHES * MIN_WORLDS_PER_BATCH,
+                WORLD_BATCHES * MIN_WORLDS_PER_BATCH + 1
+            ),
+        }
+    }
+
     /// The summary table printed by `validate` and `merge`.
     pub fn table(&self) -> String {
         let mut t = String::new();
         let (q, l, u) = (&self.map_quality, &self.localisation, &self.updater);
         let m1 = &self.initial_map;
         let _ = writeln!(t, "M_1/G_1: CC {:.2}  MS {:.2}  OPDF {:.2}", m1.cc, m1.ms, m1.opdf);
-        let n = self.seeds.len();
         let _ = writeln!(
             t,
-            "{:<10} {:>10} {:>10} {:>12}  M_i − M_1, 95 % CI over {n} seed(s)",
-            "metric", "M_1/G_i", "M_i/G_i", "M_i better"
+            "{:<10} {:>10} {:>10} {:>12}  M_i − M_1, 95 % CI over {}",
+            "metric",
+            "M_1/G_i",
+            "M_i/G_i",
+            "M_i better",
+            self.interval_over()
         );
         for (name, m) in [("CC %", &q.cc), ("MS %", &q.ms), ("OPDF %", &q.opdf)] {
             let better = 100.0 * m.updated_better_fraction;
