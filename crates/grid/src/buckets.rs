@@ -25,6 +25,7 @@
 //! ```
 
 use crate::Point2;
+use crate::geometry::floor_exact;
 use std::ops::Range;
 
 /// The most buckets a layout may have; [`PointBuckets::rebuild`] refuses a larger one.
@@ -100,7 +101,7 @@ impl PointBuckets {
         if !(side.is_finite() && side > 0.0) {
             return;
         }
-        let (fx, fy) = (((hi.x - lo.x) / side).floor(), ((hi.y - lo.y) / side).floor());
+        let (fx, fy) = (floor_exact((hi.x - lo.x) / side), floor_exact((hi.y - lo.y) / side));
         if !(fx < MAX_BUCKETS as f64 && fy < MAX_BUCKETS as f64) {
             return;
         }
@@ -170,14 +171,14 @@ impl PointBuckets {
     /// left of or below the grid (or NaN) counts as column or row 0, one right of or above it as
     /// the last. Requires a non-empty structure.
     pub fn bucket_of(&self, p: Point2) -> usize {
-        let bx = (((p.x - self.x0) / self.side_m).floor() as usize).min(self.nx - 1);
-        let by = (((p.y - self.y0) / self.side_m).floor() as usize).min(self.ny - 1);
+        let bx = (floor_exact((p.x - self.x0) / self.side_m) as usize).min(self.nx - 1);
+        let by = (floor_exact((p.y - self.y0) / self.side_m) as usize).min(self.ny - 1);
         by * self.nx + bx
     }
 
     /// Bucket coordinates of `p`, not clamped: `(⌊(p.x − x0) / side⌋, ⌊(p.y − y0) / side⌋)`.
     pub fn bucket_coords(&self, p: Point2) -> (f64, f64) {
-        (((p.x - self.x0) / self.side_m).floor(), ((p.y - self.y0) / self.side_m).floor())
+        (floor_exact((p.x - self.x0) / self.side_m), floor_exact((p.y - self.y0) / self.side_m))
     }
 
     /// The buckets within `k` columns and rows of `p`'s bucket ((2k + 1) × (2k + 1) of them,
@@ -209,10 +210,10 @@ impl PointBuckets {
         if self.points.is_empty() || !p.is_finite() {
             return None;
         }
-        let fx0 = ((p.x - r - self.x0) / self.side_m).floor();
-        let fx1 = ((p.x + r - self.x0) / self.side_m).floor();
-        let fy0 = ((p.y - r - self.y0) / self.side_m).floor();
-        let fy1 = ((p.y + r - self.y0) / self.side_m).floor();
+        let fx0 = floor_exact((p.x - r - self.x0) / self.side_m);
+        let fx1 = floor_exact((p.x + r - self.x0) / self.side_m);
+        let fy0 = floor_exact((p.y - r - self.y0) / self.side_m);
+        let fy1 = floor_exact((p.y + r - self.y0) / self.side_m);
         if fx1 < 0.0 || fy1 < 0.0 || fx0 >= self.nx as f64 || fy0 >= self.ny as f64 {
             return None;
         }

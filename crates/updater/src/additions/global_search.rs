@@ -23,6 +23,7 @@
 //! then are returned, and the report says the budget ran out).
 
 use crate::support::chessboard::chessboard_distance;
+use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, angle_diff, wrap_angle};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
@@ -317,7 +318,7 @@ impl GlobalSearch {
             for q in pts {
                 let (u, v) = g.world_to_grid(robot.transform_point(*q));
                 if u.is_finite() && v.is_finite() && u.abs() < 1e9 && v.abs() < 1e9 {
-                    cells.push((u.floor() as i64, v.floor() as i64));
+                    cells.push((floor_exact(u) as i64, floor_exact(v) as i64));
                 }
             }
         }

@@ -21,6 +21,7 @@ use crate::support::removal_filter::PassAll;
 use crate::support::removal_filter::RemovalFilter;
 use crate::support::step_tolerance::StepTolerance;
 use crate::support::votes::{Vote, vote};
+use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid, Point2, RayCaster, SegmentWalk};
 
 /// Whether every cell that has a point closer than `radius_m` to `p` is free in `grid`
@@ -32,8 +33,8 @@ pub fn all_free_within(grid: &OccupancyGrid, p: Point2, radius_m: f64) -> bool {
     if !(u.is_finite() && v.is_finite() && r.is_finite()) {
         return false;
     }
-    let (x0, x1) = ((u - r).floor() as i64, (u + r).floor() as i64);
-    let (y0, y1) = ((v - r).floor() as i64, (v + r).floor() as i64);
+    let (x0, x1) = (floor_exact(u - r) as i64, floor_exact(u + r) as i64);
+    let (y0, y1) = (floor_exact(v - r) as i64, floor_exact(v + r) as i64);
     let r2 = r * r;
     for iy in y0..=y1 {
         let dy = if v < iy as f64 {

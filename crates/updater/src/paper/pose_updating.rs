@@ -11,6 +11,7 @@
 use crate::paper::icp::{Fitness, PointGrid, fitness, icp_from};
 use crate::params::PoseUpdatingParams;
 use crate::support::chessboard::chessboard_distance;
+use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, RayStop, angle_diff, cast_ray, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 use nalgebra::Matrix3;
@@ -401,7 +402,7 @@ impl PoseUpdater {
             for pt in self.source.iter().step_by(k) {
                 let (u, v) = g.world_to_grid(at.transform_point(*pt));
                 if u.is_finite() && v.is_finite() && u.abs() < 1e9 && v.abs() < 1e9 {
-                    self.cells.push((u.floor() as i32, v.floor() as i32));
+                    self.cells.push((floor_exact(u) as i32, floor_exact(v) as i32));
                 }
             }
             for ty in -n_t..=n_t {
