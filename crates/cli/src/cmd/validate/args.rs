@@ -8,7 +8,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Default: the paper's setting on one hold-out seed: presets paper and \
 mapkeeper side by side (a sweep, below), the amcl localiser, seed 11, a hundred worlds (about 3.5 min on \
-two cores: 205 s measured). With one seed, each 95 % interval is over 10 batches of consecutive worlds \
+two cores: 200 s measured). With one seed, each 95 % interval is over 10 batches of consecutive worlds \
 (how precisely this seed's chain pins its mean); --seeds 3 gives the interval over seeds (the second \
 release's default, seeds 11-13: about 11 min). --preset P runs one preset into OUT itself.\n\n\
 For each seed: generate W_1 … W_N; build M_1 in W_1 with the log-odds mapper; in each \
