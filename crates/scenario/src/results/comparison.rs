@@ -12,7 +12,7 @@ use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, W
 use crate::results::ResultsError;
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
 use crate::stats::with_ci;
-use crate::stats::{IntervalUnits, PairedDiff, chain_diff, mean, paired_diff};
+use crate::stats::{IntervalUnits, PairedDiff, batch_means_half_width, mean, paired_diff};
 use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -124,11 +124,10 @@ fn preset_diff(a: &ValidationRecord, b: &ValidationRecord) -> PresetDiff {
         if let Some(worlds) = &one_seed_worlds {
             // The mean stays the difference of the two means; the interval is the batch means'
             // of the world-by-world differences, around it.
-            let (by_world, units) = chain_diff(&[worlds.iter().map(|(wa, wb)| f(wa) - f(wb)).collect()]);
-            if let Some([lo, hi]) = by_world.ci95 {
-                let half = (hi - lo) / 2.0;
+            let by_world: Vec<f64> = worlds.iter().map(|(wa, wb)| f(wa) - f(wb)).collect();
+            if let Some(half) = batch_means_half_width(&by_world) {
                 diff.ci95 = Some([diff.mean - half, diff.mean + half]);
-                interval_units = units;
+                interval_units = IntervalUnits::WorldBatches;
             }
         }
         diff.into()
@@ -311,7 +310,7 @@ impl Comparison {
              those seeds. With one seed (marked \"1, worlds\"), the interval is over {} batches of consecutive worlds \
              of the world-by-world differences: how precisely this seed's chain of worlds pins the difference, not \
              how much another seed's would differ (docs/evaluation.md, \"Intervals\"); none with fewer than {} \
-             worlds.\n",
+             updated worlds.\n",
                 crate::stats::WORLD_BATCHES,
                 crate::stats::WORLD_BATCHES * crate::stats::MIN_WORLDS_PER_BATCH
             );
