@@ -129,16 +129,6 @@ pub enum IntervalUnits {
     WorldBatches,
 }
 
-impl IntervalUnits {
-    /// The units in a report's words.
-    pub fn describe(self) -> &'static str {
-        match self {
-            IntervalUnits::Seeds => "the seeds as units",
-            IntervalUnits::WorldBatches => "batches of consecutive worlds of the one seed as units (batch means)",
-        }
-    }
-}
-
 /// How many batches of consecutive worlds make one seed's interval (batch means: 9 degrees of
 /// freedom).
 pub const WORLD_BATCHES: usize = 10;
@@ -150,10 +140,11 @@ pub const MIN_WORLDS_PER_BATCH: usize = 2;
 /// The half-width of the 95 % batch-means interval of the mean of `series`, values in order
 /// that depend on the ones before them (the worlds of one seed: each map is made from the
 /// previous one). The series is cut into [`WORLD_BATCHES`] runs of consecutive values (sizes
-/// differing by one at most); their means are nearly independent when a batch is longer than
-/// the dependence, and the half-width is t(0.975, B−1) · s_B/√B with s_B their standard
-/// deviation. A trend over the series (the gain growing with the worlds) widens it: the
-/// interval is then conservative. `None` below `WORLD_BATCHES × MIN_WORLDS_PER_BATCH` values or
+/// differing by one at most), and the half-width is t(0.975, B−1) · s_B/√B with s_B the
+/// standard deviation of their means, taken as independent. They are only less dependent than
+/// single worlds (neighbouring batch means of the validation correlate at about 0.3-0.4:
+/// `docs/evaluation.md`, "Intervals"), which narrows the interval; a trend over the series (the
+/// gain growing with the worlds) widens it. `None` below `WORLD_BATCHES × MIN_WORLDS_PER_BATCH` values or
 /// with a value that is not finite.
 pub fn batch_means_half_width(series: &[f64]) -> Option<f64> {
     let (n, b) = (series.len(), WORLD_BATCHES);

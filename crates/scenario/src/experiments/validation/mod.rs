@@ -785,7 +785,7 @@ pub struct MetricSummary {
     pub diff_mean: f64,
     /// 95 % interval of `diff_mean` (Student t), `[lo, hi]`: paired with the seeds as units (the
     /// worlds of a seed are not independent), or with one seed over batches of its consecutive
-    /// worlds (the summary's `interval_units`); `null` with one seed of fewer than 20 worlds.
+    /// worlds (the summary's `interval_units`); `null` with one seed of fewer than 20 updated worlds.
     #[serde(default)]
     pub diff_ci95: Option<[f64; 2]>,
 }

@@ -760,7 +760,7 @@ impl Summary {
             (IntervalUnits::WorldBatches, _) => format!(
                 "{head} of the batch means: the one seed's worlds cut into {WORLD_BATCHES} runs of consecutive worlds, \
                  each run's mean one unit (the worlds are not independent: each map is made from the previous one; \
-                 batches of ten are nearly so). It says how precisely this seed's chain of worlds pins its mean, not \
+                 neighbouring batches are less so, not independent, which narrows the interval somewhat). It says how precisely this seed's chain of worlds pins its mean, not \
                  how much another seed's chain would differ: run with --seeds 3 or more for the interval over seeds \
                  (docs/evaluation.md, \"Intervals\")."
             ),
