@@ -7,6 +7,7 @@
 use mapkeeper_scenario::experiments::validation::report::report_md;
 use mapkeeper_scenario::experiments::validation::{SeedRecord, ValidationRecord};
 use mapkeeper_scenario::results::comparison::Comparison;
+use mapkeeper_scenario::results::merge::check_summary_json;
 use mapkeeper_scenario::stats::{IntervalUnits, batch_means_half_width, mean, paired_diff};
 
 fn record() -> ValidationRecord {
@@ -118,4 +119,26 @@ fn two_presets_on_one_seed_are_compared_world_by_world() {
     };
     let c = Comparison::new(&presets, &[&two(&b, 0.0), &two(&a, 1.0)]);
     assert_eq!(c.preset_diffs[0].interval_units, IntervalUnits::Seeds);
+}
+
+/// A one-seed folder written before `interval_units` (no key, no intervals) still reads: its
+/// summary is checked against the summary as those versions made it; a doctored one is not.
+#[test]
+fn a_one_seed_summary_from_before_interval_units_still_matches_its_runs() {
+    let base = record().seeds.remove(0);
+    let r = with_seeds(vec![seed(&base, 11, 30, wandering)]);
+    let dir = std::path::Path::new("a-folder");
+    let now = serde_json::to_value(r.summary()).expect("json");
+    assert!(check_summary_json(dir, &r, &now.to_string()).is_ok());
+
+    let mut old = serde_json::to_value(r.summary().without_one_seed_intervals()).expect("json");
+    old.as_object_mut().expect("an object").remove("interval_units");
+    assert!(check_summary_json(dir, &r, &old.to_string()).is_ok(), "written before interval_units");
+    // The old form with the key present is not what this version writes.
+    let mut keyed = serde_json::to_value(r.summary().without_one_seed_intervals()).expect("json");
+    keyed["interval_units"] = "seeds".into();
+    assert!(check_summary_json(dir, &r, &keyed.to_string()).is_err());
+    // Nor is an old summary with other numbers.
+    old["map_quality"]["cc"]["diff_mean"] = 1.0.into();
+    assert!(check_summary_json(dir, &r, &old.to_string()).is_err());
 }

@@ -1151,6 +1151,24 @@ pub fn summarise_records(params: &ValidationParams, runs: &[SeedRecord], wall_ti
     }
 }
 
+impl Summary {
+    /// This summary as versions before `interval_units` made it: with one seed, no interval
+    /// (the same summary with several seeds, or with too few worlds for batches).
+    pub fn without_one_seed_intervals(mut self) -> Summary {
+        if self.interval_units == IntervalUnits::WorldBatches {
+            let b = &mut self.by_ground_truth;
+            for q in [&mut self.map_quality, &mut b.exact.map_quality, &mut b.observed.map_quality] {
+                for m in [&mut q.cc, &mut q.ms, &mut q.opdf] {
+                    m.diff_ci95 = None;
+                }
+            }
+            self.localisation.error_diff_ci95_m = None;
+            self.interval_units = IntervalUnits::Seeds;
+        }
+        self
+    }
+}
+
 /// How the localisation check behaves when k worlds of change meet it at once
 /// ([`ValidationParams::update_every`]), over the worlds whose map was updated.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
