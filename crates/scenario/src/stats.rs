@@ -157,19 +157,32 @@ pub fn batch_means_half_width(series: &[f64]) -> Option<f64> {
     Some(t_quantile_975(b - 1)? * (var / b as f64).sqrt())
 }
 
+/// The units of a chain's intervals from how many per-world values each seed has
+/// (`values_per_seed`, the seeds with worlds): batches of the worlds of a single seed of at least
+/// `WORLD_BATCHES × MIN_WORLDS_PER_BATCH` values, the seeds otherwise. The one rule behind
+/// [`chain_diff`], the validation summary's `interval_units` and the presets' comparison.
+pub fn chain_units(values_per_seed: &[usize]) -> IntervalUnits {
+    match values_per_seed {
+        [n] if *n >= WORLD_BATCHES * MIN_WORLDS_PER_BATCH => IntervalUnits::WorldBatches,
+        _ => IntervalUnits::Seeds,
+    }
+}
+
 /// The mean over seeds of each seed's mean of its per-world values (`per_seed`, one series per
-/// seed with worlds, in world order), with its 95 % interval and the interval's units: with two
-/// seeds or more, [`paired_diff`] over the seeds' means; with one,
-/// [`batch_means_half_width`] of its worlds around the same mean.
+/// seed with worlds, in world order), with its 95 % interval and the interval's units
+/// ([`chain_units`]): with two seeds or more, [`paired_diff`] over the seeds' means; with one,
+/// [`batch_means_half_width`] of its worlds around the same mean (no interval if a value is not
+/// finite).
 pub fn chain_diff(per_seed: &[Vec<f64>]) -> (PairedDiff, IntervalUnits) {
     let means: Vec<f64> = per_seed.iter().map(|v| mean(v.iter().copied())).collect();
     let d = paired_diff(&means);
-    match per_seed {
-        [one] => match batch_means_half_width(one) {
-            Some(h) => (PairedDiff { ci95: Some([d.mean - h, d.mean + h]), ..d }, IntervalUnits::WorldBatches),
-            None => (d, IntervalUnits::Seeds),
-        },
-        _ => (d, IntervalUnits::Seeds),
+    let units = chain_units(&per_seed.iter().map(Vec::len).collect::<Vec<_>>());
+    match (units, per_seed) {
+        (IntervalUnits::WorldBatches, [one]) => {
+            let ci95 = batch_means_half_width(one).map(|h| [d.mean - h, d.mean + h]);
+            (PairedDiff { ci95, ..d }, units)
+        }
+        _ => (d, units),
     }
 }
 
@@ -258,6 +271,13 @@ mod tests {
         assert_eq!(d.n, 1);
         let [lo, hi] = d.ci95.unwrap();
         assert!((hi - lo - 2.0 * half).abs() < 1e-12 && ((lo + hi) / 2.0 - d.mean).abs() < 1e-12);
+        // A value that is not finite: the units stay batches, with no interval.
+        let (d, units) = chain_diff(std::slice::from_ref(&bad));
+        assert_eq!((d.ci95, units), (None, IntervalUnits::WorldBatches));
+        assert_eq!(
+            (chain_units(&[20]), chain_units(&[19]), chain_units(&[50, 50])),
+            (IntervalUnits::WorldBatches, IntervalUnits::Seeds, IntervalUnits::Seeds)
+        );
         // Too few worlds for batches: no interval, as before.
         let (d, units) = chain_diff(&[series[..10].to_vec()]);
         assert_eq!((d.ci95, units), (None, IntervalUnits::Seeds));

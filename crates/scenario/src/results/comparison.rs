@@ -12,7 +12,7 @@ use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, W
 use crate::results::ResultsError;
 use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
 use crate::stats::with_ci;
-use crate::stats::{IntervalUnits, PairedDiff, batch_means_half_width, mean, paired_diff};
+use crate::stats::{IntervalUnits, PairedDiff, batch_means_half_width, chain_units, mean, paired_diff};
 use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -116,8 +116,8 @@ fn preset_diff(a: &ValidationRecord, b: &ValidationRecord) -> PresetDiff {
         ),
         _ => None,
     };
-    let mut interval_units = IntervalUnits::Seeds;
-    let mut per_seed = |f: &dyn Fn(&WorldRow) -> f64| -> DiffCi {
+    let interval_units = chain_units(&one_seed_worlds.as_ref().map_or_else(Vec::new, |w| vec![w.len()]));
+    let per_seed = |f: &dyn Fn(&WorldRow) -> f64| -> DiffCi {
         let d: Vec<f64> =
             common.iter().map(|(sa, sb)| mean(sa.rows.iter().map(f)) - mean(sb.rows.iter().map(f))).collect();
         let mut diff = paired_diff(&d);
@@ -127,7 +127,6 @@ fn preset_diff(a: &ValidationRecord, b: &ValidationRecord) -> PresetDiff {
             let by_world: Vec<f64> = worlds.iter().map(|(wa, wb)| f(wa) - f(wb)).collect();
             if let Some(half) = batch_means_half_width(&by_world) {
                 diff.ci95 = Some([diff.mean - half, diff.mean + half]);
-                interval_units = IntervalUnits::WorldBatches;
             }
         }
         diff.into()

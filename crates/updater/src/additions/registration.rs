@@ -28,6 +28,7 @@
 //! When refused, the step writes nothing (the localisation check still runs at the given pose).
 //! The refined pose is the updater's own: it never reaches the localiser.
 
+use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{CellState, DistanceField, GridGeometry, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 use serde::{Deserialize, Serialize};
@@ -250,12 +251,8 @@ impl Registrar {
         if !(fu.is_finite() && fv.is_finite()) || fu.abs() > 1e9 || fv.abs() > 1e9 {
             return None;
         }
-        // floor without a libm call (|fu|, |fv| ≤ 1e9): the same integers, so the same offsets.
-        let floor = |x: f64| {
-            let t = x as i64;
-            t - i64::from((t as f64) > x)
-        };
-        let (x0, y0) = (floor(fu), floor(fv));
+        // |fu|, |fv| ≤ 1e9: the floors are exact integers in i64.
+        let (x0, y0) = (floor_exact(fu) as i64, floor_exact(fv) as i64);
         let (a, b) = (fu - x0 as f64, fv - y0 as f64);
         let (w, h) = (self.geometry.width() as i64, self.geometry.height() as i64);
         if x0 >= 0 && y0 >= 0 && x0 + 1 < w && y0 + 1 < h {

@@ -29,7 +29,7 @@ use crate::experiments::validation::erosion::{
     retention_summary,
 };
 pub use crate::stats::histogram_median;
-use crate::stats::{IntervalUnits, PairedDiff, chain_diff, frac, mean, median};
+use crate::stats::{IntervalUnits, PairedDiff, chain_diff, chain_units, frac, mean, median};
 use crate::worlds::generator::{Edit, GeneratorParams, generate_worlds};
 use crate::worlds::mapping::{MappingParams, build_initial_map};
 use crate::worlds::observed::{OBSERVATION_STEP_M, restrict_to, route_poses, visible_cells};
@@ -991,16 +991,10 @@ fn per_seed_diff(runs: &[SeedRecord], f: impl Fn(&WorldRow) -> f64) -> PairedDif
     chain_diff(&per_seed).0
 }
 
-/// The units of the intervals of a summary of `runs`: the seeds, or with one seed of enough
-/// worlds, batches of its worlds (as [`chain_diff`] decides for finite values).
+/// The units of the intervals of a summary of `runs` ([`chain_units`] of the seeds with worlds).
 pub fn interval_units(runs: &[SeedRecord]) -> IntervalUnits {
-    let with_rows: Vec<&SeedRecord> = runs.iter().filter(|r| !r.rows.is_empty()).collect();
-    match with_rows.as_slice() {
-        [one] if one.rows.len() >= crate::stats::WORLD_BATCHES * crate::stats::MIN_WORLDS_PER_BATCH => {
-            IntervalUnits::WorldBatches
-        }
-        _ => IntervalUnits::Seeds,
-    }
+    let worlds: Vec<usize> = runs.iter().map(|r| r.rows.len()).filter(|&n| n > 0).collect();
+    chain_units(&worlds)
 }
 
 /// The three scores of a row against the run's own ground truth (`other` false) or the other one.
