@@ -192,7 +192,7 @@ impl GridGeometry {
     #[inline]
     pub fn world_to_cell(&self, p: Point2) -> Option<CellCoord> {
         let (u, v) = self.world_to_grid(p);
-        let (fu, fv) = (u.floor(), v.floor());
+        let (fu, fv) = (crate::geometry::floor_exact(u), crate::geometry::floor_exact(v));
         if !(fu.is_finite() && fv.is_finite()) || fu.abs() > i32::MAX as f64 || fv.abs() > i32::MAX as f64 {
             return None;
         }

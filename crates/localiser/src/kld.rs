@@ -2,6 +2,7 @@
 //! sample-based and the true posterior below `ε` with probability `1 − δ`, given the number `k`
 //! of histogram bins the samples occupy.
 
+use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{Pose2, wrap_angle};
 use std::f64::consts::PI;
 
@@ -52,8 +53,8 @@ impl Bins {
     #[inline]
     pub fn key(&self, p: &Pose2) -> BinKey {
         let yaw = wrap_angle(p.yaw) + PI; // [0, 2π]
-        let iyaw = ((yaw * self.inv_yaw).floor() as i32).rem_euclid(self.yaw_bins);
-        ((p.x * self.inv_xy).floor() as i32, (p.y * self.inv_xy).floor() as i32, iyaw)
+        let iyaw = (floor_exact(yaw * self.inv_yaw) as i32).rem_euclid(self.yaw_bins);
+        (floor_exact(p.x * self.inv_xy) as i32, floor_exact(p.y * self.inv_xy) as i32, iyaw)
     }
 }
 

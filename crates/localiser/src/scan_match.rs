@@ -24,6 +24,7 @@
 //!
 //! Everything is deterministic (no randomness; ties broken by search order).
 
+use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{DistanceField, OccupancyGrid, Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
 
@@ -314,7 +315,7 @@ impl ScanMatcher {
 
 #[inline]
 fn floor_i64(x: f64) -> i64 {
-    if x.is_finite() { x.floor() as i64 } else { i64::MIN / 2 }
+    if x.is_finite() { floor_exact(x) as i64 } else { i64::MIN / 2 }
 }
 
 #[cfg(test)]
