@@ -30,7 +30,7 @@
 
 use crate::grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
 use crate::pose::Point2;
-use crate::traversal::traverse;
+use crate::traversal::traverse_indexed;
 use serde::{Deserialize, Serialize};
 use std::ops::ControlFlow;
 
@@ -212,14 +212,13 @@ impl LogOddsMapper {
     /// if `endpoint_is_hit` (and `l_free` otherwise). If `to` lies outside the grid, no cell
     /// gets `l_occ`. Non-finite points change nothing. No allocation.
     pub fn integrate_ray(&mut self, from: Point2, to: Point2, endpoint_is_hit: bool) {
-        let end = if endpoint_is_hit { self.geometry.world_to_cell(to) } else { None };
-        let width = self.geometry.width();
+        // The end cell's index, if it is inside the grid (the walk visits only cells inside it).
+        let end =
+            if endpoint_is_hit { self.geometry.world_to_cell(to).and_then(|c| self.geometry.index(c)) } else { None };
         let inc = self.inc;
         let cells = &mut self.log_odds;
-        let _ = traverse(&self.geometry, from, to, |c| {
-            // `traverse` only visits cells inside the grid.
-            let i = c.iy as usize * width + c.ix as usize;
-            let delta = if Some(c) == end { inc.occ } else { inc.free };
+        let _ = traverse_indexed(&self.geometry, from, to, |_, i| {
+            let delta = if Some(i) == end { inc.occ } else { inc.free };
             if let Some(l) = cells.get_mut(i) {
                 *l = (*l + delta).clamp(inc.min, inc.max);
             }
