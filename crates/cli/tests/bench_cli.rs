@@ -22,10 +22,17 @@ fn bench_table_has_every_component_with_consistent_figures() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     let rows = rows(&json);
     let names: Vec<&str> = rows.iter().map(|r| r["what"].as_str().unwrap()).collect();
-    // Simulator, localisers, updaters, traversal, and one pose-recovery attempt (global search).
-    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 2;
+    // Simulator, localisers, updaters, the fresh map, traversal, and one pose-recovery attempt
+    // (global search).
+    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 3;
     assert_eq!(rows.len(), expected, "{names:?}");
     assert!(names.iter().any(|n| n.starts_with("pose recovery when Lost")), "{names:?}");
+    // The fresh map's row names the validation's rate, from its parameters.
+    let stride = mapkeeper_scenario::ValidationParams::new(2, "paper").unwrap().runner.fresh_map.unwrap().scan_stride;
+    let fresh = format!(
+        "fresh map: one dual-S300 step integrated (log-odds mapper; the validation integrates one step in {stride})"
+    );
+    assert!(names.contains(&fresh.as_str()), "{names:?}");
     for preset in mapkeeper_updater::PRESET_NAMES.iter().chain(&mapkeeper_localiser::LOCALISER_PRESETS) {
         assert!(names.iter().any(|n| n.contains(&format!("`{preset}`"))), "no row for {preset}: {names:?}");
     }
@@ -41,7 +48,8 @@ fn bench_table_has_every_component_with_consistent_figures() {
 }
 
 /// The table of what each localiser did: one row per preset, updates at most the frames, the
-/// particle counts within the preset's bounds, beams weighted on every update.
+/// particle counts within the preset's bounds, beams weighted on every update, both CPU figures
+/// per update and the cost per weighted particle and beam positive.
 fn filter_work_is_consistent(stdout: &str) {
     let (_, work) = stdout.split_once("What each localiser did on the scene").expect("no filter-work table");
     for preset in mapkeeper_localiser::LOCALISER_PRESETS {
@@ -57,7 +65,13 @@ fn filter_work_is_consistent(stdout: &str) {
         let p = mapkeeper_localiser::FilterParams::preset(preset).unwrap();
         assert!(frames == 30 && updates >= 1 && updates <= frames, "{row}");
         assert!(p.min_particles <= median && median <= max && max <= p.max_particles, "{row}");
-        assert!(num(5) > 0 && cells[6].ends_with(" ms"), "{row}");
+        assert!(num(5) > 0, "{row}");
+        let ms = |s: &str| s.strip_suffix(" ms").and_then(|v| v.parse::<f64>().ok()).unwrap_or_else(|| panic!("{row}"));
+        let (all, median_update) = cells[6].split_once(" / ").unwrap_or_else(|| panic!("{row}"));
+        let (all, median_update) = (ms(all), ms(median_update));
+        assert!(all > 0.0 && median_update > 0.0, "{row}");
+        let ns = cells[7].strip_suffix(" ns").and_then(|v| v.parse::<f64>().ok()).unwrap_or_else(|| panic!("{row}"));
+        assert!(ns > 0.0 && ns.is_finite(), "{row}");
     }
 }
 

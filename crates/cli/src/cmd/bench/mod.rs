@@ -20,7 +20,9 @@ mod table;
 // The parts share their items through this module (each part reads `use super::*`).
 use anyhow::Context;
 use clock::*;
+use mapkeeper_grid::mapper::LogOddsMapper;
 use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
+use mapkeeper_harness::jobs::map::{BeamCounts, integrate_scan};
 use mapkeeper_harness::{SensorFrame, SensorSource};
 use mapkeeper_localiser::{Covariance3, FilterParams, LOCALISER_PRESETS, Localiser};
 use mapkeeper_scenario::{NoClock, RunInputs, SimSource, ValidationParams, build_initial_map, generate_worlds};
@@ -43,8 +45,9 @@ every repeat, so ratios compare across machines and loads) and the throughput. C
 calling thread's (CLOCK_THREAD_CPUTIME_ID); the closed loop's rows \
 use the process's CPU time (CLOCK_PROCESS_CPUTIME_ID) (its baseline localiser runs on a thread of its own) and give the real-time \
 factor (simulated seconds per CPU second and per wall second). A second table says what each localiser did on \
-the scene (frames, sensor updates, particles after an update, beams per update, CPU per update), to compare \
-with ROS amcl's behaviour.")]
+the scene (frames, sensor updates, particles after an update, beams per update; the CPU per update as the \
+row's CPU over the updates and as the median update's own, and per weighted particle and beam), to compare \
+with ROS amcl's behaviour and with each other.")]
 pub struct Args {
     /// Repeats of every measurement, 1 to 1000; medians are over these.
     #[arg(long, value_name = "N", default_value_t = 5, value_parser = super::count_in(1, 1000), allow_hyphen_values = true)]
@@ -88,7 +91,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rows: Vec::new(),
         filters: vec![FilterWork::default(); LOCALISER_PRESETS.len()],
     };
-    let keys = table_rows(&mut table, m1.is_some());
+    let fresh = scene.params.runner.fresh_map.context("the validation's runner makes no fresh map")?;
+    let keys = table_rows(&mut table, m1.is_some(), fresh.scan_stride);
     let caster = RayCaster::new(&scene.map, true);
     for r in 0..args.repeats {
         errln!("bench: repeat {} of {}", r + 1, args.repeats);

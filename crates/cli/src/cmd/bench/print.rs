@@ -44,21 +44,31 @@ pub(super) fn print_table(rows: &[Row], table: &Table, repeats: usize, steps: us
 
 /// What each localiser did on the scene, beside ROS amcl's own behaviour: how many frames led to
 /// a sensor update (`update_min_d` / `update_min_a`), how many particles it carried after one
-/// (KLD sampling after convergence) and how many beams it weighted, and the CPU per update.
+/// (KLD sampling after convergence) and how many beams it weighted, and the CPU per update: the
+/// row's CPU over the updates (prediction-only frames included), the median update's own CPU,
+/// and the median CPU per weighted particle and beam (what the filter's arithmetic costs, apart
+/// from how many particles it carries).
 pub(super) fn print_filter_work(rows: &[Row], keys: &Keys, filters: &[FilterWork], steps: usize) {
-    outln!("\nWhat each localiser did on the scene (the same in every repeat):\n");
     outln!(
-        "| localiser | frames | sensor updates | particles after an update: median / max | beams per update: median | CPU per update |"
+        "\nWhat each localiser did on the scene (the counts are the same in every repeat; the CPU of single updates is pooled over the repeats):\n"
     );
-    outln!("|---|---|---|---|---|---|");
+    outln!(
+        "| localiser | frames | sensor updates | particles after an update: median / max | beams per update: median | CPU per update: all frames / median update | per weighted particle and beam: median |"
+    );
+    outln!("|---|---|---|---|---|---|---|");
     for ((&key, name), w) in keys.localisers.iter().zip(LOCALISER_PRESETS).zip(filters) {
         let updates = w.particles.len();
         let per_update = match rows.get(key) {
             Some(r) if updates > 0 => format!("{:.3} ms", r.median * steps as f64 / updates as f64),
             _ => "-".into(),
         };
+        let (own, per_pb) = if updates > 0 {
+            (format!("{:.3} ms", median(&w.update_cpu_s) * 1e3), format!("{:.1} ns", median(&w.ns_per_particle_beam())))
+        } else {
+            ("-".into(), "-".into())
+        };
         outln!(
-            "| `{name}` | {} | {updates} | {} / {} | {} | {per_update} |",
+            "| `{name}` | {} | {updates} | {} / {} | {} | {per_update} / {own} | {per_pb} |",
             w.frames,
             median_count(&w.particles),
             w.particles.iter().max().copied().unwrap_or(0),

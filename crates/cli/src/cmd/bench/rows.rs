@@ -11,6 +11,29 @@ pub(super) struct FilterWork {
     pub(super) particles: Vec<usize>,
     /// Beams used by each sensor update.
     pub(super) beams: Vec<usize>,
+    /// Particles each sensor update began with (the set it weighted).
+    pub(super) weighted: Vec<usize>,
+    /// CPU seconds of each call that ran a sensor update (prediction, weighting, resampling and
+    /// the estimate), pooled over the repeats: the only part that differs between them.
+    pub(super) update_cpu_s: Vec<f64>,
+}
+
+impl FilterWork {
+    /// Adds another repeat's run of the same scene: its counts are these, its times are pooled.
+    pub(super) fn pool(&mut self, other: FilterWork) {
+        if self.frames == 0 {
+            *self = other;
+        } else {
+            self.update_cpu_s.extend(other.update_cpu_s);
+        }
+    }
+
+    /// CPU per weighted particle and beam of each sensor update, nanoseconds (every repeat's).
+    pub(super) fn ns_per_particle_beam(&self) -> Vec<f64> {
+        let per_repeat = self.weighted.iter().zip(&self.beams).map(|(&n, &b)| (n * b).max(1) as f64);
+        let per_repeat: Vec<f64> = per_repeat.collect();
+        self.update_cpu_s.iter().zip(per_repeat.iter().cycle()).map(|(&t, &work)| t * 1e9 / work).collect()
+    }
 }
 
 pub(super) fn run_localiser(scene: &Scene, name: &str, seed: u64) -> anyhow::Result<FilterWork> {
@@ -22,10 +45,13 @@ pub(super) fn run_localiser(scene: &Scene, name: &str, seed: u64) -> anyhow::Res
     for s in &scene.steps {
         if let Some(odo) = s.frame.odometry {
             work.frames += 1;
-            let r = loc.update(odo, &s.frame.scans);
+            let weighted = loc.particles().len();
+            let (t, r) = timed(|| loc.update(odo, &s.frame.scans));
             if r.sensor_update {
                 work.particles.push(r.particles);
                 work.beams.push(r.beams);
+                work.weighted.push(weighted);
+                work.update_cpu_s.push(t);
             }
         }
     }
@@ -40,6 +66,22 @@ pub(super) fn run_updater(scene: &Scene, name: &str) -> anyhow::Result<usize> {
         processed += usize::from(report.outcome == StepOutcome::Processed);
     }
     Ok(processed)
+}
+
+/// The validation's fresh map (its mapper's parameters, on the scene map's grid) integrating
+/// every step of the scene at the true pose, as `EstimateMapper` does on the steps it takes;
+/// returns the steps integrated. The runs integrate every `fresh_map.scan_stride`-th step.
+pub(super) fn run_fresh_map(scene: &Scene) -> anyhow::Result<usize> {
+    let fresh = scene.params.runner.fresh_map.context("the validation's runner has no fresh map")?;
+    let mut mapper = LogOddsMapper::new(*scene.map.geometry(), fresh.mapper)?;
+    let mut counts = BeamCounts::default();
+    for s in &scene.steps {
+        for scan in &s.frame.scans {
+            integrate_scan(&mut mapper, scan, &scan.lidar_in_map(&s.truth), 0.0, &mut counts);
+        }
+    }
+    black_box(mapper.log_odds().first());
+    Ok(scene.steps.len())
 }
 
 /// Pose recovery at every 40th step of the scene with the robot 5 m ahead of and turned half a

@@ -58,6 +58,7 @@ pub(super) struct Keys {
     pub(super) sim: usize,
     pub(super) localisers: Vec<usize>,
     pub(super) updaters: Vec<usize>,
+    pub(super) fresh_map: usize,
     pub(super) traversal: usize,
     pub(super) global: usize,
     /// (CPU row, wall row) per closed-loop preset.
@@ -67,7 +68,8 @@ pub(super) struct Keys {
 /// The closed loop's presets: the default validation's.
 pub(super) const LOOP_PRESETS: [&str; 2] = ["paper", "mapkeeper"];
 
-pub(super) fn table_rows(table: &mut Table, with_loop: bool) -> Keys {
+/// `fresh_stride`: how often the validation integrates its fresh map (every n-th step).
+pub(super) fn table_rows(table: &mut Table, with_loop: bool, fresh_stride: u32) -> Keys {
     let sim = table.add("simulator: one lidar step (physics, agents, both lidars)".into(), "ms", "steps/s", 1e-3);
     let localisers = LOCALISER_PRESETS
         .iter()
@@ -77,6 +79,12 @@ pub(super) fn table_rows(table: &mut Table, with_loop: bool) -> Keys {
         .iter()
         .map(|n| table.add(format!("updater `{n}`: one processed dual-S300 step"), "ms", "steps/s", 1e-3))
         .collect();
+    let fresh_map = table.add(
+        format!("fresh map: one dual-S300 step integrated (log-odds mapper; the validation integrates one step in {fresh_stride})"),
+        "ms",
+        "steps/s",
+        1e-3,
+    );
     let traversal = table.add("grid traversal: `RayCaster::cast`, W_1 truth, 30 m".into(), "ns/ray", "M rays/s", 1e-9);
     let global = table.add(
         "pose recovery when Lost, `mapkeeper`, kidnapped 5 m + half a turn: one attempt (local, then global search)"
@@ -99,7 +107,7 @@ pub(super) fn table_rows(table: &mut Table, with_loop: bool) -> Keys {
     } else {
         Vec::new()
     };
-    Keys { sim, localisers, updaters, traversal, global, loops }
+    Keys { sim, localisers, updaters, fresh_map, traversal, global, loops }
 }
 
 /// One repeat of every component row (not the loop).
@@ -116,7 +124,7 @@ pub(super) fn measure_components(
     table.push(keys.sim, t / n as f64, n as f64 / t);
     for (i, (&key, name)) in keys.localisers.iter().zip(LOCALISER_PRESETS).enumerate() {
         let (t, work) = timed(|| run_localiser(scene, name, seed));
-        table.filters[i] = work?;
+        table.filters[i].pool(work?);
         table.push(key, t / n as f64, n as f64 / t);
     }
     for (&key, name) in keys.updaters.iter().zip(PRESET_NAMES) {
@@ -124,6 +132,9 @@ pub(super) fn measure_components(
         let processed = processed?.max(1);
         table.push(key, t / processed as f64, processed as f64 / t);
     }
+    let (t, steps) = timed(|| run_fresh_map(scene));
+    let steps = steps?.max(1);
+    table.push(keys.fresh_map, t / steps as f64, steps as f64 / t);
     let (t, (rays, _)) = timed(|| run_traversal(caster, scene));
     table.push(keys.traversal, t / rays as f64, rays as f64 / t / 1e6);
     let mut up = MapUpdater::new(scene.map.clone(), UpdaterParams::mapkeeper())?;
