@@ -116,7 +116,7 @@ fn preset_diff(a: &ValidationRecord, b: &ValidationRecord) -> PresetDiff {
         ),
         _ => None,
     };
-    let interval_units = chain_units(&one_seed_worlds.as_ref().map_or_else(Vec::new, |w| vec![w.len()]));
+    let interval_units = chain_units(one_seed_worlds.as_ref().map(Vec::len).as_slice());
     let per_seed = |f: &dyn Fn(&WorldRow) -> f64| -> DiffCi {
         let d: Vec<f64> =
             common.iter().map(|(sa, sb)| mean(sa.rows.iter().map(f)) - mean(sb.rows.iter().map(f))).collect();
