@@ -1,8 +1,8 @@
 //! The filter's parameters: one struct, [`FilterParams`], with the odometry noise model nested in
-//! it as [`MotionParams`]. Two named presets ([`LOCALISER_PRESETS`], [`FilterParams::preset`]):
-//! `mapkeeper` (the default: Robotnik's Summit-XL AMCL values plus this project's extras) and
-//! `amcl` (the same values with ROS1 `amcl`'s own beam selection and weighting, none of the
-//! extras).
+//! it as [`MotionParams`]. Four named presets ([`LOCALISER_PRESETS`], [`FilterParams::preset`]):
+//! `mapkeeper` (the default: Robotnik's Summit-XL AMCL values plus this project's extras), `amcl`
+//! (ROS / Nav2 `amcl`'s choices, none of the extras), `amcl-joint` (the second release's `amcl`)
+//! and `mapkeeper-real` (for recorded logs: `mapkeeper` with the scan-matching front end).
 
 use crate::LocaliserError;
 use crate::scan_match::ScanMatchParams;

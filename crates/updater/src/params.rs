@@ -1,8 +1,9 @@
 //! `UpdaterParams`: every parameter of the updater in one struct, with the presets `paper` (§4
-//! as written), `authors` (the behaviour of the authors' code), `mapkeeper` (`paper` plus this
-//! project's additions, each switchable), the `always-update` / `no-update` ablations and the
-//! naive log-odds baseline (paper §4 and its parameter table; `spec/10-updater.md`;
-//! `docs/paper-vs-implementation.md` has one row per rule and one column per preset).
+//! read fairly), `paper-strict` (§4 at its strictest), `authors` (the behaviour of the authors'
+//! code), `mapkeeper` (this project's additions, each switchable) and its variants, the
+//! `always-update` / `no-update` ablations and the naive log-odds baseline (paper §4 and its
+//! parameter table; `docs/paper-vs-implementation.md` has one row per rule and one column per
+//! preset).
 
 use crate::UpdaterError;
 use crate::additions::global_search::GlobalSearchParams;
@@ -299,7 +300,8 @@ pub struct UpdaterParams {
     pub border_reconstruction: bool,
     /// Border reconstruction only sets unknown cells that are an obstacle's interior in
     /// `M_{i-1}` (enclosed by occupied cells, see `cell_update`), not never-observed space
-    /// (a `mapkeeper` addition). Default `false` (`mapkeeper` `true`).
+    /// (how Fig. 14 draws it). Default `true` (`paper` and `mapkeeper`; `paper-strict` and
+    /// `authors` `false`).
     pub border_interior_only: bool,
 
     // --- Pose updating (§4.6) ---
@@ -472,7 +474,7 @@ impl UpdaterParams {
         Self { shift_check: ShiftCheckParams { enabled: true, ..ShiftCheckParams::default() }, ..Self::mapkeeper() }
     }
 
-    /// The behaviour of the authors' published code, as `spec/10-updater.md` lists it (the
+    /// The behaviour of the authors' published code, as the product specification lists it (the
     /// departures from it that remain are listed in `docs/paper-vs-implementation.md`).
     pub fn authors() -> Self {
         Self {

@@ -6,9 +6,9 @@
 //! buffer. A cell flips from its `M_{i-1}` state to the other one (occupied or unknown → free,
 //! free → occupied) when its buffer holds at least `change_threshold` "changed" flags (with the
 //! `authors` neighbour-support rule if enabled), and flips back by `revert` ([`RevertRule`];
-//! never in `paper`). When a cell becomes free, its unknown 8-neighbours in
+//! never in `paper-strict`). When a cell becomes free, its unknown 8-neighbours in
 //! `M_i` are set occupied so that a partly removed obstacle keeps a closed border (Fig. 14).
-//! With `border_interior_only` (a `mapkeeper` addition) only unknown cells that are an
+//! With `border_interior_only` (on in `paper` and `mapkeeper`) only unknown cells that are an
 //! obstacle's interior in `M_{i-1}` are: an unknown region enclosed by occupied cells (no free
 //! 4-neighbour, not on the map's edge). Unknown space that was simply never observed (shadows
 //! behind rack posts, frontiers of a mapped `M_1`) is not an obstacle; when the robot sees into

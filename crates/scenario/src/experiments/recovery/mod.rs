@@ -1,4 +1,4 @@
-//! The robustness experiments (paper §5.3.1, §5.4; `spec/40-evaluation.md`, "Robustness
+//! The robustness experiments (paper §5.3.1, §5.4; the product specification's "Robustness
 //! experiments") and the pose-recovery stress suite:
 //!
 //! - **Localisation-check demo** ([`run_demo`]): in W_2 on M_1 the chain localiser starts 0.5 m
