@@ -133,6 +133,9 @@ fn is_false(v: &bool) -> bool {
     !*v
 }
 
+/// The latest first scan a lidar may be given, seconds after the run starts (an hour).
+pub const MAX_PHASE_OFFSET_S: f64 = 3600.0;
+
 /// The lidar models known by name: `sick_s300` ([`LidarParams::sick_s300`]) and
 /// `hokuyo_ust20lx` ([`LidarParams::hokuyo_ust20lx`]).
 pub const LIDAR_MODELS: &[&str] = &["sick_s300", "hokuyo_ust20lx"];
@@ -253,11 +256,11 @@ impl LidarParams {
                 self.range_min_m, self.range_max_m
             ));
         }
-        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 1000.0) {
-            return Err(format!("rate_hz must be in (0, 1000], got {}", self.rate_hz));
+        if !(self.rate_hz.is_finite() && (0.01..=1000.0).contains(&self.rate_hz)) {
+            return Err(format!("rate_hz must be in [0.01, 1000], got {}", self.rate_hz));
         }
-        if !(self.phase_offset_s.is_finite() && self.phase_offset_s >= 0.0) {
-            return Err(format!("phase_offset_s must be finite and ≥ 0, got {}", self.phase_offset_s));
+        if !(self.phase_offset_s.is_finite() && (0.0..=MAX_PHASE_OFFSET_S).contains(&self.phase_offset_s)) {
+            return Err(format!("phase_offset_s must be in [0, {MAX_PHASE_OFFSET_S}] s, got {}", self.phase_offset_s));
         }
         self.noise.validate().map_err(|e| format!("noise: {e}"))
     }
@@ -364,10 +367,10 @@ impl LidarSim {
             })
             .collect();
         let period_ns = params.period_ns().max(1);
-        let mut next_fire_ns = tick_ns + (params.phase_offset_s * 1e9).round() as u64;
+        let mut next_fire_ns = tick_ns.saturating_add((params.phase_offset_s * 1e9).round() as u64);
         if realism.unsync {
             let u: f64 = stream_rng(run_seed, &format!("lidar/{id}/phase")).random();
-            next_fire_ns += (u * period_ns as f64).round() as u64;
+            next_fire_ns = next_fire_ns.saturating_add((u * period_ns as f64).round() as u64);
         }
         let mut cast_mount = params.lidar_in_robot;
         if realism.extrinsic_error {
@@ -406,7 +409,11 @@ impl LidarSim {
             return false;
         }
         while self.next_fire_ns <= t_ns {
-            self.next_fire_ns += self.period_ns;
+            // Saturating: at u64::MAX ns (584 years) the lidar simply stops firing.
+            self.next_fire_ns = self.next_fire_ns.saturating_add(self.period_ns);
+            if self.next_fire_ns == u64::MAX {
+                break;
+            }
         }
         true
     }

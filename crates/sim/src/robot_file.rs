@@ -288,6 +288,16 @@ mod tests {
         assert!(e.contains("lidars[0].model: must be a model name or an inline table"), "{e}");
         let e = err("[[lidars]]\nmodel = \"sick_s300\"\nx = 0\ny = 0\nyaw_deg = 0\nphase_offset_s = -1\n");
         assert!(e.starts_with("bot.toml: lidars[0]: phase_offset_s"), "{e}");
+        // A first scan 31,710 years late would overflow the nanosecond schedule.
+        let e = err("[[lidars]]\nmodel = \"sick_s300\"\nx = 0\ny = 0\nyaw_deg = 0\nphase_offset_s = 1e12\n");
+        assert!(e.starts_with("bot.toml: lidars[0]: phase_offset_s must be in [0, 3600] s, got 1000000000000"), "{e}");
+        // One scan in 3,000 years: the period would not fit the schedule either.
+        let e = err(
+            "[[lidars]]\nx = 0\ny = 0\nyaw_deg = 0\nmodel = { fov_deg = 270, resolution_deg = 0.5, range_min_m = 0.1, \
+             range_max_m = 10, rate_hz = 1e-11, sigma_m = 0, quantisation_m = 0, dropout_probability = 0, \
+             spurious_probability = 0, spurious_max_m = 1 }\n",
+        );
+        assert!(e.contains("lidars[0]") && e.contains("rate_hz must be in [0.01, 1000], got 0.00000000001"), "{e}");
         let e = err("[body]\nwidth_m = 0\n[[lidars]]\nmodel = \"sick_s300\"\nx = 0\ny = 0\nyaw_deg = 0\n");
         assert!(e.starts_with("bot.toml: body: width_m"), "{e}");
         let e = err("");

@@ -155,20 +155,47 @@ fn default_post_spacing() -> f64 {
 /// Thickness of a rack's frame bar, metres.
 pub const FRAME_BAR_M: f64 = 0.05;
 
+/// The most post intervals a rack may have along its length (a 20 km rack at the default 2 m
+/// spacing): a bound on the shapes one rack becomes, so that a world file cannot ask for an
+/// allocation of any size.
+pub const MAX_RACK_POST_INTERVALS: usize = 10_000;
+
 impl Rack {
-    /// The posts (and frame bars) of the rack as shapes in the map frame, in a fixed order.
-    pub fn parts(&self) -> Vec<Shape> {
-        let pose = Pose2::new(self.center[0], self.center[1], self.yaw_deg.to_radians());
-        // Work in a frame whose x runs along the long side.
-        let (len, depth, extra_yaw) = if self.size[0] >= self.size[1] {
+    /// The long side and depth of the rack, and the extra yaw (degrees) of the frame whose x
+    /// runs along the long side.
+    fn long_frame(&self) -> (f64, f64, f64) {
+        if self.size[0] >= self.size[1] {
             (self.size[0], self.size[1], 0.0)
         } else {
             (self.size[1], self.size[0], 90.0)
-        };
-        let frame = pose.compose(&Pose2::new(0.0, 0.0, f64::to_radians(extra_yaw)));
+        }
+    }
+
+    /// The length between the first and the last post's centres, and the number of intervals
+    /// between posts (≥ 1; a float, as a huge rack's count may not fit a `usize`).
+    fn post_run(&self) -> (f64, f64) {
+        let (len, depth, _) = self.long_frame();
         let p = self.post_size_m.min(len).min(depth);
         let run = (len - p).max(0.0);
-        let intervals = (run / self.max_post_spacing_m).ceil().max(1.0) as usize;
+        (run, (run / self.max_post_spacing_m).ceil().max(1.0))
+    }
+
+    /// The number of intervals between posts along the long side (≥ 1).
+    pub fn post_intervals(&self) -> f64 {
+        self.post_run().1
+    }
+
+    /// The posts (and frame bars) of the rack as shapes in the map frame, in a fixed order.
+    /// A rack that passed [`World::validate`] has at most [`MAX_RACK_POST_INTERVALS`] intervals;
+    /// the count is capped there in any case.
+    pub fn parts(&self) -> Vec<Shape> {
+        let pose = Pose2::new(self.center[0], self.center[1], self.yaw_deg.to_radians());
+        // Work in a frame whose x runs along the long side.
+        let (len, depth, extra_yaw) = self.long_frame();
+        let frame = pose.compose(&Pose2::new(0.0, 0.0, f64::to_radians(extra_yaw)));
+        let p = self.post_size_m.min(len).min(depth);
+        let (run, intervals) = self.post_run();
+        let intervals = intervals.min(MAX_RACK_POST_INTERVALS as f64) as usize;
         let mut parts = Vec::with_capacity(3 * (intervals + 1));
         for k in 0..=intervals {
             let x = -run / 2.0 + run * k as f64 / intervals as f64;
@@ -496,6 +523,18 @@ impl World {
                 return Err(bad(
                     entry,
                     format!("max_post_spacing_m must be finite and ≥ post_size_m, got {}", r.max_post_spacing_m),
+                ));
+            }
+            let intervals = r.post_intervals();
+            if intervals > MAX_RACK_POST_INTERVALS as f64 {
+                return Err(bad(
+                    entry,
+                    format!(
+                        "{intervals:.3e} post intervals along its {:.3e} m side (at max_post_spacing_m {}); at \
+                         most {MAX_RACK_POST_INTERVALS} are allowed: raise max_post_spacing_m or shorten the rack",
+                        r.size[0].max(r.size[1]),
+                        r.max_post_spacing_m
+                    ),
                 ));
             }
         }
