@@ -27,10 +27,14 @@ fuzz_target!(|data: &[u8]| {
     check(text, mapkeeper_sim::SimParams::validate);
     check(text, mapkeeper_localiser::FilterParams::validate);
     let base = mapkeeper_scenario::RecoveryParams::default();
-    if let Err(m) =
-        mapkeeper_common::params_from_toml_str(base, text, mapkeeper_scenario::RecoveryParams::validate)
-    {
+    match mapkeeper_common::params_from_toml_str(base, text, mapkeeper_scenario::RecoveryParams::validate) {
+        // What validation accepts, the kidnap suite's draws must take.
+        Ok(p) => {
+            for trial in 0..4 {
+                let _ = mapkeeper_scenario::experiments::recovery::draw_trial(&p, 7, trial);
+            }
+        }
         // The CLI joins a TOML error's lines; a syntax error names its line.
-        assert!(!m.is_empty() && (!m.starts_with("TOML parse error") || m.contains("line ")), "{m}");
+        Err(m) => assert!(!m.is_empty() && (!m.starts_with("TOML parse error") || m.contains("line ")), "{m}"),
     }
 });

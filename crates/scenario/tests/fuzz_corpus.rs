@@ -165,7 +165,18 @@ fn params_toml_corpus_never_panics_for_recovery_params() {
         let Ok(text) = std::fs::read_to_string(&file) else { continue };
         let base = mapkeeper_scenario::RecoveryParams::default();
         let got = catch_unwind(AssertUnwindSafe(|| {
-            mapkeeper_harness::config::params_from_toml_str(base, &text, mapkeeper_scenario::RecoveryParams::validate)
+            let p = mapkeeper_harness::config::params_from_toml_str(
+                base,
+                &text,
+                mapkeeper_scenario::RecoveryParams::validate,
+            )?;
+            // What validation accepts, the kidnap suite's draws must take (a range of
+            // non-finite width panics in rand).
+            for trial in 0..4 {
+                let d = mapkeeper_scenario::experiments::recovery::draw_trial(&p, 7, trial);
+                assert!(d.tour_position_m.is_finite() && d.yaw_rad.is_finite(), "{d:?}");
+            }
+            Ok::<_, String>(p)
         }))
         .unwrap_or_else(|_| panic!("{}: panicked", file.display()));
         match got {

@@ -55,13 +55,21 @@ impl Route {
         if r.version != 1 {
             return Err(bad("version".into(), format!("version {} is not supported (expected 1)", r.version)));
         }
-        if r.waypoints.is_empty() {
-            return Err(bad("waypoints".into(), "a route needs at least one waypoint".into()));
-        }
-        if let Some((i, p)) = r.waypoints.iter().enumerate().find(|(_, p)| !(p[0].is_finite() && p[1].is_finite())) {
-            return Err(bad(format!("waypoints[{i}]"), format!("must be finite, got {p:?}")));
+        if let Some((entry, problem)) = r.problem() {
+            return Err(bad(entry, problem));
         }
         Ok(r)
+    }
+
+    /// What is wrong with the waypoints, if anything: the entry (`waypoints` or
+    /// `waypoints[i]`) and the problem. A route needs at least one waypoint, every one finite.
+    /// Routes read as part of a larger file (experiment parameters) are checked with this too.
+    pub fn problem(&self) -> Option<(String, String)> {
+        if self.waypoints.is_empty() {
+            return Some(("waypoints".into(), "a route needs at least one waypoint".into()));
+        }
+        let (i, p) = self.waypoints.iter().enumerate().find(|(_, p)| !(p[0].is_finite() && p[1].is_finite()))?;
+        Some((format!("waypoints[{i}]"), format!("must be finite, got {p:?}")))
     }
 
     /// Reads a route file.

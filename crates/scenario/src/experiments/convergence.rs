@@ -79,6 +79,7 @@ impl ConvergenceParams {
         for f in &self.filters {
             f.validate()?;
         }
+        crate::experiments::check_route("route", &self.route, 1)?;
         if let Some(e) = self.errors_m.iter().find(|e| !(e.is_finite() && **e >= 0.0)) {
             return Err(invalid("errors", format!("must be finite distances ≥ 0 m, got {e}")));
         }

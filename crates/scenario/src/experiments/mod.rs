@@ -72,3 +72,26 @@ pub enum ExperimentError {
 pub(crate) fn invalid(name: &'static str, problem: String) -> ExperimentError {
     ExperimentError::InvalidParam { name, problem }
 }
+
+/// Checks a route given in an experiment's parameters (`name`: the parameter): at least one
+/// waypoint (`min_points`, for tours that must go somewhere), every one finite, and a finite
+/// length. Routes parsed from a file of their own are checked by `Route::from_toml_str`; a
+/// route inside a parameter file is not, so that a waypoint at `inf` (TOML has it) would reach
+/// the random draws along the route.
+pub(crate) fn check_route(
+    name: &'static str,
+    route: &mapkeeper_sim::Route,
+    min_points: usize,
+) -> Result<(), ExperimentError> {
+    if let Some((entry, problem)) = route.problem() {
+        return Err(invalid(name, format!("{entry}: {problem}")));
+    }
+    if route.waypoints.len() < min_points {
+        return Err(invalid(name, format!("needs at least {min_points} waypoints, got {}", route.waypoints.len())));
+    }
+    let length = route.length_m();
+    if !length.is_finite() {
+        return Err(invalid(name, format!("its length must be finite, got {length} m")));
+    }
+    Ok(())
+}

@@ -94,6 +94,10 @@ impl KidnapRobotParams {
     }
 }
 
+/// The largest free disc a kidnap's destination may be asked to have around it, metres (a
+/// disc wider than a warehouse aisle never fits; the bound keeps the check's cell loop finite).
+pub const MAX_FREE_RADIUS_M: f64 = 5.0;
+
 impl KidnapRobotParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
@@ -131,6 +135,15 @@ impl KidnapRobotParams {
         }
         if self.min_displacement_m > self.max_displacement_m || self.kidnap_min_s > self.kidnap_max_s {
             return Err(invalid("kidnap_robot.min_displacement_m", "ranges need min ≤ max".into()));
+        }
+        if self.max_yaw_rad > PI {
+            return Err(invalid("kidnap_robot.max_yaw_rad", format!("must be at most π, got {}", self.max_yaw_rad)));
+        }
+        if self.free_radius_m > MAX_FREE_RADIUS_M {
+            return Err(invalid(
+                "kidnap_robot.free_radius_m",
+                format!("must be at most {MAX_FREE_RADIUS_M} m, got {}", self.free_radius_m),
+            ));
         }
         Ok(())
     }
@@ -693,6 +706,20 @@ mod tests {
         );
         let dr = draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3);
         assert!((50..=100).contains(&dr.world) && (0.5..=3.0).contains(&dr.displacement_m));
+    }
+
+    /// A turn wider than π (its draw's range would be of infinite width at 1e308) and a free
+    /// disc too large for the check's cell loop to finish are refused by name.
+    #[test]
+    fn a_huge_turn_or_free_disc_is_refused_by_name() {
+        let mut p = KidnapRobotParams { max_yaw_rad: 1e308, ..KidnapRobotParams::default() };
+        let e = p.validate().expect_err("refused").to_string();
+        assert!(e.contains("kidnap_robot.max_yaw_rad") && e.contains("at most π"), "{e}");
+        p.max_yaw_rad = PI;
+        p.validate().expect("π is accepted");
+        p.free_radius_m = 1e6;
+        let e = p.validate().expect_err("refused").to_string();
+        assert!(e.contains("kidnap_robot.free_radius_m") && e.contains("at most 5 m"), "{e}");
     }
 
     #[test]

@@ -159,4 +159,32 @@ mod tests {
         assert!(p.validate().is_err());
         assert!(RecoveryParams::default().validate().is_ok());
     }
+
+    /// Values TOML accepts (`inf`, `nan`, 1e308) that would make a draw's range of non-finite
+    /// width (rand panics) are refused by name before any draw.
+    #[test]
+    fn non_finite_routes_and_huge_angles_are_refused_by_name() {
+        let refusal = |p: &RecoveryParams| p.validate().expect_err("refused").to_string();
+        let mut p = RecoveryParams::default();
+        p.tour.waypoints[1][0] = f64::INFINITY;
+        let e = refusal(&p);
+        assert!(e.contains("tour") && e.contains("waypoints[1]: must be finite"), "{e}");
+        let mut p = RecoveryParams::default();
+        p.exploration_route.waypoints[0][1] = f64::NAN;
+        let e = refusal(&p);
+        assert!(e.contains("exploration_route") && e.contains("waypoints[0]: must be finite"), "{e}");
+        let mut p = RecoveryParams::default();
+        p.tour.waypoints = vec![[0.0, 0.0], [1e308, 0.0], [-1e308, 0.0]];
+        let e = refusal(&p);
+        assert!(e.contains("tour") && e.contains("length must be finite"), "{e}");
+        let mut p = RecoveryParams::default();
+        p.kidnap.max_yaw_rad = 1e308;
+        let e = refusal(&p);
+        assert!(e.contains("kidnap.max_yaw_rad") && e.contains("at most π"), "{e}");
+        p.kidnap.max_yaw_rad = std::f64::consts::PI;
+        p.validate().expect("a turn of up to π is accepted");
+        for t in 0..20 {
+            assert!(draw_trial(&p, 1, t).yaw_rad.abs() <= std::f64::consts::PI);
+        }
+    }
 }

@@ -1,8 +1,8 @@
 //! Parameters of the robustness experiments (`docs/recovery.md`).
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::experiments::runner::RunnerParams;
+use crate::experiments::{check_route, invalid};
 use crate::worlds::generator::GeneratorParams;
 use crate::worlds::mapping::MappingParams;
 use mapkeeper_grid::metrics::MetricParams;
@@ -305,10 +305,9 @@ impl RecoveryParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         check_pos("resolution_m", self.resolution_m)?;
-        if self.exploration_route.waypoints.is_empty() || self.tour.waypoints.len() < 2 {
-            return Err(invalid("tour", "routes need waypoints (the tour at least two)".into()));
-        }
-        if self.tour.length_m().is_nan() || self.tour.length_m() <= 0.0 {
+        check_route("exploration_route", &self.exploration_route, 1)?;
+        check_route("tour", &self.tour, 2)?;
+        if self.tour.length_m() <= 0.0 {
             return Err(invalid("tour", "the tour has zero length".into()));
         }
         self.runner.validate()?;
@@ -361,6 +360,9 @@ impl RecoveryParams {
             return Err(invalid("kidnap.min_displacement_m", "must not exceed max_displacement_m".into()));
         }
         check_non_neg("kidnap.max_yaw_rad", k.max_yaw_rad)?;
+        if k.max_yaw_rad > std::f64::consts::PI {
+            return Err(invalid("kidnap.max_yaw_rad", format!("must be at most π, got {}", k.max_yaw_rad)));
+        }
         check_non_neg("kidnap.kidnap_min_s", k.kidnap_min_s)?;
         check_non_neg("kidnap.kidnap_max_s", k.kidnap_max_s)?;
         if k.kidnap_min_s > k.kidnap_max_s {

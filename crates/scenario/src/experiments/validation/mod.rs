@@ -242,9 +242,8 @@ impl ValidationParams {
                 problem: format!("must be a finite length > 0 m, got {}", self.resolution_m),
             });
         }
-        if self.route.waypoints.is_empty() || self.exploration_route.waypoints.is_empty() {
-            return Err(ExperimentError::InvalidParam { name: "route", problem: "routes need waypoints".into() });
-        }
+        crate::experiments::check_route("route", &self.route, 1)?;
+        crate::experiments::check_route("exploration_route", &self.exploration_route, 1)?;
         self.runner.validate()?;
         if self.runner.fresh_map.is_none() {
             return Err(ExperimentError::InvalidParam {
