@@ -76,10 +76,12 @@ pub enum MapIoError {
         key: &'static str,
     },
     /// A key has a value of the wrong type or out of range.
-    #[error("{path}: key '{key}': {message}")]
+    #[error("{path}:{line}: key '{key}': {message}")]
     BadValue {
         /// The YAML file.
         path: PathBuf,
+        /// 1-based line of the key.
+        line: usize,
         /// The key.
         key: &'static str,
         /// What is wrong.
@@ -102,6 +104,13 @@ pub enum MapIoError {
         source: GridError,
     },
 }
+
+/// The range of map resolutions accepted, metres per cell (a map file's `resolution`, and the
+/// CLI's `--resolution`): 5 mm is finer than any 2-D lidar's noise (the paper's warehouse then
+/// has ~13 M cells, and a scan matcher's window of ±0.3 m is 120 cells wide); 10 m leaves a
+/// handful of cells per building. Finer maps would only make every per-cell loop (scan
+/// matching, free-disc checks) slower without bound.
+pub const MAP_RESOLUTION_M: (f64, f64) = (0.005, 10.0);
 
 /// How pixel shades become cell states (map_server's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -351,7 +360,14 @@ fn yaml_entries(text: &str, path: &Path) -> Result<Vec<(String, Value, usize)>, 
 pub fn parse_map_yaml(text: &str, path: &Path) -> Result<MapYaml, MapIoError> {
     let entries = yaml_entries(text, path)?;
     let get = |key: &str| entries.iter().find(|(k, _, _)| k == key).map(|(_, v, _)| v);
-    let bad = |key: &'static str, message: String| MapIoError::BadValue { path: path.to_path_buf(), key, message };
+    // Every bad value belongs to a key that is present: its line names the place.
+    let line_of = |key: &str| entries.iter().find(|(k, _, _)| k == key).map_or(0, |(_, _, l)| *l);
+    let bad = |key: &'static str, message: String| MapIoError::BadValue {
+        path: path.to_path_buf(),
+        line: line_of(key),
+        key,
+        message,
+    };
     let missing = |key: &'static str| MapIoError::MissingKey { path: path.to_path_buf(), key };
     let scalar = |key: &'static str| -> Result<Option<&str>, MapIoError> {
         match get(key) {
@@ -376,8 +392,9 @@ pub fn parse_map_yaml(text: &str, path: &Path) -> Result<MapYaml, MapIoError> {
         return Err(bad("image", "empty image path".into()));
     }
     let resolution_m = number("resolution")?.ok_or_else(|| missing("resolution"))?;
-    if resolution_m <= 0.0 {
-        return Err(bad("resolution", format!("must be positive, found {resolution_m}")));
+    let (min_res, max_res) = MAP_RESOLUTION_M;
+    if !(min_res..=max_res).contains(&resolution_m) {
+        return Err(bad("resolution", format!("must lie in [{min_res}, {max_res}] m per cell, found {resolution_m}")));
     }
     let origin = match get("origin") {
         None => return Err(missing("origin")),
@@ -546,7 +563,12 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
             let v = next_token(&mut p, "pixel value")
                 .map_err(|_| err(format!("truncated or malformed P2 data: {k} of {n} pixel values readable")))?;
             if v > maxval {
-                return Err(err(format!("pixel value {v} exceeds maxval {maxval}")));
+                return Err(err(format!(
+                    "pixel {k} (image row {}, column {}; the value ending before byte {p}): value {v} exceeds maxval \
+                     {maxval}",
+                    k / width,
+                    k % width
+                )));
             }
             pixels.push(Pixel { shade: scale(v), alpha: 255 });
         }
@@ -568,7 +590,12 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
         for k in 0..n {
             let v = if bytes_per == 1 { data[k] as u64 } else { ((data[2 * k] as u64) << 8) | data[2 * k + 1] as u64 };
             if v > maxval {
-                return Err(err(format!("pixel value {v} exceeds maxval {maxval}")));
+                return Err(err(format!(
+                    "pixel {k} (image row {}, column {}; byte {}): value {v} exceeds maxval {maxval}",
+                    k / width,
+                    k % width,
+                    pos + k * bytes_per
+                )));
             }
             pixels.push(Pixel { shade: scale(v), alpha: 255 });
         }
@@ -706,6 +733,12 @@ mod tests {
             (YAML.replace("resolution: 0.5", "resolution: 0"), "resolution"),
             (YAML.replace("resolution: 0.5", "resolution: -1"), "resolution"),
             (YAML.replace("resolution: 0.5", "resolution: abc"), "resolution"),
+            // Finer than 5 mm: every per-cell loop (scan matching, free discs) would be unbounded.
+            (
+                YAML.replace("resolution: 0.5", "resolution: 1e-9"),
+                "bad.yaml:2: key 'resolution': must lie in [0.005, 10] m per cell, found 0.000000001",
+            ),
+            (YAML.replace("negate: 0", "negate: 2"), "bad.yaml:4: key 'negate'"),
             (YAML.replace("origin: [-1.0, -2.0, 0.0]", "origin: [-1.0, -2.0]"), "origin"),
             (YAML.replace("origin: [-1.0, -2.0, 0.0]", "origin: [.nan, 0, 0]"), "origin"),
             (YAML.replace("origin: [-1.0, -2.0, 0.0]", "origin: [1, 2, 3"), "unterminated"),
@@ -727,12 +760,19 @@ mod tests {
     fn image_errors() {
         let d = tmpdir("bad-img");
         std::fs::write(d.join("m.yaml"), YAML).unwrap();
-        let cases: [(&[u8], &str); 8] = [
+        let cases: [(&[u8], &str); 9] = [
+            (
+                b"P5\n2 2\n100\n\x05\x06\x07\xc8",
+                "pixel 3 (image row 1, column 1; byte 14): value 200 exceeds maxval 100",
+            ),
             (b"P5\n100000 100000\n255\n", "exceeds the limit"),
             (b"P5\n0 5\n255\n", "zero-size"),
             (b"P5\n3 3\n255\n\x00\x01", "truncated PGM raster"),
             (b"P5\n3", "truncated PGM header"),
-            (b"P2\n2 1\n100\n5 200\n", "exceeds maxval"),
+            (
+                b"P2\n2 1\n100\n5 200\n",
+                "pixel 1 (image row 0, column 1; the value ending before byte 16): value 200 exceeds maxval 100",
+            ),
             (b"P5\n2 1\n0\n\x00\x00", "maxval"),
             (b"GIF89a", "unrecognised"),
             (b"\x89PNG\r\n\x1a\n\x00\x00", "bad PNG"),
@@ -755,7 +795,10 @@ mod tests {
         fn pgm_reader_never_panics(data in proptest::collection::vec(any::<u8>(), 0..200), ascii in any::<bool>()) {
             let mut bytes = if ascii { b"P2".to_vec() } else { b"P5".to_vec() };
             bytes.extend(data);
-            let _ = decode_pgm(&bytes, Path::new("fuzz.pgm"));
+            if let Err(e) = decode_pgm(&bytes, Path::new("fuzz.pgm")) {
+                let m = e.to_string();
+                prop_assert!(m.starts_with("fuzz.pgm: ") && !m.contains('\n'), "{}", m);
+            }
         }
 
         #[test]
@@ -769,7 +812,10 @@ mod tests {
 
         #[test]
         fn yaml_reader_never_panics(text in "[a-z_:#\\[\\], \\-\\.0-9\"'\n ]{0,200}") {
-            let _ = parse_map_yaml(&text, Path::new("fuzz.yaml"));
+            if let Err(e) = parse_map_yaml(&text, Path::new("fuzz.yaml")) {
+                let m = e.to_string();
+                prop_assert!(m.starts_with("fuzz.yaml") && !m.contains('\n'), "{}", m);
+            }
         }
     }
 }

@@ -18,10 +18,10 @@ pub const MAX_WORLDS: usize = 10_000;
 /// Largest number of seeds of `validate --seeds` and `converge --seeds` (each seed is a full
 /// run; the job list is held in memory).
 pub const MAX_SEEDS: usize = 100_000;
-/// The range of map resolutions, metres per cell: 5 mm is below the simulated lidars' 1 cm
-/// range quantisation and 3 cm noise (the warehouse map then has ~13 M cells), 10 m leaves a
-/// handful of cells per map.
-pub const RESOLUTION_M: (f64, f64) = (0.005, 10.0);
+/// The range of map resolutions, metres per cell: that of map files
+/// ([`mapkeeper_grid::map_io::MAP_RESOLUTION_M`]; 5 mm is below the simulated lidars' 1 cm range
+/// quantisation and 3 cm noise, 10 m leaves a handful of cells per map).
+pub const RESOLUTION_M: (f64, f64) = mapkeeper_grid::map_io::MAP_RESOLUTION_M;
 /// Largest route length of `--route-length`, metres: 10 km, far more than the 72 m default
 /// tour (a longer value drives the whole route).
 pub const MAX_ROUTE_LENGTH_M: f64 = 10_000.0;
