@@ -175,6 +175,21 @@ impl Assembler {
         if let Some(src) = &truth_source {
             backward.extend(clamp_track(src, &mut truth));
         }
+        // A pose the reader took as written (a corrected CARMEN pose of 1e308, odometry chained
+        // from such poses or from /tf) must still be a pose: ±inf or NaN would reach every
+        // estimator. The JSONL reader refuses the same (mapkeeper_sensor::log).
+        for (stream, track) in [(Some(&odom_source), &odom), (truth_source.as_ref(), &truth)] {
+            if let Some((i, (t, pose))) = track.iter().enumerate().find(|(_, (_, p))| !p.is_finite()) {
+                return Err(ImportError::parse(
+                    &self.path,
+                    format!("{}, reading {} (stamp {t} ns)", stream.map_or("?", String::as_str), i + 1),
+                    format!(
+                        "the pose is not finite ({}, {}, {}): not a pose an estimator can use",
+                        pose.x, pose.y, pose.yaw
+                    ),
+                ));
+            }
+        }
         let firsts = scan_records
             .iter()
             .filter_map(|r| r.3.first().map(|s| s.stamp_ns))
@@ -451,7 +466,7 @@ fn clamp_backward(stream: &str, stamps: &mut [u64]) -> Option<BackwardSteps> {
         if stamps[i] < stamps[i - 1] {
             count += 1;
             largest = largest.max(stamps[i - 1] - stamps[i]);
-            stamps[i] = stamps[i - 1] + 1;
+            stamps[i] = stamps[i - 1].saturating_add(1);
         }
     }
     (count > 0).then(|| BackwardSteps { stream: stream.to_string(), count, largest_s: largest as f64 * 1e-9 })

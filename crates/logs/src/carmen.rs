@@ -119,6 +119,9 @@ pub fn read(path: &Path, options: &ImportOptions) -> Result<(SensorLog, ImportRe
     assemble(parsed, path, options)
 }
 
+/// The longest line read, bytes (64 MiB): a laser line of 100,000 beams is about 1 MB.
+const MAX_LINE_BYTES: usize = 64 << 20;
+
 /// How a read error is met: whether the file is gzipped (named in the message), and whether to
 /// salvage what came before it.
 #[derive(Clone, Copy, Debug)]
@@ -136,7 +139,7 @@ fn parse(mut reader: Box<dyn BufRead>, path: &Path, stamp: StampFrom, damage: Da
     let mut text_bytes = 0u64;
     loop {
         buf.clear();
-        let n = match (&mut reader).take(64 << 20).read_until(b'\n', &mut buf) {
+        let n = match (&mut reader).take(MAX_LINE_BYTES as u64 + 1).read_until(b'\n', &mut buf) {
             Ok(n) => n,
             Err(e) => {
                 let what = if damage.gz { "the gzip stream is truncated or corrupt" } else { "the file is damaged" };
@@ -159,6 +162,15 @@ the partial line and everything after it lost"
         }
         text_bytes += n as u64;
         line_no += 1;
+        if buf.len() > MAX_LINE_BYTES {
+            // Not split in two: the rest would read as a line of its own, and every line number
+            // after it would be off by one.
+            return Err(ImportError::parse(
+                path,
+                format!("line {line_no}"),
+                format!("longer than {} MiB (a CARMEN line is a few kilobytes)", MAX_LINE_BYTES >> 20),
+            ));
+        }
         let text = std::str::from_utf8(&buf)
             .map_err(|_| ImportError::parse(path, format!("line {line_no}"), "not UTF-8 text"))?;
         let fields: Vec<&str> = text.split_whitespace().collect();
@@ -572,6 +584,34 @@ mod tests {
         );
         assert_eq!(report.truth_poses, 3);
         assert!(report.notes.iter().any(|n| n.contains("1 NEFF")), "{:?}", report.notes);
+    }
+
+    #[test]
+    fn a_line_over_the_limit_is_refused_not_split() {
+        // Split in two, the rest read as a line of its own and every line number after it was
+        // off by one.
+        let mut text = String::from("ODOM 0 0 0 0 0 0 1.0 h 1.0\nNOTE ");
+        text.push_str(&"x".repeat(MAX_LINE_BYTES));
+        text.push_str("\nODOM 0.1 0 0 0 0 0 2.0 h 2.0\n");
+        let p = write("long-line", &text);
+        let e = read(&p, &ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("log.txt") && e.contains("line 2") && e.contains("longer than 64 MiB"), "{e}");
+        std::fs::remove_file(&p).ok();
+    }
+
+    #[test]
+    fn poses_that_overflow_are_refused_by_stream_and_reading() {
+        // A corrected pose and the raw ODOM after it 2e308 apart: the increment re-chained
+        // between them is infinite.
+        // (A corrected log re-anchors ODOM at each scan's pose, as CARMEN's corrected logs do.)
+        let mut text = String::from("ODOM 0 0 0 0 0 0 0.5 h 0.5\n");
+        text += &flaser(&[1.0, 2.0, 3.0], (1e308, 0.0, 0.0), 1.0);
+        text += "ODOM 1e308 0 0 0 0 0 1 h 1\nODOM -1e308 0 0 0 0 0 1.5 h 1.5\n";
+        text += &flaser(&[1.0, 2.0, 3.0], (1.0, 0.0, 0.0), 2.0);
+        text += "ODOM 1 0 0 0 0 0 2 h 2\n";
+        let p = write("overflow", &text);
+        let e = read(&p, &ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("log.txt") && e.contains("reading 2") && e.contains("the pose is not finite"), "{e}");
     }
 
     #[test]

@@ -543,6 +543,18 @@ fn a_bag_from_another_writer_with_an_upside_down_lidar_and_odometry_from_tf() {
     let (log, report) = ros2::read(&path, &opts).unwrap();
     assert_eq!(report.epoch_ns, T0 + MS);
     assert_eq!(log.scans().nth(3).unwrap().stamp_ns, 3 * 50 * MS + 15 * MS - MS);
+    // A log_time past i64 nanoseconds (a corrupt record) is refused by the record clock, by
+    // message, not carried into the stamp arithmetic (it overflowed there); the header clock
+    // does not read it.
+    let mut bag = upside_down_bag();
+    let scan = bag.iter().position(|m| m.0 == "/scan").unwrap();
+    bag[scan].3 = u64::MAX;
+    let far = dir.join("far.mcap");
+    mcap_file(&far, None, &bag);
+    let e = ros2::read(&far, &opts).unwrap_err().to_string();
+    assert!(e.contains("far.mcap") && e.contains(&format!("(log_time {} ns)", u64::MAX)), "{e}");
+    assert!(e.contains("is past 9223372036854775807 ns"), "{e}");
+    ros2::read(&far, &ImportOptions::default()).expect("the header clock reads the same file");
     // zstd chunks read the same.
     let zst = dir.join("robot-zstd.mcap");
     mcap_file(&zst, Some(mcap::Compression::Zstd), &upside_down_bag());

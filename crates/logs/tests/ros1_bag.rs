@@ -550,7 +550,15 @@ fn bad_chunk_headers_are_refused() {
                 let p = at + find(&b[at..], b"size=") + 5;
                 b[p..p + 4].copy_from_slice(&u32::MAX.to_le_bytes());
             }),
-            "decompresses to",
+            "header says 4294967295 bytes, more than the 256 MiB",
+        ),
+        (
+            "size-small",
+            Box::new(|b: &mut Vec<u8>, at| {
+                let p = at + find(&b[at..], b"size=") + 5;
+                b[p..p + 4].copy_from_slice(&7u32.to_le_bytes());
+            }),
+            "decompresses to more than the 7 bytes its header says",
         ),
     ];
     for (name, patch, want) in cases {

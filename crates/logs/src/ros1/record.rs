@@ -293,11 +293,23 @@ impl BagFile {
     }
 }
 
+/// The largest uncompressed chunk read, bytes (256 MiB, the MCAP reader's record limit).
+pub const CHUNK_LIMIT: u32 = 1 << 28;
+
 /// The uncompressed data of a chunk compressed with `compression` (`none`, `bz2`, `lz4`)
 /// whose header says it holds `size` bytes. ROS's `lz4` chunks are LZ4 frames (magic
 /// `0x184D2204`, independent blocks, a content checksum; written by `roslz4`), `bz2` chunks one
-/// bzip2 stream. Never allocates or decompresses more than `size + 1` bytes.
+/// bzip2 stream. Never allocates or decompresses more than `size + 1` bytes, and refuses a
+/// `size` over [`CHUNK_LIMIT`] before decompressing anything (a kilobyte of bzip2 can claim,
+/// and hold, 4 GiB of zeros).
 pub fn decompress(compression: &str, data: &[u8], size: u32) -> Result<Vec<u8>, String> {
+    if size > CHUNK_LIMIT {
+        return Err(format!(
+            "the {compression} chunk's header says {size} bytes, more than the {} MiB a chunk may hold here \
+             (rosbag writes chunks of 768 KiB)",
+            CHUNK_LIMIT >> 20
+        ));
+    }
     let limit = u64::from(size) + 1;
     let capacity = (size as usize).min(data.len().saturating_mul(4));
     let mut out = Vec::with_capacity(capacity);
@@ -383,5 +395,12 @@ mod tests {
         assert!(decompress("zstd", &bz, size).unwrap_err().contains("'zstd' is not one of"));
         // A size of 4 GB on a small chunk: refused without allocating it.
         assert!(decompress("lz4", &lz, u32::MAX).unwrap_err().contains("header says 4294967295"));
+        // A chunk whose header claims 300 MiB (a kilobyte of bzip2 can hold that many zeros):
+        // refused by the size alone, before anything is decompressed.
+        let e = decompress("bz2", &bz, 300 << 20).unwrap_err();
+        assert!(e.contains("header says 314572800 bytes, more than the 256 MiB"), "{e}");
+        assert!(decompress("none", &[], CHUNK_LIMIT + 1).unwrap_err().contains("more than the 256 MiB"));
+        // At the limit the size is read, and checked against what the chunk holds.
+        assert!(decompress("none", &[], CHUNK_LIMIT).unwrap_err().contains("decompresses to 0 bytes"));
     }
 }

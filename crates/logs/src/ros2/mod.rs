@@ -39,6 +39,11 @@ use std::cell::Cell;
 use std::cmp::Ordering;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
+
+/// The latest MCAP `log_time` read as a stamp (`--stamp record`): i64 nanoseconds' last instant,
+/// in the year 2262. A later `log_time` is not a time (a corrupt or fuzzed record) and is refused
+/// by name rather than carried into the stamp arithmetic.
+pub const MAX_RECORD_STAMP_NS: u64 = i64::MAX as u64;
 use std::rc::Rc;
 
 /// The largest record (a message, or a chunk's compressed bytes) read, bytes: a corrupt length
@@ -424,6 +429,17 @@ impl BagReader<'_> {
                 file,
                 &at.place,
                 format!("{type_name} in encoding '{}': only ROS 2 CDR messages are read", m.channel.message_encoding),
+            ));
+        }
+        if self.options.stamp == StampFrom::Record && m.log_time > MAX_RECORD_STAMP_NS {
+            return Err(ImportError::parse(
+                file,
+                &at.place,
+                format!(
+                    "log_time {} ns is past {MAX_RECORD_STAMP_NS} ns (the year 2262, the last time i64 \
+                     nanoseconds hold): not a time, cannot stamp with --stamp record",
+                    m.log_time
+                ),
             ));
         }
         let stamp = |header_ns: u64| match self.options.stamp {
