@@ -46,7 +46,29 @@ fn sweep(out: &Path, extra: &[&str]) -> Vec<String> {
 
 /// The sweep into `out` as a child process, both its outputs made by `stdio`.
 fn spawn(out: &Path, stdio: fn() -> Stdio) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(sweep(out, &[])).stdout(stdio()).stderr(stdio()).spawn().unwrap()
+    spawn_args(sweep(out, &[]), stdio)
+}
+
+fn spawn_args(args: Vec<String>, stdio: fn() -> Stdio) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_mapkeeper")).args(args).stdout(stdio()).stderr(stdio()).spawn().unwrap()
+}
+
+/// The same arguments with the updater timed (no `--no-timing`).
+fn timed(args: Vec<String>) -> Vec<String> {
+    args.into_iter().filter(|a| a != "--no-timing").collect()
+}
+
+/// Runs `args` as a child and kills it (SIGKILL) as soon as its first job's checkpoint is
+/// written in `jobs`.
+fn kill_after_first_job(args: Vec<String>, jobs: &Path) {
+    let mut child = spawn_args(args, Stdio::null);
+    let first = jobs.join("paper-s11.json");
+    while !first.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be killed");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
 }
 
 fn run(args: &[String]) -> Output {
@@ -115,6 +137,28 @@ fn a_killed_sweep_resumes_with_the_same_outputs() {
     assert!(o.status.success() && t.contains("discarded 1 finished job(s) of an interrupted run"), "{t}");
     assert_eq!(files(&other), files(&full));
     assert!(!dir.join(".other.jobs").exists());
+
+    // Timing is not in a checkpoint's fingerprint. A timed job resumed with --no-timing has
+    // its times dropped: the outputs are the untimed run's, with no time in them.
+    let mixed = dir.join("mixed");
+    kill_after_first_job(timed(sweep(&mixed, &[])), &dir.join(".mixed.jobs"));
+    let o = run(&sweep(&mixed, &["--resume"]));
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(files(&mixed), files(&full), "a timed job resumed with --no-timing left times in the outputs");
+    // A complete untimed folder resumed with timing, and the reverse, are refused.
+    let o = run(&timed(sweep(&mixed, &["--resume"])));
+    let t = text(&o);
+    assert!(!o.status.success() && t.contains("holds an untimed run") && t.contains("runs.json"), "{t}");
+    // An untimed job resumed with timing is run again, with a note, so that every job has times.
+    let retimed = dir.join("retimed");
+    kill_after_first_job(sweep(&retimed, &[]), &dir.join(".retimed.jobs"));
+    let o = run(&timed(sweep(&retimed, &["--resume"])));
+    let t = text(&o);
+    assert!(o.status.success() && t.contains("were run with --no-timing: run again, for their times"), "{t}");
+    assert!(t.contains(": 0 of 4 job(s) already done"), "{t}");
+    let o = run(&sweep(&retimed, &["--resume"]));
+    let t = text(&o);
+    assert!(!o.status.success() && t.contains("holds a timed run, and these flags ask for --no-timing"), "{t}");
 
     // --resume needs --out and does not go with --force.
     let o = mapkeeper(&["validate", "--resume"]);

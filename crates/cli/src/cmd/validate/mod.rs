@@ -43,7 +43,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.output.force)?;
     plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
     let checkpoints = Checkpoints::beside(&out);
-    let done = finished_jobs(&plan, &checkpoints, &out, args.resume)?;
+    let done = finished_jobs(&plan, &checkpoints, &out, args.resume, !args.no_timing)?;
     let start = Instant::now();
     let wall = super::Wall::start();
     let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };

@@ -7,17 +7,35 @@ use mapkeeper_scenario::experiments::validation::checkpoint::Checkpoints;
 use std::path::Path;
 
 /// The jobs a killed run had finished (with --resume; in job order, `None`: to run), or none,
-/// discarding what an interrupted run left (without --resume).
+/// discarding what an interrupted run left (without --resume). Timing is not part of a job's
+/// fingerprint, so the run's timing is made to match this one's: with `timing` off, the
+/// finished jobs' times are dropped (the outputs are then an untimed run's); with it on, a
+/// job finished without times is run again (its outputs would otherwise have no times).
 pub(super) fn finished_jobs(
     plan: &SweepPlan,
     checkpoints: &Checkpoints,
     out: &Path,
     resume: bool,
+    timing: bool,
 ) -> anyhow::Result<Vec<Option<mapkeeper_scenario::SeedRun>>> {
     if resume {
-        let done = plan.load_checkpoints(checkpoints)?;
+        let mut done = plan.load_checkpoints(checkpoints)?;
+        let mut untimed = 0;
+        for slot in &mut done {
+            match slot {
+                Some(run) if !timing => run.drop_timing(),
+                Some(run) if !run.is_timed() => {
+                    untimed += 1;
+                    *slot = None;
+                }
+                _ => {}
+            }
+        }
         let n = done.iter().flatten().count();
         outln!("validate: resuming {}: {n} of {} job(s) already done", out.display(), done.len());
+        if untimed > 0 {
+            outln!("validate: {untimed} finished job(s) were run with --no-timing: run again, for their times");
+        }
         return Ok(done);
     }
     let n = checkpoints.count();
@@ -52,6 +70,19 @@ pub(super) fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, args: &Args
             anyhow::bail!(
                 "--resume: {} holds a run with other parameters or another shard than these flags (use another --out)",
                 file.display()
+            );
+        }
+        // Timing is not a parameter: runs.json says whether the folder's run was timed.
+        let runs = dir.join("runs.json");
+        let text = std::fs::read_to_string(&runs).with_context(|| format!("--resume: {}", runs.display()))?;
+        let record: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("--resume: {}", runs.display()))?;
+        let timed = record.get("timing").and_then(serde_json::Value::as_bool);
+        if timed != Some(!args.no_timing) {
+            let (was, asked) = if args.no_timing { ("a timed", "--no-timing") } else { ("an untimed", "timing") };
+            anyhow::bail!(
+                "--resume: {} holds {was} run, and these flags ask for {asked} (use another --out)",
+                runs.display()
             );
         }
     }

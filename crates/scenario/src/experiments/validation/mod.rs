@@ -365,6 +365,21 @@ pub struct SeedRun {
 }
 
 impl SeedRun {
+    /// Whether the updater was timed in this run (a run without a clock has no scan times).
+    pub fn is_timed(&self) -> bool {
+        !self.scan_times_us.is_empty()
+    }
+
+    /// The run as an untimed run (`--no-timing`) would have it: every time removed (the scan
+    /// times and the world rows' medians), nothing else changed. A timed checkpoint resumed
+    /// with `--no-timing` then writes what an untimed run writes.
+    pub fn drop_timing(&mut self) {
+        self.scan_times_us.clear();
+        for row in &mut self.rows {
+            row.median_scan_us = 0.0;
+        }
+    }
+
     /// The machine-readable part of this run (everything but maps and trajectories): what
     /// `runs.json` holds and the summary is computed from.
     pub fn record(&self) -> SeedRecord {
