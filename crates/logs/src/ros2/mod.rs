@@ -162,8 +162,14 @@ fn folder_mcaps(dir: &Path) -> Result<Vec<PathBuf>, ImportError> {
     Ok(files)
 }
 
-/// Compares names with their runs of digits as numbers.
+/// Compares names with their runs of digits as numbers; names equal that way (`bag_1` and
+/// `bag_01`) are ordered as plain strings, so that the order never depends on the file
+/// system's listing.
 fn natural_cmp(a: &str, b: &str) -> Ordering {
+    natural_cmp_numbers(a, b).then_with(|| a.cmp(b))
+}
+
+fn natural_cmp_numbers(a: &str, b: &str) -> Ordering {
     let (mut x, mut y) = (a.as_bytes(), b.as_bytes());
     loop {
         match (x.first(), y.first()) {
@@ -619,6 +625,12 @@ mod tests {
         let mut names = vec!["bag_10.mcap", "bag_9.mcap", "bag_0.mcap", "a.mcap", "bag_09b.mcap"];
         names.sort_by(|a, b| natural_cmp(a, b));
         assert_eq!(names, vec!["a.mcap", "bag_0.mcap", "bag_9.mcap", "bag_09b.mcap", "bag_10.mcap"]);
+        // Equal as numbers: one order whatever order they were listed in.
+        let (mut one, mut two) = (vec!["bag_01.mcap", "bag_1.mcap"], vec!["bag_1.mcap", "bag_01.mcap"]);
+        one.sort_by(|a, b| natural_cmp(a, b));
+        two.sort_by(|a, b| natural_cmp(a, b));
+        assert_eq!(one, two);
+        assert_eq!(natural_cmp("bag_01.mcap", "bag_1.mcap"), Ordering::Less);
     }
 
     #[test]
