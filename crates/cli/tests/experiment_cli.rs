@@ -65,7 +65,19 @@ fn check_detection_writes_its_folder_is_deterministic_and_counts_what_it_reports
         assert!((0.0..=1.0).contains(&rate) && d["false_alarm_rate"].as_f64().unwrap() <= 1.0);
     }
     // A pose held 1 m off in a world one step from the map is seen; a right pose is not flagged.
-    assert!(v["check_detection"]["paper"]["by_error"][5]["detected"]["rate"].as_f64().unwrap_or(1.0) > 0.0);
+    let held = &v["check_detection"]["paper"]["by_error"][5];
+    assert_eq!(held["bin"], "≥ 1.00 m", "{held}");
+    let of = held["detected"]["of"].as_u64().expect("paper by_error[5].detected.of");
+    let one_m: Vec<&Vec<&str>> =
+        rows.iter().filter(|r| r[0] == "paper" && r[4].parse::<f64>().unwrap() >= 1.0).collect();
+    assert_eq!(of as usize, one_m.len(), "{held}");
+    assert!(of > 0, "no paper trial with an error of 1 m or more: {held}");
+    assert_eq!(
+        held["detected"]["hits"].as_u64().expect("hits") as usize,
+        one_m.iter().filter(|r| r[10] == "true").count()
+    );
+    let rate = held["detected"]["rate"].as_f64().expect("paper by_error[5].detected.rate");
+    assert!(rate > 0.0, "no 1 m error detected: {held}");
     assert!(v["check_detection"]["paper"]["false_alarm_rate"].as_f64().unwrap() < 0.2);
 
     // Bad input names the flag or the file.

@@ -647,6 +647,7 @@ fn update_every_k_updates_only_every_kth_world_and_reports_the_check_under_heavy
     let csv = std::fs::read_to_string(out.join("worlds.csv")).unwrap();
     let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
+    let mut worlds = Vec::new();
     for line in csv.lines().skip(1) {
         let r: Vec<&str> = line.split(',').collect();
         let world: usize = r[col("world")].parse().unwrap();
@@ -657,7 +658,10 @@ fn update_every_k_updates_only_every_kth_world_and_reports_the_check_under_heavy
         } else {
             assert_eq!((processed, changed), (0, 0), "W_{world} should not be updated");
         }
+        worlds.push(world);
     }
+    // One row per driven world, W_2..W_5: two updated, two not.
+    assert_eq!(worlds, [2, 3, 4, 5], "rows of worlds.csv");
     assert!(std::fs::read_to_string(out.join("report.md")).unwrap().contains("Heavy change"));
     // A k of 0 is refused, naming the flag.
     let o = common::mapkeeper(&["validate", "--update-every", "0", "--out", common::s(&dir.join("x"))]);

@@ -22,12 +22,21 @@ fn zero_size_geometry_is_an_error() {
 fn one_cell_map_casts_measures_and_round_trips() {
     for state in [CellState::Free, CellState::Occupied, CellState::Unknown] {
         let m = filled(1, 1, state);
-        // A ray from the cell's centre stops at once (occupied/unknown) or leaves the map.
+        // A ray from the cell's centre stops at once (occupied/unknown: range 0 in the cell) or
+        // leaves the map through the cell's east side, 0.025 m away along x: at 0.025 / cos 0.3
+        // (≈ 0.026 m; the north side is further, 0.025 / sin 0.3 ≈ 0.085 m).
+        let (range, stop, cell) = match state {
+            CellState::Free => (0.025 / 0.3f64.cos(), RayStop::LeftGrid, None),
+            CellState::Occupied => (0.0, RayStop::Occupied, Some(CellCoord::new(0, 0))),
+            CellState::Unknown => (0.0, RayStop::Unknown, Some(CellCoord::new(0, 0))),
+        };
         let hit = cast_ray(&m, Point2::new(0.025, 0.025), 0.3, 10.0, true);
-        assert!(hit.range_m.is_finite() && hit.range_m <= 10.0, "{state:?}: {hit:?}");
+        assert_eq!((hit.stop, hit.cell), (stop, cell), "{state:?}: {hit:?}");
+        assert!((hit.range_m - range).abs() < 1e-9, "{state:?}: {hit:?}, expected range {range}");
         let caster = RayCaster::new(&m, true);
         let fast = caster.cast(Point2::new(0.025, 0.025), 0.3, 10.0);
         assert_eq!(fast.stop, hit.stop, "{state:?}");
+        assert!((fast.range_m - range).abs() < 1e-9, "{state:?}: {fast:?}, expected range {range}");
         // A ray from outside the map does not panic either.
         let outside = caster.cast(Point2::new(-5.0, -5.0), 0.0, 10.0);
         assert!(outside.range_m.is_finite());

@@ -36,6 +36,46 @@ fn svg_texts(svg: &str) -> Vec<String> {
         .collect()
 }
 
+/// The SVG's `<text>` elements: (attributes, trimmed contents).
+fn svg_text_elements(svg: &str) -> Vec<(String, String)> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let (attrs, rest) = t.split_once('>')?;
+            Some((attrs.to_owned(), rest.split_once("</text>")?.0.trim().to_owned()))
+        })
+        .collect()
+}
+
+/// The SVG's `<polyline>` elements: (attributes, points).
+fn svg_polylines(svg: &str) -> Vec<(String, Vec<(f64, f64)>)> {
+    svg.split("<polyline")
+        .skip(1)
+        .filter_map(|p| {
+            let attrs = p.split_once("/>")?.0;
+            let points = attrs.split_once("points=\"")?.1.split_once('"')?.0;
+            let points = points
+                .split_whitespace()
+                .map(|xy| {
+                    let (x, y) = xy.split_once(',')?;
+                    Some((x.parse().ok()?, y.parse().ok()?))
+                })
+                .collect::<Option<Vec<(f64, f64)>>>()?;
+            Some((attrs.to_owned(), points))
+        })
+        .collect()
+}
+
+/// A numeric attribute of an element's attribute text.
+fn svg_attr(attrs: &str, name: &str) -> Option<f64> {
+    attrs.split_once(&format!(" {name}=\""))?.1.split_once('"')?.0.parse().ok()
+}
+
+fn x_span(points: &[(f64, f64)]) -> f64 {
+    let xs = points.iter().map(|p| p.0);
+    xs.clone().fold(f64::NEG_INFINITY, f64::max) - xs.fold(f64::INFINITY, f64::min)
+}
+
 fn count_pixels(png: &(u32, u32, usize, Vec<u8>), rgb: [u8; 3]) -> usize {
     png.3.chunks_exact(png.2).filter(|p| p[..3] == rgb).count()
 }
@@ -195,6 +235,34 @@ fn a_single_point_and_a_constant_series_get_a_usable_range() {
     assert!(count_pixels(&png, PALETTE[0]) > 0, "the single point's marker is drawn");
     let flat = LineChart::new("flat", "x", "y").with_series(Series::new("c", vec![(0.0, 5.0), (10.0, 5.0)]));
     flat.write_svg(&dir.join("flat.svg")).unwrap();
+    let svg = std::fs::read_to_string(dir.join("flat.svg")).unwrap();
+    // The series is drawn: a horizontal polyline in its colour across the plot (the longest of
+    // that colour; the legend's sample is a short one).
+    let [r, g, b] = PALETTE[0];
+    let stroke = format!("STROKE=\"#{r:02X}{g:02X}{b:02X}\"");
+    let line = svg_polylines(&svg)
+        .into_iter()
+        .filter(|(attrs, _)| attrs.to_uppercase().contains(&stroke))
+        .map(|(_, points)| points)
+        .max_by(|a, b| x_span(a).total_cmp(&x_span(b)))
+        .expect("a polyline in the series' colour");
+    assert!(x_span(&line) > 400.0, "the series' line is too short: {line:?}");
+    let line_y = line[0].1;
+    assert!(line.iter().all(|p| p.1 == line_y), "a constant series is a flat line: {line:?}");
+    // The y axis has a usable range: at least two distinct tick labels, below and above the
+    // constant 5, with the line drawn between them (not on the plot's edge).
+    let ticks: Vec<(f64, f64)> = svg_text_elements(&svg)
+        .into_iter()
+        .filter(|(attrs, _)| attrs.contains("text-anchor=\"end\""))
+        .filter_map(|(attrs, text)| Some((text.parse::<f64>().ok()?, svg_attr(&attrs, "y")?)))
+        .collect();
+    let (lo, hi) = (
+        ticks.iter().copied().min_by(|a, b| a.0.total_cmp(&b.0)).expect("y tick labels"),
+        ticks.iter().copied().max_by(|a, b| a.0.total_cmp(&b.0)).expect("y tick labels"),
+    );
+    assert!(lo.0 < 5.0 && 5.0 < hi.0, "y ticks {ticks:?} do not bracket the constant 5");
+    // SVG y grows downwards: the lowest value's label is at the largest y.
+    assert!(hi.1 < line_y && line_y < lo.1, "line at y = {line_y}, ticks {ticks:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

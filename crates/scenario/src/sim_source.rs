@@ -558,13 +558,23 @@ mod tests {
         }
     }
 
-    /// Dropping a source run ahead part-way stops its thread (the test would hang otherwise).
+    /// Dropping a source run ahead part-way stops its thread: `drop` joins the simulator's
+    /// thread, so it returns only once that thread has ended. It runs on a helper thread so that
+    /// a thread that never stops fails the test (after a generous 30 s) instead of hanging it.
     #[test]
     fn dropping_a_source_run_ahead_stops_its_thread() {
         let mut ahead = AheadSource::start(source(4));
         for _ in 0..5 {
             assert!(ahead.next_step().expect("step").is_some());
         }
-        drop(ahead);
+        assert!(ahead.worker.as_ref().is_some_and(|w| !w.is_finished()), "the simulator's thread runs ahead");
+        let (done_tx, done_rx) = std::sync::mpsc::channel();
+        let dropper = std::thread::spawn(move || {
+            drop(ahead);
+            let _ = done_tx.send(());
+        });
+        let done = done_rx.recv_timeout(std::time::Duration::from_secs(30));
+        assert_eq!(done, Ok(()), "dropping the source did not stop its thread within 30 s");
+        dropper.join().expect("the dropping thread");
     }
 }

@@ -266,19 +266,50 @@ mod tests {
 
     #[test]
     fn waits_for_the_robot_then_turns_back() {
+        // A person walks +x from (0, 0) towards (5, 0) at 1 m/s; a robot (radius 0.5) stands at
+        // (3, 0). The person stops once the robot is within its radius + the person's radius +
+        // the look-ahead in front of them, waits `give_way_s`, then walks back towards (0, 0).
         let a = person(Motion::Loop { waypoints: vec![[0.0, 0.0], [5.0, 0.0]], max_pause_s: 0.0 });
         let mut s = AgentState::new(&a, 1);
         let p = AgentParams::default();
-        let robot = Point2::new(1.0, 0.0);
-        for _ in 0..100 {
-            s.advance(0.02, robot, 0.5, &p);
+        let (robot, robot_radius, dt) = (Point2::new(3.0, 0.0), 0.5, 0.02);
+        let stop_x = robot.x - (robot_radius + 0.25 + p.lookahead_m);
+        // Walks towards the robot until it stops.
+        let mut moving_steps = 0;
+        loop {
+            let before = s.pose.x;
+            s.advance(dt, robot, robot_radius, &p);
+            if s.pose.x == before {
+                break;
+            }
+            assert!(s.pose.x > before, "walks towards (5, 0): {before} -> {}", s.pose.x);
+            moving_steps += 1;
+            assert!(moving_steps < 500, "never stopped for the robot: {:?}", s.pose);
         }
-        assert_eq!(s.pose.x, 0.0); // waited 2 s
-        for _ in 0..100 {
-            s.advance(0.02, robot, 0.5, &p);
+        let x_stop = s.pose.x;
+        assert!((x_stop - stop_x).abs() <= 0.02 + 1e-9, "stopped at x = {x_stop}, expected ≈ {stop_x}");
+        assert!((s.pose.yaw).abs() < 1e-9, "facing the robot while waiting: {:?}", s.pose);
+        // Waits: one step was spent blocked already; count the rest until it moves again.
+        let mut waiting_steps = 1;
+        while s.pose.x == x_stop {
+            s.advance(dt, robot, robot_radius, &p);
+            waiting_steps += 1;
+            assert!(waiting_steps < 1_000, "waits for ever: {:?}", s.pose);
         }
-        // Turned back after 3 s: now heading for (0, 0), which it is at, then (5, 0) again...
-        assert!(s.pose.x <= 1e-9 || s.target == 0);
+        // The step that moved it is not waiting.
+        let waited_s = f64::from(waiting_steps - 1) * dt;
+        assert!((waited_s - p.give_way_s).abs() <= 2.0 * dt, "waited {waited_s} s, give_way_s = {}", p.give_way_s);
+        // Turned back: it now walks away from the robot, towards (0, 0), at its speed.
+        assert!(s.pose.x < x_stop, "moved towards the robot after waiting: {:?}", s.pose);
+        assert!((s.pose.yaw.abs() - std::f64::consts::PI).abs() < 1e-9, "heading back along -x: {:?}", s.pose);
+        for _ in 0..24 {
+            let before = s.pose.x;
+            s.advance(dt, robot, robot_radius, &p);
+            assert!(s.pose.x < before, "keeps walking back: {before} -> {}", s.pose.x);
+        }
+        // 25 steps of 0.02 s at 1 m/s: 0.5 m back from where it waited.
+        assert!((s.pose.x - (x_stop - 0.5)).abs() < 1e-9, "{:?}", s.pose);
+        assert_eq!(s.pose.y, 0.0);
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! every loop here is bounded by a tick budget.
 
 use mapkeeper_grid::{CellState, Point2};
-use mapkeeper_sim::{SimParams, Simulator, World, ground_truth_map};
+use mapkeeper_sim::{ObstacleRef, SimParams, Simulator, World, ground_truth_map};
 
 const HEADER: &str = "format = \"mapkeeper-world\"\nversion = 1\nname = \"degenerate\"\n";
 
@@ -59,19 +59,28 @@ fn route_through_a_wall_stops_at_the_wall() {
         "robot_start = { x = 0.0, y = 0.0 }\n",
         "[[walls]]\nid = \"wall\"\nshape = { type = \"rect\", center = [2.0, 0.0], size = [0.2, 10.0] }\n",
     ));
-    let mut sim = Simulator::new(&w, SimParams::default(), 1).expect("builds");
+    let params = SimParams::default();
+    // The wall's near face is at x = 2.0 - 0.2 / 2; the robot heads along +x, so its front
+    // is half its length ahead of its centre, and at the wall its centre sits at
+    // face - half-length (1.525 m for the default 0.75 m body).
+    let wall_face = 2.0 - 0.2 / 2.0;
+    let at_wall = wall_face - params.robot.length_m / 2.0;
+    let mut sim = Simulator::new(&w, params, 1).expect("builds");
     sim.set_route(vec![Point2::new(4.0, 0.0)]);
-    let mut collided = false;
+    let mut wall_contact = false;
     let mut done = false;
     // 60 simulated seconds: far more than the 4 m would take at the robot's speed.
     for _ in 0..3_000 {
         let out = sim.step();
-        collided |= !out.collisions.is_empty();
+        wall_contact |= out.collisions.iter().any(|c| c.started && c.other == ObstacleRef::Wall("wall".into()));
         done |= out.route_done;
         assert!(out.truth.pose_in_map.is_finite());
     }
     let x = sim.true_pose().x;
+    eprintln!("route through a wall: wall contact {wall_contact}, final x {x:.3} m (wall at {at_wall:.3} m)");
     assert!(x < 2.0, "the robot went through the wall: x = {x}");
+    assert!(wall_contact, "the robot never touched the wall (final x = {x})");
+    // It drove up to the wall and stays pressed against it: not stopped short, not inside.
+    assert!((at_wall - 0.1..=at_wall + 0.02).contains(&x), "final x = {x}, the wall stops the robot at {at_wall}");
     assert!(!done, "a route through a wall is never reported done");
-    eprintln!("route through a wall: collided {collided}, final x {x:.3} m");
 }

@@ -787,7 +787,13 @@ mod tests {
             let robot = Pose2::new(1.0 + 0.06 * k as f64, 1.6, 0.0);
             let report = up.process(robot, robot, &[scan(&world, robot, k)]);
             assert_eq!(report.verdict, Some(Verdict::Update), "step {k}");
-            assert_eq!(up.state_bytes(), up.change_state_bytes());
+            // The documented figure, counted independently of `change_state_bytes`: the struct
+            // plus a 4-byte key and an 8-byte ring per buffered cell and a 4-byte key and a
+            // 40-byte mask per 16 × 16 tile holding a buffer (no memory, no log-odds array here).
+            let tiles = up.buffers.tile_origins().count();
+            assert!(tiles > 0 && tiles <= up.buffered_cells(), "step {k}: {tiles} tiles");
+            let expected = size_of::<MapUpdater>() + (4 + 8) * up.buffered_cells() + (4 + 40) * tiles;
+            assert_eq!(up.state_bytes(), expected, "step {k}");
         }
         assert!(up.buffered_cells() > 0);
         (before, (up.cache_bytes(), up.change_state_bytes()))

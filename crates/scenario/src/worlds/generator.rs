@@ -611,7 +611,9 @@ mod tests {
             let p = r.points();
             assert!((r.length_m() - route.length_m()).abs() < 1e-9, "a variant drives the same tour");
             assert!((w.robot_start.x - p[0].x).abs() < 1e-12 && (w.robot_start.y - p[0].y).abs() < 1e-12);
-            for a in w.agents.iter().filter(|a| a.kind == mapkeeper_sim::AgentKind::Person) {
+            let people: Vec<_> = w.agents.iter().filter(|a| a.kind == mapkeeper_sim::AgentKind::Person).collect();
+            assert!(!people.is_empty(), "no person to check the pause of");
+            for a in people {
                 let pause = match a.motion {
                     mapkeeper_sim::Motion::Loop { max_pause_s, .. }
                     | mapkeeper_sim::Motion::RandomWalk { max_pause_s, .. } => max_pause_s,
@@ -644,12 +646,15 @@ mod tests {
         let base = World::default_warehouse();
         let ctx = Context::new(&base, &route);
         let c = chain(60, 11);
+        let mut checked = 0;
         for (w, world) in c.worlds.iter().enumerate().skip(1) {
+            let mut checked_here = 0;
             for m in &world.movable {
                 // Items never touched keep their W_1 place; all others obey the rules.
                 if base.movable.contains(m) {
                     continue;
                 }
+                checked_here += 1;
                 let o = Outline::of_shape(&m.shape);
                 assert!(o.distance(&ctx.route) >= p.route_clearance_m - 1e-9, "W{} {} too near the route", w + 1, m.id);
                 assert!(ctx.statics.iter().all(|s| o.distance(s) >= p.item_gap_m - 1e-9), "{} hits structure", m.id);
@@ -660,7 +665,11 @@ mod tests {
                     }
                 }
             }
+            // Every world edits at least `min_edits_per_world` items on the way from W_1.
+            assert!(checked_here > 0, "W{}: no edited item to check", w + 1);
+            checked += checked_here;
         }
+        assert!(checked >= 59, "{checked} edited items checked in W2..W60");
     }
 
     #[test]
