@@ -563,12 +563,7 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
             let v = next_token(&mut p, "pixel value")
                 .map_err(|_| err(format!("truncated or malformed P2 data: {k} of {n} pixel values readable")))?;
             if v > maxval {
-                return Err(err(format!(
-                    "pixel {k} (image row {}, column {}; the value ending before byte {p}): value {v} exceeds maxval \
-                     {maxval}",
-                    k / width,
-                    k % width
-                )));
+                return Err(err(over_maxval(k, width, &format!("the value ending before byte {p}"), v, maxval)));
             }
             pixels.push(Pixel { shade: scale(v), alpha: 255 });
         }
@@ -590,17 +585,18 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
         for k in 0..n {
             let v = if bytes_per == 1 { data[k] as u64 } else { ((data[2 * k] as u64) << 8) | data[2 * k + 1] as u64 };
             if v > maxval {
-                return Err(err(format!(
-                    "pixel {k} (image row {}, column {}; byte {}): value {v} exceeds maxval {maxval}",
-                    k / width,
-                    k % width,
-                    pos + k * bytes_per
-                )));
+                return Err(err(over_maxval(k, width, &format!("byte {}", pos + k * bytes_per), v, maxval)));
             }
             pixels.push(Pixel { shade: scale(v), alpha: 255 });
         }
     }
     Ok(Image { width, height, pixels })
+}
+
+/// The message for pixel `k` of an image `width` wide whose value `v` (found at `place`)
+/// exceeds `maxval`.
+fn over_maxval(k: usize, width: usize, place: &str, v: u64, maxval: u64) -> String {
+    format!("pixel {k} (image row {}, column {}; {place}): value {v} exceeds maxval {maxval}", k / width, k % width)
 }
 
 fn decode_png(bytes: &[u8], path: &Path) -> Result<Image, MapIoError> {
