@@ -7,6 +7,7 @@
 //! the preset drives there.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 /// `--out DIR` with a default (a new numbered folder under `results/`, named in the command's
 /// help) and `--force`.
@@ -59,5 +60,27 @@ impl WorldArgs {
     /// ([`super::load_site`] with storage areas required); `None` without either flag.
     pub fn load(&self) -> anyhow::Result<Option<(String, mapkeeper_scenario::Site)>> {
         super::load_site(self.world.as_deref(), self.route.as_deref(), true)
+    }
+}
+
+/// `--no-timing`: outputs without wall-clock times, so that two runs of the same seed write the
+/// same bytes (the project's determinism promise covers everything but times).
+#[derive(clap::Args, Debug, Clone, Copy, Default)]
+pub struct TimingArg {
+    /// Do not time anything (every time field and wall time 0: outputs bit-identical between
+    /// runs of the same seed).
+    #[arg(long)]
+    pub no_timing: bool,
+}
+
+impl TimingArg {
+    /// The clock the estimators are timed with: `wall`, or none with `--no-timing`.
+    pub fn clock<'a>(&self, wall: &'a super::Wall) -> &'a dyn mapkeeper_harness::Clock {
+        if self.no_timing { &mapkeeper_harness::NoClock } else { wall }
+    }
+
+    /// Seconds since `start`, or 0 with `--no-timing` (what the outputs record).
+    pub fn wall_s(&self, start: Instant) -> f64 {
+        if self.no_timing { 0.0 } else { start.elapsed().as_secs_f64() }
     }
 }

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 any direction and 0-±20° (20 % of the trials: no error) while the localiser runs on. Every preset runs the same \
 trials. Output in OUT (default results/check-detection-s<SEED>-<N>t-<counter>): summary.json \
 (check_detection.<preset>.{detection_rate, false_alarm_rate, median_latency_s, ...}), trials.csv, report.md, \
-detection_by_error.{svg,png}. Same seed => identical files whatever --jobs, except wall_time_s. Definitions: \
+detection_by_error.{svg,png}. Same seed => identical files whatever --jobs, except wall_time_s (0 with --no-timing: then identical). Definitions: \
 docs/recovery.md, \"Check detection\".")]
 pub struct CheckDetectionArgs {
     /// Trials per preset, 1 to 100000 (default 200).

@@ -75,11 +75,13 @@ pub struct Common {
     pub threads: super::shared_args::JobsArg,
     #[command(flatten)]
     pub site: super::shared_args::WorldArgs,
+    #[command(flatten)]
+    pub timing: super::shared_args::TimingArg,
 }
 
 /// Makes the output folder (`--out`, else `default`), then runs `work` in W_1 on the `--jobs`
 /// pool with a progress bar of `total` `unit`s; returns its result, the wall time in seconds
-/// and the folder to write into.
+/// (0 with `--no-timing`) and the folder to write into.
 fn run_timed<R: Send>(
     name: &str,
     c: &Common,
@@ -97,7 +99,7 @@ fn run_timed<R: Send>(
     let progress = || bar.inc(1);
     let r = pool.install(|| work(w1, &progress))?;
     bar.finish_and_clear();
-    Ok((r, start.elapsed().as_secs_f64(), dir))
+    Ok((r, c.timing.wall_s(start), dir))
 }
 
 fn default_out(stem: &str, seed: u64, trials: usize) -> PathBuf {

@@ -61,6 +61,8 @@ pub struct Args {
     pub seeds: usize,
     #[command(flatten)]
     pub output: super::shared_args::OutputArgs,
+    #[command(flatten)]
+    pub timing: super::shared_args::TimingArg,
 }
 
 fn default_out(seed: u64) -> PathBuf {
@@ -123,7 +125,7 @@ overrides of crates/scenario/params/odometry_tuned_localiser.toml, odometry-driv
     let dir = super::output_dir(&out, args.output.force)?;
     let start = Instant::now();
     let results = run_real_data(&datasets, &params)?;
-    let wall = start.elapsed().as_secs_f64();
+    let wall = args.timing.wall_s(start);
     write_real_data(&dir, &results, &params, wall)?;
     let out = dir.finish()?;
     for d in &results {

@@ -25,7 +25,7 @@ corrupted) and the kidnap suite of the estimate (N seeded trials: the chain loca
 and up to ±45° while the robot drives, on a stale map M_1 in W_k and on the current world's map G_k; `experiment \
 kidnap-robot` moves the robot itself).\n\n\
 Output in OUT (default results/recover-s<SEED>-<N>t-<counter>): summary.json, kidnap_trials.csv, table1.csv, \
-lost_robot.csv, demo_timeline.csv, report.md. Same seed => identical files whatever --jobs, except wall_time_s. \
+lost_robot.csv, demo_timeline.csv, report.md. Same seed => identical files whatever --jobs, except wall_time_s (0 with --no-timing: then identical). \
 Definitions: docs/recovery.md.")]
 pub struct Args {
     /// Kidnap trials per map case (stale and best), 0 to 10000 (0 runs the other
@@ -39,6 +39,8 @@ pub struct Args {
     pub output: super::shared_args::OutputArgs,
     #[command(flatten)]
     pub threads: super::shared_args::JobsArg,
+    #[command(flatten)]
+    pub timing: super::shared_args::TimingArg,
     /// Localiser preset of the chain localiser: mapkeeper, mapkeeper-real, amcl or amcl-joint (docs/localiser.md); a
     /// --params file's `[runner.filter]` fields override it. Recorded in summary.json
     /// (`params.runner.localiser`, `params.runner.filter`) and report.md.
@@ -78,7 +80,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let progress = |_: Progress| bar.inc(1);
     let mut results = pool.install(|| run_recovery(&w1, &params, args.seed, &progress))?;
     bar.finish_and_clear();
-    let wall_time_s = start.elapsed().as_secs_f64();
+    let wall_time_s = args.timing.wall_s(start);
     results.summary.wall_time_s = wall_time_s;
     write_recovery(&dir, &results)?;
     let out = dir.finish()?;

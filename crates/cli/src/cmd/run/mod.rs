@@ -56,6 +56,8 @@ pub struct Args {
     pub start_error: f64,
     #[command(flatten)]
     pub output: super::shared_args::RequiredOutputArgs,
+    #[command(flatten)]
+    pub timing: super::shared_args::TimingArg,
     /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, truth, estimate, particle
     /// cloud, verdicts, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
     #[arg(long, value_name = "FILE.mcap")]
@@ -104,18 +106,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     args.sensor.apply(&mut params.sim)?;
     let dir = super::output_dir(&args.output.out, args.output.force)?;
     let start = Instant::now();
+    let wall_clock = super::Wall::start();
+    let clock = args.timing.clock(&wall_clock);
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline, prev_memory: None };
     let r = match args.mcap.as_deref() {
         Some(path) => {
             let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(path)?;
-            let r = run_world_with(&inputs, &params, args.seed, "run", &super::Wall::start(), &mut [&mut rec])
+            let r = run_world_with(&inputs, &params, args.seed, "run", clock, &mut [&mut rec])
                 .context("closed-loop run")?;
             outln!("wrote {}", rec.finish(Some(&r.map))?.display());
             r
         }
-        None => run_world(&inputs, &params, args.seed, "run", &super::Wall::start()).context("closed-loop run")?,
+        None => run_world(&inputs, &params, args.seed, "run", clock).context("closed-loop run")?,
     };
-    let wall = start.elapsed().as_secs_f64();
+    let wall = args.timing.wall_s(start);
     save_map(&r.map, &dir.file("map.yaml")?)?;
     write_outputs(&dir, &args, &world_path, &params, &r, wall)?;
     let out = dir.finish()?;

@@ -64,5 +64,6 @@ pub(super) fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> 
         output: args.output.clone(),
         mcap: args.mcap.clone(),
         no_deskew: false,
+        timing: args.timing,
     })
 }

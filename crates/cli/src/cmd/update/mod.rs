@@ -84,6 +84,8 @@ pub struct Args {
     pub sync_window_s: f64,
     #[command(flatten)]
     pub output: super::shared_args::RequiredOutputArgs,
+    #[command(flatten)]
+    pub timing: super::shared_args::TimingArg,
     /// Also write the run as a ROS 2 MCAP bag (scans, odometry, /tf, the poses given, the
     /// verdict per scan, the map as it changes; docs/real-data.md) for Foxglove or ros2 bag.
     #[arg(long, value_name = "FILE.mcap")]
@@ -106,7 +108,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = super::output_dir(&args.output.out, args.output.force)?;
     let mut recorder = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
     let mut observers: Vec<&mut dyn Observer> = recorder.iter_mut().map(|r| r as &mut dyn Observer).collect();
-    let r = update_log(source, map, params, poses, &super::Wall::start(), &mut observers).context("map update")?;
+    let r = update_log(source, map, params, poses, args.timing.clock(&super::Wall::start()), &mut observers)
+        .context("map update")?;
     let mcap = recorder.map(|rec| rec.finish(Some(&r.map))).transpose()?;
     save_map(&r.map, &dir.file("map.yaml")?)?;
     dir.write("scans.csv", r.steps_csv.as_bytes())?;
