@@ -186,7 +186,7 @@ impl Rack {
     }
 
     /// The posts (and frame bars) of the rack as shapes in the map frame, in a fixed order.
-    /// A rack that passed [`World::validate`] has at most [`MAX_RACK_POST_INTERVALS`] intervals;
+    /// A rack that passed [`World::validate`] has at most `MAX_RACK_POST_INTERVALS` intervals;
     /// the count is capped there in any case.
     pub fn parts(&self) -> Vec<Shape> {
         let pose = Pose2::new(self.center[0], self.center[1], self.yaw_deg.to_radians());
