@@ -24,7 +24,7 @@ pub(super) fn finished_jobs(
         for slot in &mut done {
             match slot {
                 Some(run) if !timing => run.drop_timing(),
-                Some(run) if !run.is_timed() => {
+                Some(run) if run.lacks_times() => {
                     untimed += 1;
                     *slot = None;
                 }

@@ -136,8 +136,11 @@ impl KidnapRobotParams {
         if self.min_displacement_m > self.max_displacement_m || self.kidnap_min_s > self.kidnap_max_s {
             return Err(invalid("kidnap_robot.min_displacement_m", "ranges need min ≤ max".into()));
         }
-        if self.max_yaw_rad > PI {
-            return Err(invalid("kidnap_robot.max_yaw_rad", format!("must be at most π, got {}", self.max_yaw_rad)));
+        if self.max_yaw_rad > std::f64::consts::TAU {
+            return Err(invalid(
+                "kidnap_robot.max_yaw_rad",
+                format!("must be at most 2π (a full turn), got {:e}", self.max_yaw_rad),
+            ));
         }
         if self.free_radius_m > MAX_FREE_RADIUS_M {
             return Err(invalid(
@@ -714,9 +717,9 @@ mod tests {
     fn a_huge_turn_or_free_disc_is_refused_by_name() {
         let mut p = KidnapRobotParams { max_yaw_rad: 1e308, ..KidnapRobotParams::default() };
         let e = p.validate().expect_err("refused").to_string();
-        assert!(e.contains("kidnap_robot.max_yaw_rad") && e.contains("at most π"), "{e}");
-        p.max_yaw_rad = PI;
-        p.validate().expect("π is accepted");
+        assert!(e.contains("kidnap_robot.max_yaw_rad") && e.contains("at most 2π (a full turn), got 1e308"), "{e}");
+        p.max_yaw_rad = PI + 1e-4;
+        p.validate().expect("π rounded up is accepted (angles wrap)");
         p.free_radius_m = 1e6;
         let e = p.validate().expect_err("refused").to_string();
         assert!(e.contains("kidnap_robot.free_radius_m") && e.contains("at most 5 m"), "{e}");

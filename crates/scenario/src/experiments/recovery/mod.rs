@@ -180,11 +180,11 @@ mod tests {
         let mut p = RecoveryParams::default();
         p.kidnap.max_yaw_rad = 1e308;
         let e = refusal(&p);
-        assert!(e.contains("kidnap.max_yaw_rad") && e.contains("at most π"), "{e}");
-        p.kidnap.max_yaw_rad = std::f64::consts::PI;
-        p.validate().expect("a turn of up to π is accepted");
+        assert!(e.contains("kidnap.max_yaw_rad") && e.contains("at most 2π (a full turn), got 1e308"), "{e}");
+        p.kidnap.max_yaw_rad = std::f64::consts::TAU;
+        p.validate().expect("a turn of up to a full turn is accepted");
         for t in 0..20 {
-            assert!(draw_trial(&p, 1, t).yaw_rad.abs() <= std::f64::consts::PI);
+            assert!(draw_trial(&p, 1, t).yaw_rad.abs() <= std::f64::consts::TAU);
         }
     }
 }

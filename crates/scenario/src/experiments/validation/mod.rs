@@ -365,9 +365,11 @@ pub struct SeedRun {
 }
 
 impl SeedRun {
-    /// Whether the updater was timed in this run (a run without a clock has no scan times).
-    pub fn is_timed(&self) -> bool {
-        !self.scan_times_us.is_empty()
+    /// Whether this run lacks the updater's times it would have had with a clock: the updater
+    /// processed steps, and none was timed (a run in which it processed none has nothing to
+    /// time either way).
+    pub fn lacks_times(&self) -> bool {
+        self.scan_times_us.is_empty() && self.rows.iter().any(|r| r.updater.processed > 0)
     }
 
     /// The run as an untimed run (`--no-timing`) would have it: every time removed (the scan
