@@ -1,6 +1,7 @@
-//! `--no-timing` on every command that writes a time (`run`, `update`, the experiments,
-//! `recover`, `experiment real-data`; `validate` has its own tests): two runs of the same seed
-//! write the same bytes, every file, and no time is left in them.
+//! `--no-timing` on `run`, `update` and an experiment (`check-detection`): two runs of the same
+//! seed write the same bytes, every file, and no time is left in them. `recover`, the other
+//! experiments and `experiment real-data` take the flag from the same `TimingArg` (their wall
+//! time is its `wall_s`); `validate` has its own tests.
 #![allow(clippy::unwrap_used)]
 
 mod common;

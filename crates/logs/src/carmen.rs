@@ -115,7 +115,7 @@ pub fn read(path: &Path, options: &ImportOptions) -> Result<(SensorLog, ImportRe
     } else {
         Box::new(BufReader::new(file))
     };
-    let parsed = parse(reader, path, options.stamp, Damage { gz, salvage: options.salvage })?;
+    let parsed = parse(reader, path, options.stamp, Damage { gz, salvage: options.salvage }, MAX_LINE_BYTES)?;
     assemble(parsed, path, options)
 }
 
@@ -132,14 +132,22 @@ struct Damage {
 
 /// Parses the lines of `reader`. With `damage.salvage`, a read error (a truncated or corrupt
 /// gzip stream) ends the file where it happened, the partial line dropped, with a note.
-fn parse(mut reader: Box<dyn BufRead>, path: &Path, stamp: StampFrom, damage: Damage) -> Result<Parsed, ImportError> {
+/// A line longer than `max_line` bytes (its newline not counted) is refused.
+fn parse(
+    mut reader: Box<dyn BufRead>,
+    path: &Path,
+    stamp: StampFrom,
+    damage: Damage,
+    max_line: usize,
+) -> Result<Parsed, ImportError> {
     let mut p = Parsed::default();
     let mut buf = Vec::new();
     let mut line_no = 0usize;
     let mut text_bytes = 0u64;
     loop {
         buf.clear();
-        let n = match (&mut reader).take(MAX_LINE_BYTES as u64 + 1).read_until(b'\n', &mut buf) {
+        // One byte past the longest line and its newline: enough to tell a line too long.
+        let n = match (&mut reader).take(max_line as u64 + 2).read_until(b'\n', &mut buf) {
             Ok(n) => n,
             Err(e) => {
                 let what = if damage.gz { "the gzip stream is truncated or corrupt" } else { "the file is damaged" };
@@ -162,13 +170,13 @@ the partial line and everything after it lost"
         }
         text_bytes += n as u64;
         line_no += 1;
-        if buf.len() > MAX_LINE_BYTES {
+        if buf.strip_suffix(b"\n").unwrap_or(&buf).len() > max_line {
             // Not split in two: the rest would read as a line of its own, and every line number
             // after it would be off by one.
             return Err(ImportError::parse(
                 path,
                 format!("line {line_no}"),
-                format!("longer than {} MiB (a CARMEN line is a few kilobytes)", MAX_LINE_BYTES >> 20),
+                format!("longer than {max_line} bytes (a CARMEN line is a few kilobytes)"),
             ));
         }
         let text = std::str::from_utf8(&buf)
@@ -589,14 +597,24 @@ mod tests {
     #[test]
     fn a_line_over_the_limit_is_refused_not_split() {
         // Split in two, the rest read as a line of its own and every line number after it was
-        // off by one.
-        let mut text = String::from("ODOM 0 0 0 0 0 0 1.0 h 1.0\nNOTE ");
-        text.push_str(&"x".repeat(MAX_LINE_BYTES));
-        text.push_str("\nODOM 0.1 0 0 0 0 0 2.0 h 2.0\n");
-        let p = write("long-line", &text);
-        let e = read(&p, &ImportOptions::default()).unwrap_err().to_string();
-        assert!(e.contains("log.txt") && e.contains("line 2") && e.contains("longer than 64 MiB"), "{e}");
-        std::fs::remove_file(&p).ok();
+        // off by one. (The limit is 64 MiB in `read`; 64 bytes here.)
+        let parse_with = |text: String| {
+            let reader: Box<dyn BufRead> = Box::new(std::io::Cursor::new(text.into_bytes()));
+            parse(reader, Path::new("log.txt"), StampFrom::Header, Damage { gz: false, salvage: false }, 64)
+        };
+        let line = |len: usize| format!("NOTE {}", "x".repeat(len - 5));
+        let ok = parse_with(format!("ODOM 0 0 0 0 0 0 1.0 h 1.0\n{}\nODOM 0.1 0 0 0 0 0 2.0 h 2.0\n", line(64)));
+        assert!(ok.is_ok(), "a line of exactly the limit, newline not counted");
+        assert!(parse_with(format!("ODOM 0 0 0 0 0 0 1.0 h 1.0\n{}", line(64))).is_ok(), "at the end, no newline");
+        for text in [
+            format!("ODOM 0 0 0 0 0 0 1.0 h 1.0\n{}\nODOM 0.1 0 0 0 0 0 2.0 h 2.0\n", line(65)),
+            format!("ODOM 0 0 0 0 0 0 1.0 h 1.0\n{}", line(65)),
+        ] {
+            let Err(e) = parse_with(text) else { panic!("a line over the limit was accepted") };
+            let e = e.to_string();
+            assert!(e.contains("log.txt") && e.contains("line 2") && e.contains("longer than 64 bytes"), "{e}");
+        }
+        assert_eq!(MAX_LINE_BYTES, 64 << 20, "what `read` passes");
     }
 
     #[test]
@@ -612,6 +630,7 @@ mod tests {
         let p = write("overflow", &text);
         let e = read(&p, &ImportOptions::default()).unwrap_err().to_string();
         assert!(e.contains("log.txt") && e.contains("reading 2") && e.contains("the pose is not finite"), "{e}");
+        std::fs::remove_dir_all(p.parent().unwrap()).ok();
     }
 
     #[test]

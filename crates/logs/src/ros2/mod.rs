@@ -40,11 +40,12 @@ use std::cmp::Ordering;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
+use std::rc::Rc;
+
 /// The latest MCAP `log_time` read as a stamp (`--stamp record`): i64 nanoseconds' last instant,
 /// in the year 2262. A later `log_time` is not a time (a corrupt or fuzzed record) and is refused
 /// by name rather than carried into the stamp arithmetic.
 pub const MAX_RECORD_STAMP_NS: u64 = i64::MAX as u64;
-use std::rc::Rc;
 
 /// The largest record (a message, or a chunk's compressed bytes) read, bytes: a corrupt length
 /// cannot make the reader allocate more (a 16384² occupancy grid still fits).
