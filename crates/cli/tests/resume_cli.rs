@@ -6,7 +6,7 @@
 mod common;
 
 use common::{files, mapkeeper, s, scratch};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::Duration;
 
@@ -59,8 +59,8 @@ fn timed(args: Vec<String>) -> Vec<String> {
 }
 
 /// Runs `args` as a child and kills it (SIGKILL) as soon as its first job's checkpoint is
-/// written in `jobs`.
-fn kill_after_first_job(args: Vec<String>, jobs: &Path) {
+/// written in `jobs`; returns that checkpoint's path.
+fn kill_after_first_job(args: Vec<String>, jobs: &Path) -> PathBuf {
     let mut child = spawn_args(args, Stdio::null);
     let first = jobs.join("paper-s11.json");
     while !first.exists() {
@@ -69,6 +69,7 @@ fn kill_after_first_job(args: Vec<String>, jobs: &Path) {
     }
     child.kill().unwrap();
     child.wait().unwrap();
+    first
 }
 
 fn run(args: &[String]) -> Output {
@@ -86,14 +87,7 @@ fn a_killed_sweep_resumes_with_the_same_outputs() {
     // Killed (SIGKILL) as soon as its first job is written.
     let part = dir.join("part");
     let jobs = dir.join(".part.jobs");
-    let mut child = spawn(&part, Stdio::null);
-    let first = jobs.join("paper-s11.json");
-    while !first.exists() {
-        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be killed");
-        std::thread::sleep(Duration::from_millis(2));
-    }
-    child.kill().unwrap();
-    child.wait().unwrap();
+    let first = kill_after_first_job(sweep(&part, &[]), &jobs);
     assert!(!part.exists(), "a killed run leaves no output folder");
     let kept = dir.join("kept.json");
     std::fs::copy(&first, &kept).unwrap();
