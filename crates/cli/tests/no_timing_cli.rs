@@ -1,12 +1,12 @@
-//! `--no-timing` on `run`, `update` and an experiment (`check-detection`): two runs of the same
-//! seed write the same bytes, every file, and no time is left in them. `recover`, the other
-//! experiments and `experiment real-data` take the flag from the same `TimingArg` (their wall
-//! time is its `wall_s`); `validate` has its own tests.
+//! `--no-timing` on `run`, `update`, `recover` and the experiments `check-detection`, `table1` and
+//! `kidnap-robot`: two runs of the same seed write the same bytes, every file, and no time is
+//! left in them. `experiment real-data` (which needs the logs of `../shared`) takes the flag from
+//! the same `TimingArg`; `validate` has its own tests.
 #![allow(clippy::unwrap_used)]
 
 mod common;
 
-use common::{files, mapkeeper, s, scratch};
+use common::{SHORT_RECOVER, files, mapkeeper, s, scratch};
 use std::path::Path;
 
 fn ok(args: &[&str]) {
@@ -65,7 +65,7 @@ fn run_and_update_without_timing_write_the_same_bytes_twice() {
 }
 
 #[test]
-fn an_experiment_without_timing_writes_the_same_bytes_whatever_the_thread_count() {
+fn experiments_without_timing_write_the_same_bytes_whatever_the_thread_count() {
     let dir = scratch("no-timing", "experiment");
     let (a, b) = (dir.join("a"), dir.join("b"));
     let args = ["experiment", "check-detection", "--quick", "--trials", "4", "--no-timing"];
@@ -76,5 +76,17 @@ fn an_experiment_without_timing_writes_the_same_bytes_whatever_the_thread_count(
     assert!(fa == fb, "the folders differ between --jobs 1 and 2 under --no-timing");
     let v: serde_json::Value = serde_json::from_slice(&fa["summary.json"]).unwrap();
     assert_eq!(v["wall_time_s"].as_f64(), Some(0.0), "{v}");
+    // The other experiments and the recovery suite, on their shortest settings.
+    for which in ["table1", "kidnap-robot"] {
+        let f = twice_the_same(&dir, which, &["experiment", which, "--quick", "--trials", "2", "--no-timing"]);
+        let v: serde_json::Value = serde_json::from_slice(&f["summary.json"]).unwrap();
+        assert_eq!(v["wall_time_s"].as_f64(), Some(0.0), "{which}: {v}");
+    }
+    let params = dir.join("short.toml");
+    std::fs::write(&params, SHORT_RECOVER).unwrap();
+    let recover = ["recover", "--trials", "1", "--seed", "2", "--no-best-case", "--params", s(&params), "--no-timing"];
+    let f = twice_the_same(&dir, "recover", &recover);
+    let v: serde_json::Value = serde_json::from_slice(&f["summary.json"]).unwrap();
+    assert_eq!(v["wall_time_s"].as_f64(), Some(0.0), "recover: {v}");
     let _ = std::fs::remove_dir_all(&dir);
 }
