@@ -171,18 +171,19 @@ impl Rack {
         }
     }
 
-    /// The length between the first and the last post's centres, and the number of intervals
-    /// between posts (≥ 1; a float, as a huge rack's count may not fit a `usize`).
-    fn post_run(&self) -> (f64, f64) {
+    /// The side of a post (at most the rack's depth), the length between the first and the
+    /// last post's centres, and the number of intervals between posts (≥ 1; a float, as a huge
+    /// rack's count may not fit a `usize`).
+    fn post_run(&self) -> (f64, f64, f64) {
         let (len, depth, _) = self.long_frame();
         let p = self.post_size_m.min(len).min(depth);
         let run = (len - p).max(0.0);
-        (run, (run / self.max_post_spacing_m).ceil().max(1.0))
+        (p, run, (run / self.max_post_spacing_m).ceil().max(1.0))
     }
 
     /// The number of intervals between posts along the long side (≥ 1).
     pub fn post_intervals(&self) -> f64 {
-        self.post_run().1
+        self.post_run().2
     }
 
     /// The posts (and frame bars) of the rack as shapes in the map frame, in a fixed order.
@@ -191,10 +192,9 @@ impl Rack {
     pub fn parts(&self) -> Vec<Shape> {
         let pose = Pose2::new(self.center[0], self.center[1], self.yaw_deg.to_radians());
         // Work in a frame whose x runs along the long side.
-        let (len, depth, extra_yaw) = self.long_frame();
+        let (_, depth, extra_yaw) = self.long_frame();
         let frame = pose.compose(&Pose2::new(0.0, 0.0, f64::to_radians(extra_yaw)));
-        let p = self.post_size_m.min(len).min(depth);
-        let (run, intervals) = self.post_run();
+        let (p, run, intervals) = self.post_run();
         let intervals = intervals.min(MAX_RACK_POST_INTERVALS as f64) as usize;
         let mut parts = Vec::with_capacity(3 * (intervals + 1));
         for k in 0..=intervals {
