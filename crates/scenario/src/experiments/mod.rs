@@ -73,6 +73,16 @@ pub(crate) fn invalid(name: &'static str, problem: String) -> ExperimentError {
     ExperimentError::InvalidParam { name, problem }
 }
 
+/// Checks the largest turn an experiment draws (`name`: the parameter): at most a full turn.
+/// Angles wrap, so anything up to 2π is harmless; beyond, a draw's range of ±`v` could be of
+/// infinite width (rand panics).
+pub(crate) fn check_turn(name: &'static str, v: f64) -> Result<(), ExperimentError> {
+    if v > std::f64::consts::TAU {
+        return Err(invalid(name, format!("must be at most 2π (a full turn), got {v:e}")));
+    }
+    Ok(())
+}
+
 /// Checks a route given in an experiment's parameters (`name`: the parameter): at least one
 /// waypoint (`min_points`, for tours that must go somewhere), every one finite, and a finite
 /// length. Routes parsed from a file of their own are checked by `Route::from_toml_str`; a

@@ -136,12 +136,7 @@ impl KidnapRobotParams {
         if self.min_displacement_m > self.max_displacement_m || self.kidnap_min_s > self.kidnap_max_s {
             return Err(invalid("kidnap_robot.min_displacement_m", "ranges need min ≤ max".into()));
         }
-        if self.max_yaw_rad > std::f64::consts::TAU {
-            return Err(invalid(
-                "kidnap_robot.max_yaw_rad",
-                format!("must be at most 2π (a full turn), got {:e}", self.max_yaw_rad),
-            ));
-        }
+        crate::experiments::check_turn("kidnap_robot.max_yaw_rad", self.max_yaw_rad)?;
         if self.free_radius_m > MAX_FREE_RADIUS_M {
             return Err(invalid(
                 "kidnap_robot.free_radius_m",

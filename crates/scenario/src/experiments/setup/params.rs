@@ -2,7 +2,7 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::runner::RunnerParams;
-use crate::experiments::{check_route, invalid};
+use crate::experiments::{check_route, check_turn, invalid};
 use crate::worlds::generator::GeneratorParams;
 use crate::worlds::mapping::MappingParams;
 use mapkeeper_grid::metrics::MetricParams;
@@ -360,12 +360,7 @@ impl RecoveryParams {
             return Err(invalid("kidnap.min_displacement_m", "must not exceed max_displacement_m".into()));
         }
         check_non_neg("kidnap.max_yaw_rad", k.max_yaw_rad)?;
-        if k.max_yaw_rad > std::f64::consts::TAU {
-            return Err(invalid(
-                "kidnap.max_yaw_rad",
-                format!("must be at most 2π (a full turn), got {:e}", k.max_yaw_rad),
-            ));
-        }
+        check_turn("kidnap.max_yaw_rad", k.max_yaw_rad)?;
         check_non_neg("kidnap.kidnap_min_s", k.kidnap_min_s)?;
         check_non_neg("kidnap.kidnap_max_s", k.kidnap_max_s)?;
         if k.kidnap_min_s > k.kidnap_max_s {
