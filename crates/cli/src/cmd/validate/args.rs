@@ -116,9 +116,8 @@ pub struct Args {
     /// trajectories in seed-S/; report.md lists them and report.html steps through them.
     #[arg(long, value_name = "all|I,J", value_parser = str::parse::<SaveMaps>, allow_hyphen_values = true)]
     pub save_maps: Option<SaveMaps>,
-    /// Do not time the updater (all timing fields 0: outputs bit-identical between runs).
-    #[arg(long)]
-    pub no_timing: bool,
+    #[command(flatten)]
+    pub timing: crate::cmd::shared_args::TimingArg,
     /// Run only the k-th of N slices of the seeds (1 ≤ k ≤ N ≤ --seeds); merge the shards'
     /// folders with `mapkeeper merge`.
     #[arg(long, value_name = "k/N", value_parser = str::parse::<Shard>, allow_hyphen_values = true)]

@@ -11,10 +11,10 @@ pub use args::Args;
 use super::sweep_progress::{SweepProgress, describe};
 use anyhow::Context;
 use args::default_out;
+use mapkeeper_scenario::ValidationRecord;
 use mapkeeper_scenario::experiments::validation::checkpoint::Checkpoints;
 use mapkeeper_scenario::experiments::validation::report::write_validation;
 use mapkeeper_scenario::results::comparison::{Comparison, write_comparison};
-use mapkeeper_scenario::{Clock, NoClock, ValidationRecord};
 use mapkeeper_updater::UpdaterParams;
 use plan::{apply_overrides, output_dirs, plan_line, plan_mcap, simulate_ahead_if_cores_free, spec_of};
 use resume::{finished_jobs, is_complete};
@@ -43,10 +43,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (top, dirs) = output_dirs(&out, &plan, sweep, args.output.force)?;
     plan_mcap(&mut plan, &dirs, &args.mcap_worlds)?;
     let checkpoints = Checkpoints::beside(&out);
-    let done = finished_jobs(&plan, &checkpoints, &out, args.resume, !args.no_timing)?;
+    let done = finished_jobs(&plan, &checkpoints, &out, args.resume, !args.timing.no_timing)?;
     let start = Instant::now();
     let wall = super::Wall::start();
-    let clock: &dyn Clock = if args.no_timing { &NoClock } else { &wall };
+    let clock = args.timing.clock(&wall);
     let to_run = done.iter().filter(|d| d.is_none()).count();
     let pool = simulate_ahead_if_cores_free(&mut plan, to_run, super::thread_pool(args.threads.jobs)?);
     let threads = pool.current_num_threads();
@@ -57,11 +57,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pool.install(|| plan.run_resuming(done, Some(&checkpoints), clock, &|k, w| progress.world_done(k, w)))?;
     progress.finish();
     let elapsed_s = start.elapsed().as_secs_f64();
-    let wall_time_s = if args.no_timing { 0.0 } else { elapsed_s };
+    let wall_time_s = if args.timing.no_timing { 0.0 } else { elapsed_s };
     let mut records = Vec::new();
     for (p, dir) in plan.groups().into_iter().zip(dirs) {
         let group = plan.runs_of(p, &runs);
-        let record = ValidationRecord::new(&plan.params[p], &group, !args.no_timing, wall_time_s, args.shard);
+        let record = ValidationRecord::new(&plan.params[p], &group, !args.timing.no_timing, wall_time_s, args.shard);
         let summary = write_validation(&dir, &group, &record)?;
         if let Some((_, site)) = &spec.site {
             dir.write("world.toml", site.world.to_toml_string()?.as_bytes())?;

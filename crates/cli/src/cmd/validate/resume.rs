@@ -78,8 +78,9 @@ pub(super) fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, args: &Args
         let record: serde_json::Value =
             serde_json::from_str(&text).with_context(|| format!("--resume: {}", runs.display()))?;
         let timed = record.get("timing").and_then(serde_json::Value::as_bool);
-        if timed != Some(!args.no_timing) {
-            let (was, asked) = if args.no_timing { ("a timed", "--no-timing") } else { ("an untimed", "timing") };
+        if timed != Some(!args.timing.no_timing) {
+            let (was, asked) =
+                if args.timing.no_timing { ("a timed", "--no-timing") } else { ("an untimed", "timing") };
             anyhow::bail!(
                 "--resume: {} holds {was} run, and these flags ask for {asked} (use another --out)",
                 runs.display()
