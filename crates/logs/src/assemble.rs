@@ -9,9 +9,10 @@
 //! every scan.
 
 use crate::ImportError;
-use crate::options::{ImportOptions, OdometryFrom};
+use crate::options::{ImportOptions, OdometryFrom, StampFrom, Thinning, TimeSource};
 use crate::report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 use crate::rigid::Rigid3;
+use crate::timing::StreamStamps;
 use mapkeeper_grid::Pose2;
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, SweepTiming, TruePose};
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
@@ -42,6 +43,9 @@ pub struct RawScan {
     pub time_increment_s: f64,
     /// Where the message is in the file, for errors (`line 12`, `message 40`).
     pub place: String,
+    /// When the recorder received it (a bag's record time, MCAP `log_time`), if the format says;
+    /// used in place of the stamps when they cannot be trusted (`timing`).
+    pub record_ns: Option<u64>,
 }
 
 /// One decoded odometry message (`nav_msgs/Odometry`, CARMEN `ODOM`) or a reference pose topic.
@@ -53,6 +57,9 @@ pub struct RawOdometry {
     pub stamp_ns: u64,
     /// The base pose in the message's frame, projected on the plane.
     pub pose: Pose2,
+    /// When the recorder received it (a bag's record time, MCAP `log_time`), if the format says;
+    /// used in place of the stamps when they cannot be trusted (`timing`).
+    pub record_ns: Option<u64>,
 }
 
 /// One transform of `/tf` or `/tf_static` (`geometry_msgs/TransformStamped`).
@@ -68,6 +75,9 @@ pub struct RawTransform {
     pub transform: Rigid3,
     /// Whether it came from `/tf_static`.
     pub is_static: bool,
+    /// When the recorder received it (a bag's record time, MCAP `log_time`), if the format says;
+    /// used in place of the stamps when they cannot be trusted (`timing`).
+    pub record_ns: Option<u64>,
 }
 
 /// A reference pose in the map frame (CARMEN's corrected poses, a ground-truth topic).
@@ -77,6 +87,9 @@ pub struct RawPose {
     pub stamp_ns: u64,
     /// The base pose in the map frame.
     pub pose: Pose2,
+    /// When the recorder received it (a bag's record time, MCAP `log_time`), if the format says;
+    /// used in place of the stamps when they cannot be trusted (`timing`).
+    pub record_ns: Option<u64>,
 }
 
 /// Collects a reader's events and turns them into a [`SensorLog`] and an [`ImportReport`].
@@ -166,7 +179,11 @@ impl Assembler {
 
     /// Builds the sensor log.
     pub fn finish(mut self, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
-        let (lidars, scan_records, mut backward) = self.lidar_streams(options)?;
+        if let Some(problem) = options.thinning.problem() {
+            return Err(ImportError::unusable(&self.path, format!("thinning {:?}: {problem}", options.thinning)));
+        }
+        self.settle_time(options)?;
+        let (lidars, mut scan_records, mut backward) = self.lidar_streams(options)?;
         let (odom_source, mut odom) = self.odometry_track(options)?;
         backward.extend(clamp_track(&odom_source, &mut odom));
         let mut truth: Vec<(u64, Pose2)> =
@@ -175,20 +192,16 @@ impl Assembler {
         if let Some(src) = &truth_source {
             backward.extend(clamp_track(src, &mut truth));
         }
-        // A pose the reader took as written (a corrected CARMEN pose of 1e308, odometry chained
-        // from such poses or from /tf) must still be a pose: ±inf or NaN would reach every
-        // estimator. The JSONL reader refuses the same (mapkeeper_sensor::log).
         for (stream, track) in [(Some(&odom_source), &odom), (truth_source.as_ref(), &truth)] {
-            if let Some((i, (t, pose))) = track.iter().enumerate().find(|(_, (_, p))| !p.is_finite()) {
-                return Err(ImportError::parse(
-                    &self.path,
-                    format!("{}, reading {} (stamp {t} ns)", stream.map_or("?", String::as_str), i + 1),
-                    format!(
-                        "the pose is not finite ({}, {}, {}): not a pose an estimator can use",
-                        pose.x, pose.y, pose.yaw
-                    ),
-                ));
+            check_finite(&self.path, stream.map_or("?", String::as_str), track)?;
+        }
+        if options.thinning != Thinning::All {
+            let before: usize = scan_records.iter().map(|r| r.3.len()).sum();
+            for r in &mut scan_records {
+                thin(&mut r.3, &odom, options.thinning);
             }
+            let after: usize = scan_records.iter().map(|r| r.3.len()).sum();
+            self.notes.push(thinning_note(options.thinning, before, after));
         }
         let firsts = scan_records
             .iter()
@@ -240,14 +253,7 @@ by the odometry over the sweep (docs/real-data.md)"
             topics: self.topics,
             notes: self.notes,
         };
-        let meta = match serde_json::to_value(&report) {
-            Ok(serde_json::Value::Object(mut m)) => {
-                m.insert("tool".into(), format!("mapkeeper-logs {}", env!("CARGO_PKG_VERSION")).into());
-                m
-            }
-            _ => serde_json::Map::new(),
-        };
-        let log = SensorLog { header: LogHeader::new(meta), records: records.into_iter().map(|r| r.3).collect() };
+        let log = SensorLog { header: header_of(&report), records: records.into_iter().map(|r| r.3).collect() };
         Ok((log, report))
     }
 
@@ -452,8 +458,117 @@ by the odometry over the sweep (docs/real-data.md)"
         }
     }
 
+    /// Where the header stamps of a bag cannot be trusted (`timing::StreamStamps`: many repeats
+    /// or steps back in a stream) or `--time-source line` is asked for, every message is stamped
+    /// with its record time instead (when the recorder received it: the file's order), with a
+    /// note. CARMEN logs have no record times and settle their own times before they come here.
+    fn settle_time(&mut self, options: &ImportOptions) -> Result<(), ImportError> {
+        if options.stamp == StampFrom::Record || self.format == "carmen" {
+            return Ok(());
+        }
+        let reasons: Vec<String> = self
+            .stamp_streams()
+            .iter()
+            .filter_map(|(name, v)| StreamStamps::of(name, v, &[], |i| format!("message {}", i + 1)).distrust())
+            .collect();
+        let has_record = self.scans.values().flatten().all(|s| s.record_ns.is_some())
+            && self.odometry.values().flatten().all(|o| o.record_ns.is_some())
+            && self.transforms.iter().all(|t| t.is_static || t.record_ns.is_some())
+            && self.truth.iter().all(|p| p.record_ns.is_some());
+        let why = match options.time_source {
+            TimeSource::Stamp | TimeSource::Auto if reasons.is_empty() => return Ok(()),
+            TimeSource::Stamp => {
+                self.notes.push(format!(
+                    "header stamps taken as written (--time-source stamp) though they cannot order the messages \
+({}): scans and odometry may be paired wrongly",
+                    reasons.join("; ")
+                ));
+                return Ok(());
+            }
+            TimeSource::Line if reasons.is_empty() => "--time-source line".to_string(),
+            TimeSource::Auto | TimeSource::Line => reasons.join("; "),
+        };
+        if !has_record {
+            return Err(ImportError::unusable(
+                &self.path,
+                format!(
+                    "the header stamps cannot order the messages ({why}), and the file has no record times to order \
+them by instead: take the stamps as written with --time-source stamp"
+                ),
+            ));
+        }
+        let record = |r: Option<u64>, t: u64| r.unwrap_or(t);
+        for s in self.scans.values_mut().flatten() {
+            s.stamp_ns = record(s.record_ns, s.stamp_ns);
+        }
+        for o in self.odometry.values_mut().flatten() {
+            o.stamp_ns = record(o.record_ns, o.stamp_ns);
+        }
+        for t in self.transforms.iter_mut().filter(|t| !t.is_static) {
+            t.stamp_ns = record(t.record_ns, t.stamp_ns);
+        }
+        for p in &mut self.truth {
+            p.stamp_ns = record(p.record_ns, p.stamp_ns);
+        }
+        if options.rate_hz.is_some() {
+            self.notes.push("--rate is not used: a bag's messages are timed by their record times".into());
+        }
+        self.notes.push(format!(
+            "header stamps not used ({why}): every message is stamped with its record time (when the recorder \
+received it), as --stamp record does"
+        ));
+        Ok(())
+    }
+
+    /// The header stamps of every stream in file order: each scan and odometry topic, each edge
+    /// of `/tf`, the reference.
+    fn stamp_streams(&self) -> Vec<(String, Vec<u64>)> {
+        let mut streams: Vec<(String, Vec<u64>)> = Vec::new();
+        for (topic, v) in &self.scans {
+            streams.push((topic.clone(), v.iter().map(|s| s.stamp_ns).collect()));
+        }
+        for (topic, v) in &self.odometry {
+            streams.push((topic.clone(), v.iter().map(|o| o.stamp_ns).collect()));
+        }
+        let mut tf_edges: BTreeMap<(String, String), Vec<u64>> = BTreeMap::new();
+        for t in self.transforms.iter().filter(|t| !t.is_static) {
+            tf_edges.entry((t.parent.clone(), t.child.clone())).or_default().push(t.stamp_ns);
+        }
+        streams.extend(tf_edges.into_iter().map(|((p, c), v)| (format!("/tf {p} -> {c}"), v)));
+        if let Some(src) = &self.truth_source {
+            streams.push((src.clone(), self.truth.iter().map(|p| p.stamp_ns).collect()));
+        }
+        streams
+    }
+
     fn odometry_topics(&self) -> String {
         self.odometry.keys().cloned().collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// The sensor log's header: the import report as its `meta`, with the tool's name and version.
+fn header_of(report: &ImportReport) -> LogHeader {
+    let meta = match serde_json::to_value(report) {
+        Ok(serde_json::Value::Object(mut m)) => {
+            m.insert("tool".into(), format!("mapkeeper-logs {}", env!("CARGO_PKG_VERSION")).into());
+            m
+        }
+        _ => serde_json::Map::new(),
+    };
+    LogHeader::new(meta)
+}
+
+/// A pose the reader took as written (a corrected CARMEN pose of 1e308, odometry chained from
+/// such poses or from /tf) must still be a pose: ±inf or NaN would reach every estimator. The
+/// JSONL reader refuses the same (mapkeeper_sensor::log).
+fn check_finite(path: &Path, stream: &str, track: &[(u64, Pose2)]) -> Result<(), ImportError> {
+    match track.iter().enumerate().find(|(_, (_, p))| !p.is_finite()) {
+        Some((i, (t, pose))) => Err(ImportError::parse(
+            path,
+            format!("{stream}, reading {} (stamp {t} ns)", i + 1),
+            format!("the pose is not finite ({}, {}, {}): not a pose an estimator can use", pose.x, pose.y, pose.yaw),
+        )),
+        None => Ok(()),
     }
 }
 
@@ -470,6 +585,71 @@ fn clamp_backward(stream: &str, stamps: &mut [u64]) -> Option<BackwardSteps> {
         }
     }
     (count > 0).then(|| BackwardSteps { stream: stream.to_string(), count, largest_s: largest as f64 * 1e-9 })
+}
+
+/// The import report's note on a thinning (the flag it comes from, with its value).
+fn thinning_note(t: Thinning, before: usize, after: usize) -> String {
+    let flag = match t {
+        Thinning::All => "every scan".into(),
+        Thinning::KeepEvery(n) => format!("--keep-every {n}"),
+        Thinning::EveryMetres(m) => format!("--every-m {m}"),
+    };
+    format!("{flag}: {after} of {before} scans kept (odometry and reference all kept)")
+}
+
+/// Keeps the scans of one lidar (stamps in order) that `thinning` asks for; `odom` is the
+/// odometry track, whose path length up to a scan's stamp is the travel `EveryMetres` counts.
+fn thin(scans: &mut Vec<RawScan>, odom: &[(u64, Pose2)], thinning: Thinning) {
+    match thinning {
+        Thinning::All => {}
+        Thinning::KeepEvery(n) => {
+            let mut k = 0usize;
+            scans.retain(|_| {
+                k += 1;
+                (k - 1).is_multiple_of(n.max(1))
+            });
+        }
+        Thinning::EveryMetres(m) => {
+            let along = path_length_at(odom);
+            let mut last: Option<f64> = None;
+            scans.retain(|s| {
+                let d = along(s.stamp_ns);
+                let keep = last.is_none_or(|l| d - l >= m);
+                if keep {
+                    last = Some(d);
+                }
+                keep
+            });
+        }
+    }
+}
+
+/// The odometry's path length at a stamp, metres: its readings up to it, then the stretch to the
+/// pose interpolated at the stamp (0 before the first reading).
+fn path_length_at(odom: &[(u64, Pose2)]) -> impl Fn(u64) -> f64 + '_ {
+    let step = |i: usize| {
+        let (p, q) = (odom[i].1, odom[i - 1].1);
+        (p.x - q.x).hypot(p.y - q.y)
+    };
+    let mut cumulative = Vec::with_capacity(odom.len());
+    let mut total = 0.0;
+    for i in 0..odom.len() {
+        if i > 0 {
+            total += step(i);
+        }
+        cumulative.push(total);
+    }
+    move |t: u64| {
+        let i = odom.partition_point(|(s, _)| *s <= t);
+        if i == 0 {
+            return 0.0;
+        }
+        let t0 = odom[i - 1].0;
+        match odom.get(i) {
+            Some(&(t1, _)) if t1 > t0 => cumulative[i - 1] + (t - t0) as f64 / (t1 - t0) as f64 * step(i),
+            _ => cumulative[i - 1],
+        }
+    }
 }
 
 /// [`clamp_backward`] on a track of stamped poses.
@@ -564,11 +744,19 @@ mod tests {
             ranges_m: vec![1.0; 5],
             time_increment_s: 0.0,
             place: format!("message at {t}"),
+            record_ns: None,
         }
     }
 
     fn tf(parent: &str, child: &str, t: Rigid3, is_static: bool) -> RawTransform {
-        RawTransform { stamp_ns: 0, parent: parent.into(), child: child.into(), transform: t, is_static }
+        RawTransform {
+            stamp_ns: 0,
+            parent: parent.into(),
+            child: child.into(),
+            transform: t,
+            is_static,
+            record_ns: None,
+        }
     }
 
     #[test]
@@ -582,7 +770,12 @@ mod tests {
             true,
         ));
         a.scan(scan("/scan", "laser", 1_000_000_000));
-        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 1_000_000_000, pose: Pose2::IDENTITY });
+        a.odometry(RawOdometry {
+            topic: "/odom".into(),
+            stamp_ns: 1_000_000_000,
+            pose: Pose2::IDENTITY,
+            record_ns: None,
+        });
         let (log, report) = a.finish(&ImportOptions::default()).unwrap();
         let s = log.scans().next().unwrap();
         assert!(
@@ -620,7 +813,7 @@ mod tests {
         }
         a.known_mount("front", Pose2::new(0.3, 0.0, 0.0), "test");
         a.known_mount("rear", Pose2::new(-0.3, 0.0, std::f64::consts::PI), "test");
-        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY });
+        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY, record_ns: None });
         let opts = ImportOptions { scan_frames: vec!["rear".into(), "front".into()], ..ImportOptions::default() };
         let (log, report) = a.finish(&opts).unwrap();
         assert_eq!(report.lidars.len(), 2);
@@ -665,7 +858,7 @@ mod tests {
         s.angle_increment_rad = 0.0;
         s.place = "line 7".into();
         a.scan(s);
-        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY });
+        a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY, record_ns: None });
         let e = a.finish(&ImportOptions::default()).unwrap_err().to_string();
         assert!(e.starts_with("x.log: line 7 (/scan): scan:"), "{e}");
     }

@@ -51,8 +51,9 @@
 //! steps back in the report.
 
 use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan};
-use crate::options::{CarmenKind, ImportOptions, StampFrom};
+use crate::options::{CarmenKind, ImportOptions, StampFrom, TimeSource};
 use crate::report::ImportReport;
+use crate::timing::{self, Spacing, StreamStamps};
 use crate::{ImportError, OdometryFrom};
 use mapkeeper_grid::{Pose2, wrap_angle};
 use mapkeeper_sensor::{MAX_BEAMS, SensorLog};
@@ -74,6 +75,8 @@ struct Laser {
     name: &'static str,
     line: usize,
     stamp_ns: u64,
+    /// The printed step of the stamp, nanoseconds.
+    quantum_ns: u64,
     angle_min: f64,
     increment: f64,
     ranges: Vec<f32>,
@@ -85,7 +88,9 @@ struct Laser {
 
 #[derive(Debug)]
 struct Odom {
+    line: usize,
     stamp_ns: u64,
+    quantum_ns: u64,
     pose: Pose2,
 }
 
@@ -191,7 +196,8 @@ the partial line and everything after it lost"
             "FLASER" | "RLASER" => p.lasers.push(f.flaser(if kind == "FLASER" { "FLASER" } else { "RLASER" }, stamp)?),
             "ROBOTLASER1" => p.lasers.push(f.robotlaser(stamp)?),
             "ODOM" => {
-                let odom = Odom { stamp_ns: f.stamp(7, stamp)?, pose: f.pose(1)? };
+                let (stamp_ns, quantum_ns) = f.stamp(7, stamp)?;
+                let odom = Odom { line: line_no, stamp_ns, quantum_ns, pose: f.pose(1)? };
                 p.odometry.push((p.lasers.len(), odom));
             }
             "PARAM" => match fields.get(1).copied() {
@@ -239,9 +245,10 @@ impl Fields<'_> {
         Ok(Pose2::new(self.num(i, "x")?, self.num(i + 1, "y")?, wrap_angle(self.num(i + 2, "theta")?)))
     }
 
-    /// The stamp: `ipc_timestamp` at `i` or `logger_timestamp` at `i + 2`, seconds. A negative
-    /// stamp (real logs have a few) reads as 0, so it counts as a step back where it is used.
-    fn stamp(&self, i: usize, from: StampFrom) -> Result<u64, ImportError> {
+    /// The stamp: `ipc_timestamp` at `i` or `logger_timestamp` at `i + 2`, seconds, and its
+    /// printed step, nanoseconds. A negative stamp (real logs have a few) reads as 0, so it
+    /// counts as a step back where it is used.
+    fn stamp(&self, i: usize, from: StampFrom) -> Result<(u64, u64), ImportError> {
         let (i, what) = match from {
             StampFrom::Header => (i, "ipc_timestamp"),
             StampFrom::Record => (i + 2, "logger_timestamp"),
@@ -250,7 +257,7 @@ impl Fields<'_> {
         if t.abs() > 1.8e10 {
             return Err(self.err(format!("field {i} ({what}) is {t} s: expected at most 1.8e10 s")));
         }
-        Ok((t.max(0.0) * 1e9).round() as u64)
+        Ok(((t.max(0.0) * 1e9).round() as u64, timing::printed_quantum_ns(self.fields[i])))
     }
 
     fn ranges(&self, from: usize, n: usize) -> Result<Vec<f32>, ImportError> {
@@ -264,10 +271,12 @@ impl Fields<'_> {
         }
         let ranges = self.ranges(2, n)?;
         let increment = if n % 2 == 0 { PI / n as f64 } else { PI / (n - 1) as f64 };
+        let (stamp_ns, quantum_ns) = self.stamp(n + 8, stamp)?;
         Ok(Laser {
             name,
             line: self.line,
-            stamp_ns: self.stamp(n + 8, stamp)?,
+            stamp_ns,
+            quantum_ns,
             angle_min: -PI / 2.0,
             increment,
             ranges,
@@ -285,10 +294,12 @@ impl Fields<'_> {
         let ranges = self.ranges(9, n)?;
         let m = self.count(9 + n, "num_remissions")?;
         let at = 10 + n + m;
+        let (stamp_ns, quantum_ns) = self.stamp(at + 11, stamp)?;
         Ok(Laser {
             name: "ROBOTLASER1",
             line: self.line,
-            stamp_ns: self.stamp(at + 11, stamp)?,
+            stamp_ns,
+            quantum_ns,
             angle_min: start,
             increment,
             ranges,
@@ -424,7 +435,7 @@ fn no_return_value(lasers: &[Laser]) -> Option<f32> {
     (n >= 2).then_some(max)
 }
 
-fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
+fn assemble(mut p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
     let mut a = Assembler::new(path, "carmen");
     for l in &p.lasers {
         a.count_message(l.name, l.name);
@@ -439,6 +450,9 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
     }
     let (corrected, why) = decide_kind(&p, options.carmen_kind, path)?;
     a.note(why);
+    if let Some(note) = settle_time(&mut p, corrected, path, options)? {
+        a.note(note);
+    }
     if let Some(s) = &p.salvaged {
         a.note(s.clone());
     }
@@ -475,6 +489,7 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
             ranges_m: l.ranges.clone(),
             time_increment_s: 0.0,
             place: format!("line {}", l.line),
+            record_ns: None,
         });
     }
     if let Some(v) = no_return {
@@ -482,18 +497,7 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
             "no-return value {v} m (the file's largest reading, held by several beams): those beams are invalid"
         ));
     }
-    let raw_topic = if p.odometry.is_empty() { LASER_ODOMETRY } else { "ODOM" };
-    if corrected {
-        rechain(&p, &mut a);
-    } else if p.odometry.is_empty() {
-        for l in &p.lasers {
-            a.odometry(RawOdometry { topic: LASER_ODOMETRY.into(), stamp_ns: l.stamp_ns, pose: l.robot });
-        }
-    } else {
-        for (_, o) in &p.odometry {
-            a.odometry(RawOdometry { topic: "ODOM".into(), stamp_ns: o.stamp_ns, pose: o.pose });
-        }
-    }
+    let raw_topic = add_odometry(&p, corrected, &mut a);
     for (k, n) in &p.skipped {
         a.note(format!("{n} {k} message(s) skipped"));
     }
@@ -502,6 +506,141 @@ fn assemble(p: Parsed, path: &Path, options: &ImportOptions) -> Result<(SensorLo
         options.odometry = OdometryFrom::Topic(if corrected { RECHAINED.into() } else { raw_topic.into() });
     }
     a.finish(&options)
+}
+
+/// Hands the odometry to the assembler: a corrected log's re-chained increments (and its
+/// reference), else the `ODOM` lines as written, else the laser lines' odometry fields. Returns
+/// the raw odometry's stream name.
+fn add_odometry(p: &Parsed, corrected: bool, a: &mut Assembler) -> &'static str {
+    let raw_topic = if p.odometry.is_empty() { LASER_ODOMETRY } else { "ODOM" };
+    if corrected {
+        rechain(p, a);
+    } else if p.odometry.is_empty() {
+        for l in &p.lasers {
+            a.odometry(RawOdometry {
+                topic: LASER_ODOMETRY.into(),
+                stamp_ns: l.stamp_ns,
+                pose: l.robot,
+                record_ns: None,
+            });
+        }
+    } else {
+        for (_, o) in &p.odometry {
+            a.odometry(RawOdometry { topic: "ODOM".into(), stamp_ns: o.stamp_ns, pose: o.pose, record_ns: None });
+        }
+    }
+    raw_topic
+}
+
+/// One timed message of the file: a laser message (its index) or an `ODOM` line (its index).
+#[derive(Clone, Copy)]
+enum Timed {
+    Laser(usize),
+    Odom(usize),
+}
+
+/// Checks that the stamps of the streams the log's times come from (the laser messages, and a
+/// raw log's `ODOM` lines as written) can order them (`timing`); where they cannot (or with
+/// `--time-source line`), times the messages in line order instead. Returns the import report's
+/// note, if there is one to make.
+fn settle_time(
+    p: &mut Parsed,
+    corrected: bool,
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<Option<String>, ImportError> {
+    let mut timed: Vec<(usize, Timed)> = p.lasers.iter().enumerate().map(|(i, l)| (l.line, Timed::Laser(i))).collect();
+    let odom_used = !corrected && !p.odometry.is_empty();
+    if odom_used {
+        timed.extend(p.odometry.iter().enumerate().map(|(i, (_, o))| (o.line, Timed::Odom(i))));
+    }
+    timed.sort_by_key(|t| t.0);
+    let stamp = |t: &Timed| match *t {
+        Timed::Laser(i) => (p.lasers[i].stamp_ns, p.lasers[i].quantum_ns),
+        Timed::Odom(i) => (p.odometry[i].1.stamp_ns, p.odometry[i].1.quantum_ns),
+    };
+    let name = |t: &Timed| match *t {
+        Timed::Laser(i) => p.lasers[i].name,
+        Timed::Odom(_) => "ODOM",
+    };
+    let reasons = distrusted(&timed, &name, &stamp);
+    match options.time_source {
+        TimeSource::Stamp if reasons.is_empty() => return Ok(None),
+        TimeSource::Stamp => {
+            return Ok(Some(format!(
+                "timestamps taken as written (--time-source stamp) though they cannot order the messages ({}): scans and \
+odometry may be paired wrongly",
+                reasons.join("; ")
+            )));
+        }
+        TimeSource::Auto if reasons.is_empty() => return Ok(None),
+        TimeSource::Auto | TimeSource::Line => {}
+    }
+    // The first lidar: the first scan topic asked for, else the first by name (lidar 0).
+    let first_lidar = options.scan_topics.first().map(String::as_str).or_else(|| {
+        let mut l: Vec<&str> = p.lasers.iter().map(|l| l.name).collect();
+        l.sort_unstable();
+        l.first().copied()
+    });
+    let scans: Vec<usize> = (0..timed.len()).filter(|&k| Some(name(&timed[k].1)) == first_lidar).collect();
+    let stamps: Vec<u64> = timed.iter().map(|t| stamp(&t.1).0).collect();
+    let mut quanta: Vec<u64> = timed.iter().map(|t| stamp(&t.1).1).collect();
+    quanta.sort_unstable();
+    let quantum = quanta.get(quanta.len() / 2).copied().unwrap_or(0);
+    let why = if reasons.is_empty() { "--time-source line".to_string() } else { reasons.join("; ") };
+    let (times, spacing) = timing::by_order(&stamps, quantum, &scans, options.rate_hz).map_err(|k| {
+        let changes = stamps.windows(2).filter(|w| w[1] > w[0]).count();
+        ImportError::parse(
+            path,
+            format!("line {}", timed.get(k).map_or(0, |t| t.0)),
+            format!(
+                "the timestamps cannot order the messages ({why}), and the lines cannot be timed from them either: \
+the printed time moves on {changes} time(s) over {} messages; give the scan rate of {} with --rate HZ (or take the \
+stamps as written with --time-source stamp)",
+                stamps.len(),
+                first_lidar.unwrap_or("the first lidar")
+            ),
+        )
+    })?;
+    for ((_, t), time) in timed.iter().zip(&times) {
+        match *t {
+            Timed::Laser(i) => p.lasers[i].stamp_ns = *time,
+            Timed::Odom(i) => p.odometry[i].1.stamp_ns = *time,
+        }
+    }
+    let duration = (times.last().copied().unwrap_or(0) - times.first().copied().unwrap_or(0)) as f64 * 1e-9;
+    let spaced = match spacing {
+        Spacing::Printed { anchors } => {
+            format!("spaced evenly between the {anchors} lines where the printed time moves on")
+        }
+        Spacing::Rate(r) => format!("spaced from --rate {r} Hz of {}", first_lidar.unwrap_or("the first lidar")),
+    };
+    Ok(Some(format!(
+        "timestamps not used ({why}): the {} timed messages are ordered by line (a CARMEN log is written in time \
+order) and {spaced}: {duration:.1} s",
+        times.len()
+    )))
+}
+
+/// Why each stream of `timed` (line, message) whose stamps cannot order it cannot
+/// (`StreamStamps::distrust`); `name` and `stamp` give a message's stream and (stamp, printed step).
+fn distrusted(
+    timed: &[(usize, Timed)],
+    name: &impl Fn(&Timed) -> &'static str,
+    stamp: &impl Fn(&Timed) -> (u64, u64),
+) -> Vec<String> {
+    let mut names: Vec<&str> = timed.iter().map(|t| name(&t.1)).collect();
+    names.sort_unstable();
+    names.dedup();
+    names
+        .iter()
+        .filter_map(|n| {
+            let msgs: Vec<&(usize, Timed)> = timed.iter().filter(|t| name(&t.1) == *n).collect();
+            let stamps: Vec<u64> = msgs.iter().map(|t| stamp(&t.1).0).collect();
+            let quanta: Vec<u64> = msgs.iter().map(|t| stamp(&t.1).1).collect();
+            StreamStamps::of(n, &stamps, &quanta, |i| format!("line {}", msgs[i].0)).distrust()
+        })
+        .collect()
 }
 
 /// The name of a raw log's odometry stream when it has no `ODOM` lines.
@@ -527,8 +666,11 @@ fn rechain(p: &Parsed, a: &mut Assembler) {
             let q = last_before[k].unwrap_or(prev.robot);
             odom = odom.compose(&prev.robot.between(&q));
         }
-        a.odometry(RawOdometry { topic: RECHAINED.into(), stamp_ns: l.stamp_ns, pose: odom });
-        a.truth(RawPose { stamp_ns: l.stamp_ns, pose: l.robot }, "the corrected poses of the laser messages");
+        a.odometry(RawOdometry { topic: RECHAINED.into(), stamp_ns: l.stamp_ns, pose: odom, record_ns: None });
+        a.truth(
+            RawPose { stamp_ns: l.stamp_ns, pose: l.robot, record_ns: None },
+            "the corrected poses of the laser messages",
+        );
     }
     a.note(format!("re-chained odometry: one reading per scan from {} ODOM lines", p.odometry.len()));
 }
@@ -741,6 +883,92 @@ mod tests {
             read_kind("corr-none", &raw_equal_triplets(), CarmenKind::Raw).unwrap().0,
             read_kind("corr-none", &raw_equal_triplets(), CarmenKind::Auto).unwrap().0
         );
+    }
+
+    /// A raw log of `n` scans 0.2 s apart with an ODOM line before each, stamps written by
+    /// `stamp(k, is_scan)`.
+    fn raw_log_stamped(n: usize, stamp: impl Fn(usize, bool) -> String) -> String {
+        (0..n)
+            .map(|k| {
+                let x = 0.1 * k as f64;
+                let (to, ts) = (stamp(k, false), stamp(k, true));
+                format!("ODOM {x} 0 0 0 0 0 {to} h {to}\nFLASER 3 1 2 3 {x} 0 0 {x} 0 0 {ts} h {ts}\n")
+            })
+            .collect()
+    }
+
+    fn read_with(name: &str, text: &str, options: ImportOptions) -> Result<(SensorLog, ImportReport), String> {
+        let p = write(name, text);
+        let r = read(&p, &options).map_err(|e| e.to_string());
+        std::fs::remove_dir_all(p.parent().unwrap()).ok();
+        r
+    }
+
+    #[test]
+    fn stamps_that_step_back_many_times_are_ordered_by_line_with_a_note() {
+        // Every other scan's stamp is 0.3 s early (a clock that jitters back and forth): sorted by
+        // stamp, scans would swap places and odometry readings would land on the wrong scans.
+        let text = raw_log_stamped(20, |k, scan| {
+            let t = 1.0 + 0.2 * k as f64 + if scan { 0.1 } else { 0.0 };
+            format!("{:.3}", if k % 2 == 1 { t - 0.3 } else { t })
+        });
+        let (log, report) = read_with("jitter", &text, ImportOptions::default()).unwrap();
+        let note = report.notes.iter().find(|n| n.starts_with("timestamps not used")).expect("a note");
+        assert!(note.contains("step back") && note.contains("ordered by line"), "{note}");
+        assert!(report.backward_steps.is_empty(), "nothing left to clamp: {:?}", report.backward_steps);
+        // Line order: each scan after the ODOM line before it, the odometry moving 0.1 m a scan.
+        let kinds: Vec<char> = log
+            .records
+            .iter()
+            .map(|r| match r {
+                mapkeeper_sensor::LogRecord::Scan(_) => 's',
+                _ => 'o',
+            })
+            .collect();
+        assert_eq!(kinds.iter().collect::<String>(), "os".repeat(20));
+        let stamps: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
+        assert!(stamps.windows(2).all(|w| w[1] > w[0]), "{stamps:?}");
+        // Taken as written on request, with a note that says so (and the steps back clamped).
+        let stamp = ImportOptions { time_source: TimeSource::Stamp, ..ImportOptions::default() };
+        let (_, report) = read_with("jitter-stamp", &text, stamp).unwrap();
+        assert!(report.notes.iter().any(|n| n.starts_with("timestamps taken as written")), "{:?}", report.notes);
+        assert!(!report.backward_steps.is_empty());
+    }
+
+    #[test]
+    fn coarse_stamps_are_refused_without_a_rate_and_timed_from_one() {
+        // %g of an epoch time: "1.13486e+09" on every line.
+        let text = raw_log_stamped(30, |_, _| "1.13486e+09".into());
+        let e = read_with("coarse", &text, ImportOptions::default()).unwrap_err();
+        assert!(e.contains("line 1:") && e.contains("--rate HZ") && e.contains("printed to 10000 s"), "{e}");
+        assert!(e.contains("every message has the same printed time") && e.contains("--time-source stamp"), "{e}");
+        let rate = ImportOptions { rate_hz: Some(5.0), ..ImportOptions::default() };
+        let (log, report) = read_with("coarse-rate", &text, rate).unwrap();
+        let scans: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
+        let first = scans[0];
+        assert_eq!(
+            scans.iter().map(|t| t - first).collect::<Vec<_>>(),
+            (0..30).map(|k| k * 200_000_000).collect::<Vec<u64>>()
+        );
+        let odo: Vec<f64> = log.odometry().map(|o| o.pose_in_odom.x).collect();
+        assert_eq!(odo.len(), 30);
+        assert!(report.notes.iter().any(|n| n.contains("spaced from --rate 5 Hz of FLASER")), "{:?}", report.notes);
+        assert!(
+            (report.duration_s - 5.9).abs() < 1e-6,
+            "29 scan periods and the ODOM before the first: {}",
+            report.duration_s
+        );
+    }
+
+    #[test]
+    fn fine_stamps_read_by_line_are_the_stamps() {
+        let text = raw_log_stamped(10, |k, scan| format!("{:.3}", 1.0 + 0.2 * k as f64 + if scan { 0.1 } else { 0.0 }));
+        let (by_stamp, report) = read_with("fine", &text, ImportOptions::default()).unwrap();
+        assert!(!report.notes.iter().any(|n| n.contains("timestamps")), "{:?}", report.notes);
+        let line = ImportOptions { time_source: TimeSource::Line, ..ImportOptions::default() };
+        let (by_line, report) = read_with("fine-line", &text, line).unwrap();
+        assert_eq!(by_stamp.records, by_line.records);
+        assert!(report.notes.iter().any(|n| n.starts_with("timestamps not used (--time-source line)")));
     }
 
     #[test]

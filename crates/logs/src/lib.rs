@@ -32,10 +32,11 @@ mod report;
 mod rigid;
 pub mod ros1;
 pub mod ros2;
+mod timing;
 
 pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
 pub use error::ImportError;
-pub use options::{CarmenKind, ImportOptions, OdometryFrom, StampFrom};
+pub use options::{CarmenKind, ImportOptions, OdometryFrom, RATE_HZ_RANGE, StampFrom, Thinning, TimeSource};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 pub use rigid::Rigid3;
 pub use ros2::{

@@ -53,8 +53,77 @@ pub enum StampFrom {
     Record,
 }
 
+/// Where the messages' times come from (`--time-source`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TimeSource {
+    /// The stamps, unless they cannot be trusted (they repeat or step back across many messages,
+    /// or are printed too coarsely to order them): then the file's order, timed as
+    /// [`TimeSource::Line`] does, with a note saying why (the `timing` module).
+    #[default]
+    Auto,
+    /// The stamps as written (a few steps back clamped, as always), even where they cannot be
+    /// trusted (a note says so).
+    Stamp,
+    /// The file's order: a CARMEN log's lines (written in time order), timed from the printed
+    /// stamps where they change or from [`ImportOptions::rate_hz`]; a bag's messages by when the
+    /// recorder received them.
+    Line,
+}
+
+impl TimeSource {
+    /// Every source, by its flag name.
+    pub const NAMES: [(&'static str, TimeSource); 3] =
+        [("auto", TimeSource::Auto), ("stamp", TimeSource::Stamp), ("line", TimeSource::Line)];
+
+    /// The source of a flag value (`auto`, `stamp`, `line`).
+    pub fn from_name(name: &str) -> Option<TimeSource> {
+        Self::NAMES.iter().find(|(n, _)| *n == name).map(|(_, k)| *k)
+    }
+}
+
+/// Which scans of each lidar are kept (`--keep-every`, `--every-m`): for heavy logs, and to
+/// test a localiser on scans further apart than the log has them. Odometry and reference poses
+/// are all kept.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Thinning {
+    /// Every scan.
+    #[default]
+    All,
+    /// The first scan of each lidar and every `n`-th after it.
+    KeepEvery(usize),
+    /// The first scan of each lidar, then the first scan after the odometry has travelled at
+    /// least this far (metres, along its path) since the last scan kept.
+    EveryMetres(f64),
+}
+
+impl Thinning {
+    /// The largest `--keep-every`.
+    pub const MAX_KEEP_EVERY: usize = 1_000_000;
+    /// The range of `--every-m`, metres.
+    pub const EVERY_M_RANGE: std::ops::RangeInclusive<f64> = 0.001..=100.0;
+
+    /// Why the value cannot be used, if it cannot (`0: expected …`).
+    pub fn problem(&self) -> Option<String> {
+        match *self {
+            Thinning::All => None,
+            Thinning::KeepEvery(n) if !(1..=Self::MAX_KEEP_EVERY).contains(&n) => {
+                Some(format!("{n}: expected a whole number from 1 to {}", Self::MAX_KEEP_EVERY))
+            }
+            Thinning::EveryMetres(m) if !(m.is_finite() && Self::EVERY_M_RANGE.contains(&m)) => Some(format!(
+                "{m}: expected metres from {} to {}",
+                Self::EVERY_M_RANGE.start(),
+                Self::EVERY_M_RANGE.end()
+            )),
+            _ => None,
+        }
+    }
+}
+
+/// The range of `--rate`, scans per second.
+pub const RATE_HZ_RANGE: std::ops::RangeInclusive<f64> = 0.001..=1000.0;
+
 /// How a recorded log is turned into a sensor log.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ImportOptions {
     /// The lidars' scan topics, in lidar-id order; empty: every topic with laser scans, sorted by
     /// name.
@@ -82,6 +151,15 @@ pub struct ImportOptions {
     /// the import report's `salvaged:` notes say what was skipped. Default `false`: the damage
     /// is an error.
     pub salvage: bool,
+    /// Where the times come from: the stamps unless they cannot be trusted (default), the stamps
+    /// as written, or the file's order.
+    pub time_source: TimeSource,
+    /// The first lidar's scan rate, scans per second, for timing a log by its order when its
+    /// stamps cannot (`--rate`; in [`RATE_HZ_RANGE`]); `None`: from the printed stamps where
+    /// they change.
+    pub rate_hz: Option<f64>,
+    /// Which scans are kept.
+    pub thinning: Thinning,
 }
 
 impl Default for ImportOptions {
@@ -96,6 +174,9 @@ impl Default for ImportOptions {
             stamp: StampFrom::Header,
             carmen_kind: CarmenKind::Auto,
             salvage: false,
+            time_source: TimeSource::Auto,
+            rate_hz: None,
+            thinning: Thinning::All,
         }
     }
 }

@@ -1,6 +1,8 @@
 //! The CARMEN reader on the real logs of `../shared/data/carmen/` (skipped, with a note, when
 //! that folder is absent): every scan, pose and the facts of the data's README.
 
+#![allow(clippy::unwrap_used)]
+
 use mapkeeper_logs::{ImportOptions, LogFormat, detect_format, read_log};
 use std::path::PathBuf;
 
@@ -48,4 +50,97 @@ fn intel_backward_timestamps_are_counted() {
     assert_eq!(scan_steps, 4, "{:?}", report.backward_steps);
     let largest = report.backward_steps.iter().map(|b| b.largest_s).fold(0.0, f64::max);
     assert!(largest > 0.5 && largest < 0.9, "{largest}");
+}
+
+/// `v` as C's `%g` prints it with an exponent: six significant digits, `1.13486e+09`.
+fn percent_g(v: f64) -> String {
+    let s = format!("{v:.5e}");
+    let (mantissa, exponent) = s.split_once('e').unwrap();
+    format!("{mantissa}e{:+03}", exponent.parse::<i32>().unwrap())
+}
+
+#[test]
+fn intel_with_coarse_timestamps_converts_to_the_original_log_with_a_note() {
+    // A public corrected log printed its stamps as %g of the epoch: one printed step is 10,000 s,
+    // so every line of a 20-minute drive had the same time. Intel rewritten that way.
+    use std::io::Read as _;
+    let Some(path) = shared("intel-corrected.log.gz") else { return };
+    let mut text = String::new();
+    flate2::read::GzDecoder::new(std::fs::File::open(&path).unwrap()).read_to_string(&mut text).unwrap();
+    let rewritten: String = text
+        .lines()
+        .map(|line| {
+            let mut f: Vec<String> = line.split_whitespace().map(String::from).collect();
+            let stamps = match f.first().map(String::as_str) {
+                Some("FLASER") => {
+                    let n: usize = f[1].parse().unwrap();
+                    vec![n + 8, n + 10]
+                }
+                Some("ODOM") => vec![7, 9],
+                _ => vec![],
+            };
+            for i in stamps {
+                f[i] = percent_g(1.13486e9 + f[i].parse::<f64>().unwrap());
+            }
+            f.join(" ") + "\n"
+        })
+        .collect();
+    assert!(rewritten.contains(" 1.13486e+09 h ") || rewritten.contains(" 1.13486e+09 "), "the stamps are %g");
+    let dir = std::env::temp_dir().join(format!("mapkeeper-carmen-coarse-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let coarse = dir.join("intel-g.log");
+    std::fs::write(&coarse, rewritten).unwrap();
+    // Without a rate the time is lost, and the error says which line and which flag.
+    let e = read_log(&coarse, None, &ImportOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("intel-g.log: line ") && e.contains("--rate HZ") && e.contains("909 of 909"), "{e}");
+    // With the scan rate: the original's scans, odometry and reference, in the original's order.
+    let options = ImportOptions { rate_hz: Some(0.34), ..ImportOptions::default() };
+    let got = read_log(&coarse, None, &options).unwrap();
+    let want = read_log(&path, None, &ImportOptions::default()).unwrap();
+    let unstamped = |log: &mapkeeper_sensor::SensorLog| -> Vec<String> {
+        log.records
+            .iter()
+            .map(|r| {
+                let mut v = serde_json::to_value(r).unwrap();
+                v.as_object_mut().unwrap().remove("stamp_ns");
+                v.to_string()
+            })
+            .collect()
+    };
+    assert_eq!(unstamped(&got.log), unstamped(&want.log));
+    let report = got.report.unwrap();
+    let note = report.notes.iter().find(|n| n.starts_with("timestamps not used")).expect("the note");
+    println!("note: {note}");
+    assert!(note.contains("ordered by line") && note.contains("--rate 0.34 Hz of FLASER"), "{note}");
+    assert!((report.duration_s - 909.0 / 0.34).abs() < 1.0, "{}", report.duration_s);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn freiburg_thinned_by_travel_keeps_one_scan_a_metre() {
+    let Some(path) = shared("freiburg-079-corrected.log.gz") else { return };
+    let whole = read_log(&path, None, &ImportOptions::default()).unwrap().log;
+    for (thinning, lo, hi) in
+        [(mapkeeper_logs::Thinning::EveryMetres(1.0), 350, 430), (mapkeeper_logs::Thinning::KeepEvery(10), 480, 480)]
+    {
+        let options = ImportOptions { thinning, ..ImportOptions::default() };
+        let imported = read_log(&path, None, &options).unwrap();
+        let log = imported.log;
+        let n = log.scans().count();
+        assert!((lo..=hi).contains(&n), "{thinning:?}: {n} scans");
+        assert_eq!(log.odometry().count(), whole.odometry().count(), "odometry all kept");
+        assert_eq!(log.truth().count(), whole.truth().count(), "reference all kept");
+        let report = imported.report.unwrap();
+        assert!(report.notes.iter().any(|n| n.contains(" of 4791 scans kept")), "{:?}", report.notes);
+        if let mapkeeper_logs::Thinning::EveryMetres(m) = thinning {
+            // Consecutive kept scans are at least m apart along the odometry's path.
+            let odo: Vec<(u64, mapkeeper_grid::Pose2)> = log.odometry().map(|o| (o.stamp_ns, o.pose_in_odom)).collect();
+            let kept: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
+            for w in kept.windows(2) {
+                let path: f64 =
+                    odo.windows(2).filter(|p| p[0].0 >= w[0] && p[1].0 <= w[1]).map(|p| p[0].1.distance(&p[1].1)).sum();
+                assert!(path >= m - 1e-9, "{path} m between scans at {} and {} ns", w[0], w[1]);
+            }
+        }
+    }
 }

@@ -676,3 +676,58 @@ fn salvage_reads_past_damage_at_many_offsets() {
         assert!(report.notes.iter().any(|note| note.contains(&want)), "{:?}", report.notes);
     }
 }
+
+/// The robot's bag with every header stamp frozen at T0 (a driver whose clock never moved): the
+/// recorder's times still order the messages.
+fn frozen_header_bag() -> Bag {
+    let mut w = BagWriter::new(Compression::None).chunk_bytes(900);
+    let front = w.connection("/scan", "sensor_msgs/LaserScan");
+    let odom = w.connection("/odom", "nav_msgs/Odometry");
+    for i in 0..12u32 {
+        let t = T0 + u64::from(i) * 100 * MS;
+        let pose = (0.1 * f64::from(i), 0.0, 0.0);
+        w.write(odom, t, &odometry(i, T0, "odom", "base_link", pose));
+        let f = laser_scan(i, T0, "base_link", (-1.0, 1.0, 0.5), (0.05, 8.0), &front_ranges(i as usize));
+        w.write(front, t + 10 * MS, &f);
+    }
+    w.finish()
+}
+
+#[test]
+fn header_stamps_that_cannot_order_the_messages_give_way_to_record_times_with_a_note() {
+    use mapkeeper_logs::TimeSource;
+    let bag = frozen_header_bag();
+    let (log, report) = read("frozen", &bag.bytes, &ImportOptions::default()).unwrap();
+    let note = report.notes.iter().find(|n| n.starts_with("header stamps not used")).expect("a note");
+    assert!(note.contains("/scan: 11 of 11 consecutive stamps repeat") && note.contains("record time"), "{note}");
+    let scans: Vec<u64> = log.scans().map(|s| s.stamp_ns / MS).collect();
+    assert_eq!(scans, (0..12).map(|i| 10 + 100 * i).collect::<Vec<u64>>(), "record times, epoch the first /odom");
+    // Each scan follows its odometry reading, as recorded (sorted by the frozen stamps, every
+    // odometry reading came before every scan).
+    let order: Vec<&str> = log
+        .records
+        .iter()
+        .map(|r| match r {
+            mapkeeper_sensor::LogRecord::Scan(_) => "s",
+            _ => "o",
+        })
+        .take(4)
+        .collect();
+    assert_eq!(order, ["o", "s", "o", "s"]);
+    // As written, on request: the frozen stamps, and a note that says what that costs.
+    let stamp = ImportOptions { time_source: TimeSource::Stamp, ..ImportOptions::default() };
+    let (log, report) = read("frozen-stamp", &bag.bytes, &stamp).unwrap();
+    assert!(log.scans().all(|s| s.stamp_ns == 0));
+    assert!(report.notes.iter().any(|n| n.starts_with("header stamps taken as written")), "{:?}", report.notes);
+    // A sane bag by its order on request: the record times, as --stamp record gives them.
+    let line = ImportOptions { time_source: TimeSource::Line, ..ImportOptions::default() };
+    let sane = robot_bag(Compression::None, |w| w);
+    let by_line = read("sane-line", &sane.bytes, &line).unwrap();
+    let record = ImportOptions { stamp: StampFrom::Record, ..ImportOptions::default() };
+    let by_record = read("sane-record", &sane.bytes, &record).unwrap();
+    assert_eq!(by_line.0.records, by_record.0.records);
+    assert!(by_line.1.notes.iter().any(|n| n.starts_with("header stamps not used (--time-source line)")));
+    // A sane bag as it is: its header stamps, no note.
+    let (_, report) = read("sane", &sane.bytes, &ImportOptions::default()).unwrap();
+    assert!(!report.notes.iter().any(|n| n.contains("header stamps")), "{:?}", report.notes);
+}

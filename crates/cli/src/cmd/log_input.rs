@@ -2,7 +2,10 @@
 //! `update`, `map`, `convert`): the project's own log, a ROS 2 MCAP bag, a ROS 1 bag or a CARMEN
 //! log, detected from the content (`docs/real-data.md`).
 
-use mapkeeper_logs::{CarmenKind, ImportOptions, Imported, LogFormat, OdometryFrom, StampFrom, read_log};
+use mapkeeper_logs::{
+    CarmenKind, ImportOptions, Imported, LogFormat, OdometryFrom, RATE_HZ_RANGE, StampFrom, Thinning, TimeSource,
+    read_log,
+};
 use mapkeeper_sensor::SensorLog;
 use std::path::PathBuf;
 
@@ -60,6 +63,71 @@ pub struct LogInput {
     /// say what was skipped.
     #[arg(long)]
     pub salvage: bool,
+    #[command(flatten)]
+    pub time: TimeFlags,
+}
+
+/// Where the messages' times come from and which scans are kept: shared by `LogInput` and the
+/// several-log commands (`experiment real-data`).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct TimeFlags {
+    /// Where the messages' times come from: auto (the stamps, unless they repeat or step back
+    /// across many messages or are printed too coarsely to order them: then the file's order,
+    /// with a note), stamp (the stamps as written) or line (the file's order: a CARMEN log's
+    /// lines, timed from the printed stamps where they change or from --rate; a bag's record
+    /// times).
+    #[arg(long, value_name = "SOURCE", default_value = "auto", value_parser = time_source)]
+    pub time_source: TimeSource,
+    /// The first lidar's scan rate, scans per second, for a CARMEN log timed by its lines whose
+    /// printed stamps never move on (e.g. all `1.13486e+09`): the scans are spaced 1/HZ apart.
+    #[arg(long, value_name = "HZ", value_parser = rate_hz)]
+    pub rate: Option<f64>,
+    /// Keep the first scan of each lidar and every N-th after it (odometry and reference all
+    /// kept): for heavy logs, or to test on sparser scans.
+    #[arg(long, value_name = "N", value_parser = keep_every, conflicts_with = "every_m")]
+    pub keep_every: Option<usize>,
+    /// Keep the first scan of each lidar, then one each time the odometry has travelled at least
+    /// M metres along its path since the last kept (odometry and reference all kept).
+    #[arg(long, value_name = "M", value_parser = every_m)]
+    pub every_m: Option<f64>,
+}
+
+impl TimeFlags {
+    /// The thinning these flags ask for.
+    pub fn thinning(&self) -> Thinning {
+        match (self.keep_every, self.every_m) {
+            (Some(n), _) => Thinning::KeepEvery(n),
+            (None, Some(m)) => Thinning::EveryMetres(m),
+            (None, None) => Thinning::All,
+        }
+    }
+}
+
+fn time_source(s: &str) -> Result<TimeSource, String> {
+    TimeSource::from_name(s)
+        .ok_or_else(|| format!("'{}' is not a time source (known: auto, stamp, line)", s.escape_debug()))
+}
+
+fn rate_hz(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("'{}' is not a number", s.escape_debug()))?;
+    if !(v.is_finite() && RATE_HZ_RANGE.contains(&v)) {
+        return Err(format!(
+            "{v}: expected scans per second from {} to {}",
+            RATE_HZ_RANGE.start(),
+            RATE_HZ_RANGE.end()
+        ));
+    }
+    Ok(v)
+}
+
+fn keep_every(s: &str) -> Result<usize, String> {
+    let n: usize = s.parse().map_err(|_| format!("'{}' is not a whole number", s.escape_debug()))?;
+    Thinning::KeepEvery(n).problem().map_or(Ok(n), Err)
+}
+
+fn every_m(s: &str) -> Result<f64, String> {
+    let m: f64 = s.parse().map_err(|_| format!("'{}' is not a number", s.escape_debug()))?;
+    Thinning::EveryMetres(m).problem().map_or(Ok(m), Err)
 }
 
 fn carmen_kind(s: &str) -> Result<CarmenKind, String> {
@@ -98,6 +166,7 @@ impl LogInput {
             stamp: StampFrom::Header,
             carmen_kind: CarmenKind::Auto,
             salvage: false,
+            time: TimeFlags::default(),
         }
     }
 
@@ -118,6 +187,9 @@ impl LogInput {
             stamp: self.stamp,
             carmen_kind: self.carmen_kind,
             salvage: self.salvage,
+            time_source: self.time.time_source,
+            rate_hz: self.time.rate,
+            thinning: self.time.thinning(),
         }
     }
 

@@ -514,12 +514,17 @@ impl Walk<'_> {
             Kind::Scan => {
                 let s = msg::laser_scan(data).map_err(fail)?;
                 let t = stamp(&s.header);
-                self.scan(s, t, &c.topic, format!("message {k} ({})", at.short()));
+                self.scan(s, (t, record_ns), &c.topic, format!("message {k} ({})", at.short()));
             }
             Kind::Odometry => {
                 let o = msg::odometry(data).map_err(fail)?;
                 let pose = planar(&o.pose).map_err(fail)?;
-                self.asm.odometry(RawOdometry { topic: c.topic.clone(), stamp_ns: stamp(&o.header), pose });
+                self.asm.odometry(RawOdometry {
+                    topic: c.topic.clone(),
+                    stamp_ns: stamp(&o.header),
+                    pose,
+                    record_ns: Some(record_ns),
+                });
             }
             Kind::Truth(t) => {
                 let p = match t {
@@ -530,7 +535,10 @@ impl Walk<'_> {
                 .map_err(fail)?;
                 let pose = planar(&p.pose).map_err(fail)?;
                 self.truth_poses += 1;
-                self.asm.truth(RawPose { stamp_ns: stamp(&p.header), pose }, &format!("{} ({})", c.topic, c.type_name));
+                self.asm.truth(
+                    RawPose { stamp_ns: stamp(&p.header), pose, record_ns: Some(record_ns) },
+                    &format!("{} ({})", c.topic, c.type_name),
+                );
             }
             Kind::Tf { is_static } => {
                 for (i, t) in msg::tf_message(data).map_err(fail)?.into_iter().enumerate() {
@@ -543,6 +551,7 @@ impl Walk<'_> {
                         child,
                         transform,
                         is_static,
+                        record_ns: Some(record_ns),
                     });
                 }
             }
@@ -553,7 +562,7 @@ impl Walk<'_> {
 
     /// Hands a scan to the assembler; notes (once per topic) a ranges count that disagrees with
     /// `angle_max`.
-    fn scan(&mut self, s: msg::Scan, stamp_ns: u64, topic: &str, place: String) {
+    fn scan(&mut self, s: msg::Scan, (stamp_ns, record_ns): (u64, u64), topic: &str, place: String) {
         let (min, max, inc) = (f64::from(s.angle_min), f64::from(s.angle_max), f64::from(s.angle_increment));
         let expected = (max - min) / inc + 1.0;
         let n = s.ranges.len();
@@ -578,6 +587,7 @@ the beams' angles are taken from angle_min and angle_increment"
             ranges_m: s.ranges,
             time_increment_s: f64::from(s.time_increment),
             place,
+            record_ns: Some(record_ns),
         });
     }
 

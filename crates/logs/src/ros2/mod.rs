@@ -438,17 +438,7 @@ impl BagReader<'_> {
                 format!("{type_name} in encoding '{}': only ROS 2 CDR messages are read", m.channel.message_encoding),
             ));
         }
-        if self.options.stamp == StampFrom::Record && m.log_time > MAX_RECORD_STAMP_NS {
-            return Err(ImportError::parse(
-                file,
-                &at.place,
-                format!(
-                    "log_time {} ns is past {MAX_RECORD_STAMP_NS} ns (the year 2262, the last time i64 \
-                     nanoseconds hold): not a time, cannot stamp with --stamp record",
-                    m.log_time
-                ),
-            ));
-        }
+        let record_ns = self.record_ns(&at, m.log_time)?;
         let stamp = |header_ns: u64| match self.options.stamp {
             StampFrom::Header => header_ns,
             StampFrom::Record => m.log_time,
@@ -469,12 +459,18 @@ impl BagReader<'_> {
                     ranges_m: s.ranges,
                     time_increment_s: f64::from(s.time_increment),
                     place: format!("{prefix}message {index} (log_time {} ns)", m.log_time),
+                    record_ns,
                 });
             }
             Role::Odometry => {
                 let o = msgs::odometry(data).map_err(|e| at.err(e))?;
                 let pose = planar(&at, &o.pose)?;
-                self.asm.odometry(RawOdometry { topic: topic.to_string(), stamp_ns: stamp(o.header.stamp_ns), pose });
+                self.asm.odometry(RawOdometry {
+                    topic: topic.to_string(),
+                    stamp_ns: stamp(o.header.stamp_ns),
+                    pose,
+                    record_ns,
+                });
             }
             Role::Truth => {
                 let p = match Kind::of(type_name) {
@@ -485,7 +481,7 @@ impl BagReader<'_> {
                 .map_err(|e| at.err(e))?;
                 let pose = planar(&at, &p.pose)?;
                 let source = format!("{topic} ({type_name})");
-                self.asm.truth(RawPose { stamp_ns: stamp(p.header.stamp_ns), pose }, &source);
+                self.asm.truth(RawPose { stamp_ns: stamp(p.header.stamp_ns), pose, record_ns }, &source);
             }
             Role::Tf { is_static } => {
                 for t in msgs::tf_message(data).map_err(|e| at.err(e))? {
@@ -496,11 +492,28 @@ impl BagReader<'_> {
                         child: t.child_frame_id,
                         transform,
                         is_static,
+                        record_ns,
                     });
                 }
             }
         }
         Ok(())
+    }
+
+    /// A message's `log_time` as a record time: `None` past i64 nanoseconds (the year 2262), which
+    /// is refused under `--stamp record`.
+    fn record_ns(&self, at: &At<'_>, log_time: u64) -> Result<Option<u64>, ImportError> {
+        if self.options.stamp == StampFrom::Record && log_time > MAX_RECORD_STAMP_NS {
+            return Err(ImportError::parse(
+                at.file,
+                &at.place,
+                format!(
+                    "log_time {log_time} ns is past {MAX_RECORD_STAMP_NS} ns (the year 2262, the last time i64 \
+                     nanoseconds hold): not a time, cannot stamp with --stamp record"
+                ),
+            ));
+        }
+        Ok((log_time <= MAX_RECORD_STAMP_NS).then_some(log_time))
     }
 
     /// What a message of `topic` with schema `type_name` is used for; a topic named in the

@@ -1,6 +1,6 @@
 //! The logs `experiment real-data` reads: its reading flags and one dataset per log.
 
-use crate::cmd::log_input::LogInput;
+use crate::cmd::log_input::{LogInput, TimeFlags};
 use mapkeeper_scenario::experiments::real_data::Dataset;
 use std::path::Path;
 
@@ -16,6 +16,8 @@ pub struct ReadingFlags {
     /// The odometry topic.
     #[arg(long, value_name = "TOPIC")]
     pub odom_topic: Option<String>,
+    #[command(flatten)]
+    pub time: TimeFlags,
 }
 
 pub(super) fn read(path: &Path, flags: &ReadingFlags) -> anyhow::Result<Dataset> {
@@ -23,6 +25,7 @@ pub(super) fn read(path: &Path, flags: &ReadingFlags) -> anyhow::Result<Dataset>
         scan_topics: flags.scan_topics.clone(),
         odom_topic: flags.odom_topic.clone(),
         truth_topic: flags.truth_topic.clone(),
+        time: flags.time.clone(),
         ..LogInput::path(path)
     };
     let (log, read_path) = input.read()?;
