@@ -7,10 +7,10 @@ use crate::LocaliserError;
 use crate::cluster::{ClusterScratch, best_cluster};
 use crate::kld::{BinKey, Bins, count_bins, kld_bound};
 use crate::likelihood_field::{BeamSet, LikelihoodField, ParticleFrames};
-use crate::motion_model::{OdometryDelta, sample_motion};
+use crate::motion_model::{OdometryDelta, sample_motion_with_noise_of};
 use crate::params::{BeamSelection, EstimateFrom, FilterParams, LidarUpdates, Resampler, UpdateGate};
 use crate::resample::{multinomial_draw, systematic_resample};
-use crate::scan_match::{Match, ScanMatcher};
+use crate::scan_match::{COARSE_YAW_STEP_RAD, Match, ScanMatcher};
 use mapkeeper_grid::{CellState, GridGeometry, OccupancyGrid, Pose2, wrap_angle};
 use mapkeeper_sensor::LaserScan;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
@@ -541,11 +541,24 @@ impl Localiser {
             return self.report(UpdateOutcome::NoUsableBeams, 0, skipped, false, 0.0);
         }
 
-        // Prediction, by the scan's match against the map where one is accepted.
-        let delta = self.matched_motion(&reference.between(&robot_in_odom), scans).unwrap_or(odometry);
+        // Prediction, by the scan's match against the map where one is accepted (its noise that
+        // of an increment at most `matched_noise_max_motion` long); where a second, wider search
+        // found another fit as good, every other particle moves by that one instead, and the
+        // scans' likelihood below decides between them.
+        let (matched, alternative) = match self.matched_motion(&reference.between(&robot_in_odom), scans) {
+            Some((d, alt)) => (Some(d), alt),
+            None => (None, None),
+        };
+        let delta = matched.unwrap_or(odometry);
+        let noise_of = |d: OdometryDelta| match (matched, self.params.scan_match.matched_noise_max_motion) {
+            (Some(_), Some(max)) => d.shortened_to(max),
+            _ => d,
+        };
+        let moves = [(delta, noise_of(delta)), alternative.map_or((delta, noise_of(delta)), |a| (a, noise_of(a)))];
         let (kin, alphas) = (self.params.kinematics, self.params.motion);
-        for p in &mut self.particles {
-            *p = sample_motion(kin, &delta, &alphas, p, &mut self.rng);
+        for (k, p) in self.particles.iter_mut().enumerate() {
+            let (d, noise) = &moves[k % 2];
+            *p = sample_motion_with_noise_of(kin, d, noise, &alphas, p, &mut self.rng);
         }
         self.odom_at_filter = Some(robot_in_odom);
         self.force_update = false;
@@ -580,8 +593,14 @@ impl Localiser {
     /// The scan-matching front end: the increment from the last filter estimate to the scan's
     /// match around that estimate moved by `odometry` (an increment in the robot frame), when the
     /// front end is on, the filter is concentrated enough to have a pose to match from, and the
-    /// match is accepted. Records the match for the report.
-    fn matched_motion(&mut self, odometry: &Pose2, scans: &[LaserScan]) -> Option<OdometryDelta> {
+    /// match is accepted; with it, the increment to a second match where a wider search
+    /// (`refused_window_xy_per_m`) found another fit that is not clearly better
+    /// (`refused_min_inlier_gain`) nor the same pose. Records the match for the report.
+    fn matched_motion(
+        &mut self,
+        odometry: &Pose2,
+        scans: &[LaserScan],
+    ) -> Option<(OdometryDelta, Option<OdometryDelta>)> {
         let matcher = self.matcher.as_ref()?;
         let sm = &self.params.scan_match;
         let from = self.filter_estimate;
@@ -598,9 +617,30 @@ impl Localiser {
             );
         }
         let predicted = from.pose_in_map.compose(odometry);
-        let m = matcher.match_scan(&predicted, self.match_beams.endpoints())?;
+        let travel = odometry.x.hypot(odometry.y);
+        let window = sm.window_for(travel, odometry.yaw);
+        let ends = self.match_beams.endpoints();
+        let mut m = matcher.match_scan_within(&predicted, ends, window)?;
+        let mut alternative = None;
+        let doubtful = !m.accepted || m.at_edge || m.inlier_share < sm.weak_inlier_share;
+        if let Some(wide) = sm.refused_window(travel, window).filter(|_| doubtful) {
+            // The odometry may have failed beyond the window (a missed reversal, a slip: the
+            // match is refused, clipped by the window or weak): a second, wider search. A wider
+            // search also finds more wrong fits (look-alike rooms), so its match replaces the
+            // first only where the first was refused or it fits clearly better; otherwise both
+            // are kept.
+            if let Some(second) = matcher.match_scan_within(&predicted, ends, wide).filter(|r| r.accepted) {
+                if !m.accepted || second.inlier_share >= m.inlier_share + sm.refused_min_inlier_gain {
+                    m = second;
+                } else if second.pose_in_map.distance(&m.pose_in_map) > matcher.resolution_m()
+                    || wrap_angle(second.pose_in_map.yaw - m.pose_in_map.yaw).abs() > COARSE_YAW_STEP_RAD
+                {
+                    alternative = Some(OdometryDelta::between(&from.pose_in_map, &second.pose_in_map));
+                }
+            }
+        }
         self.last_match = Some(m);
-        m.accepted.then(|| OdometryDelta::between(&from.pose_in_map, &m.pose_in_map))
+        m.accepted.then(|| (OdometryDelta::between(&from.pose_in_map, &m.pose_in_map), alternative))
     }
 
     /// Whether a sensor update runs at odometry `now`: the gates open, or an update forced by an

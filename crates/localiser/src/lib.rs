@@ -71,7 +71,7 @@ pub use params::{
     MAX_PARTICLES_LIMIT, MotionParams, Resampler, UnknownCells, UpdateGate,
 };
 pub use resample::{multinomial_draw, systematic_resample};
-pub use scan_match::{COARSE_YAW_STEP_RAD, Match, ScanMatchParams, ScanMatcher};
+pub use scan_match::{COARSE_YAW_STEP_RAD, Match, ScanMatchParams, ScanMatcher, Window};
 
 use mapkeeper_grid::Pose2;
 

@@ -32,6 +32,12 @@ impl OdometryDelta {
         Self { trans_m, rot_rad: d.yaw, bearing_rad }
     }
 
+    /// The same motion at most `max` long: its translation at most `max` metres and its turn at
+    /// most `max` radians (the bearing kept). For a noise that stops growing with the motion.
+    pub fn shortened_to(&self, max: f64) -> Self {
+        Self { trans_m: self.trans_m.min(max), rot_rad: self.rot_rad.clamp(-max, max), bearing_rad: self.bearing_rad }
+    }
+
     /// The differential decomposition `(rot1, trans, rot2)`: turn towards the bearing, drive,
     /// turn to the final heading.
     pub fn rot_trans_rot(&self) -> (f64, f64, f64) {
@@ -88,10 +94,22 @@ pub fn sample_increment<R: Rng + ?Sized>(
     alphas: &MotionParams,
     rng: &mut R,
 ) -> Pose2 {
+    sample_increment_with_noise_of(kinematics, delta, delta, alphas, rng)
+}
+
+/// [`sample_increment`] of `delta` with the noise the model gives `noise` (the same random
+/// draws; `noise = delta` is `sample_increment`).
+pub fn sample_increment_with_noise_of<R: Rng + ?Sized>(
+    kinematics: Kinematics,
+    delta: &OdometryDelta,
+    noise: &OdometryDelta,
+    alphas: &MotionParams,
+    rng: &mut R,
+) -> Pose2 {
     match kinematics {
         Kinematics::Differential => {
             let (rot1, trans, rot2) = delta.rot_trans_rot();
-            let (s1, st, s2) = differential_sigmas(delta, alphas);
+            let (s1, st, s2) = differential_sigmas(noise, alphas);
             let rot1_hat = rot1 + gaussian(rng, s1);
             let trans_hat = trans + gaussian(rng, st);
             let rot2_hat = rot2 + gaussian(rng, s2);
@@ -99,7 +117,7 @@ pub fn sample_increment<R: Rng + ?Sized>(
             Pose2::new(trans_hat * c, trans_hat * s, wrap_angle(rot1_hat + rot2_hat))
         }
         Kinematics::Omni => {
-            let (st, ss, sr) = omni_sigmas(delta, alphas);
+            let (st, ss, sr) = omni_sigmas(noise, alphas);
             let trans_hat = delta.trans_m + gaussian(rng, st);
             let strafe_hat = gaussian(rng, ss);
             let rot_hat = delta.rot_rad + gaussian(rng, sr);
@@ -108,6 +126,20 @@ pub fn sample_increment<R: Rng + ?Sized>(
             Pose2::new(trans_hat * c + strafe_hat * s, trans_hat * s - strafe_hat * c, wrap_angle(rot_hat))
         }
     }
+}
+
+/// Moves `pose_in_map` by one sampled increment of `delta` with the noise of `noise`
+/// ([`sample_increment_with_noise_of`]).
+#[inline]
+pub fn sample_motion_with_noise_of<R: Rng + ?Sized>(
+    kinematics: Kinematics,
+    delta: &OdometryDelta,
+    noise: &OdometryDelta,
+    alphas: &MotionParams,
+    pose_in_map: &Pose2,
+    rng: &mut R,
+) -> Pose2 {
+    pose_in_map.compose(&sample_increment_with_noise_of(kinematics, delta, noise, alphas, rng))
 }
 
 /// Moves `pose_in_map` by one sampled noisy increment.
@@ -129,6 +161,38 @@ mod tests {
     use rand::rngs::ChaCha8Rng;
 
     const N: usize = 200_000;
+
+    #[test]
+    fn noise_of_a_shorter_motion_is_the_same_draws_with_smaller_sigmas() {
+        let alphas = MotionParams { alpha1: 0.005, alpha2: 0.005, alpha3: 0.02, alpha4: 0.005, alpha5: 0.005 };
+        let delta = OdometryDelta::between(&Pose2::IDENTITY, &Pose2::new(1.2, 0.3, 2.5));
+        let short = delta.shortened_to(0.5);
+        assert_eq!((short.trans_m, short.rot_rad, short.bearing_rad), (0.5, 0.5, delta.bearing_rad));
+        assert_eq!(delta.shortened_to(10.0), delta, "a bound above the motion changes nothing");
+        assert_eq!(OdometryDelta { rot_rad: -2.0, ..delta }.shortened_to(0.5).rot_rad, -0.5);
+        for kin in [Kinematics::Omni, Kinematics::Differential] {
+            // Its own noise: the same pose, bit for bit, as sample_increment.
+            let (mut a, mut b) = (ChaCha8Rng::seed_from_u64(3), ChaCha8Rng::seed_from_u64(3));
+            for _ in 0..100 {
+                assert_eq!(
+                    sample_increment(kin, &delta, &alphas, &mut a),
+                    sample_increment_with_noise_of(kin, &delta, &delta, &alphas, &mut b)
+                );
+            }
+            // A shorter motion's noise: the same mean, a smaller spread.
+            let spread = |noise: &OdometryDelta| {
+                let mut rng = ChaCha8Rng::seed_from_u64(4);
+                let xs: Vec<f64> = (0..20_000)
+                    .map(|_| sample_increment_with_noise_of(kin, &delta, noise, &alphas, &mut rng).x)
+                    .collect();
+                mean_var(&xs)
+            };
+            let (m_full, v_full) = spread(&delta);
+            let (m_short, v_short) = spread(&short);
+            assert!((m_full - m_short).abs() < 0.01, "{kin:?}: {m_full} vs {m_short}");
+            assert!(v_short < 0.5 * v_full, "{kin:?}: {v_short} vs {v_full}");
+        }
+    }
 
     fn mean_var(v: &[f64]) -> (f64, f64) {
         let n = v.len() as f64;

@@ -15,8 +15,11 @@
 //!    something the map does not hold costs nothing more than a miss; the pose's score is the
 //!    mean over beams minus a prior `prior_weight · ½ (Δxy² / window_xy² + Δyaw² / window_yaw²)`
 //!    on its distance from the prediction (ties along a corridor go to the odometry).
-//! 2. **Search**: every cell offset within `window_xy_m` and every yaw within `window_yaw_rad` on
-//!    a grid of [`COARSE_YAW_STEP_RAD`], nearest-cell distances.
+//! 2. **Search**: every cell offset within the position window and every yaw within the yaw
+//!    window on a grid of [`COARSE_YAW_STEP_RAD`], nearest-cell distances. The windows are
+//!    `window_xy_m` and `window_yaw_rad`, widened where the odometry's travel since the last
+//!    filter update could carry a larger error ([`ScanMatchParams::window_for`]: scans a metre
+//!    apart, a half turn between two scans); the prior's scale is the same window.
 //! 3. **Refine**: hill climbing from the best candidate on bilinearly interpolated distances, the
 //!    steps halved down to 1/16 of a cell.
 //! 4. **Accept** when at least `min_inlier_share` of the beams end within `inlier_m` of an
@@ -64,6 +67,37 @@ pub struct ScanMatchParams {
     /// Weight of the prior towards the prediction (in mean-score units at the window's edge, per
     /// axis). Default 0.05.
     pub prior_weight: f64,
+    /// The position window grows to this many metres per metre the odometry travelled since the
+    /// last filter update, where that exceeds `window_xy_m` (up to `max_window_xy_m`). Default 0
+    /// (a fixed window).
+    pub window_xy_per_m: f64,
+    /// The yaw window grows to this many radians per metre travelled plus per radian turned by
+    /// the odometry since the last filter update, where that exceeds `window_yaw_rad` (up to
+    /// `max_window_yaw_rad`). Default 0 (a fixed window).
+    pub window_yaw_per_motion: f64,
+    /// The largest position window, metres (the search's cost grows with its square). Default 1.
+    pub max_window_xy_m: f64,
+    /// The largest yaw window, radians. Default 0.5.
+    pub max_window_yaw_rad: f64,
+    /// A match accepted with fewer inliers than this is a weak fit, searched again as a refused
+    /// or clipped one is (`refused_window_xy_per_m`). Default 0 (never).
+    pub weak_inlier_share: f64,
+    /// When the match in the window is refused, clipped by the window's edge or weak, search
+    /// again in a position window of
+    /// `window_xy_m` plus this many metres per metre the odometry travelled since the last
+    /// update (up to `max_window_xy_m`): an odometry that missed a reversal errs by up to twice
+    /// its travel. Default 0 (no second search).
+    pub refused_window_xy_per_m: f64,
+    /// The second search's match replaces an accepted first only if its inlier share is at least
+    /// this much higher (a wider search finds more wrong fits: look-alike rooms); otherwise,
+    /// where the two differ, half the particles move by each and the scans' likelihood decides.
+    /// Default 0 (a second match at least as good replaces the first).
+    pub refused_min_inlier_gain: f64,
+    /// An accepted match moves the particles by the matched increment with the motion model's
+    /// noise of an increment at most this long (metres; its turn likewise at most this many
+    /// radians): a match pins the pose, so its error does not grow with the travel as the
+    /// odometry's does. `None` (default): the noise of the whole increment.
+    pub matched_noise_max_motion: Option<f64>,
     /// The match runs only while the filter's position standard deviation `√(σx² + σy²)` is at
     /// most this, metres: a spread filter has no pose to match from. Default 0.5.
     pub max_position_sd_m: f64,
@@ -81,6 +115,14 @@ impl Default for ScanMatchParams {
             min_inlier_share: 0.5,
             prior_weight: 0.05,
             max_position_sd_m: 0.5,
+            window_xy_per_m: 0.0,
+            window_yaw_per_motion: 0.0,
+            max_window_xy_m: 1.0,
+            max_window_yaw_rad: 0.5,
+            weak_inlier_share: 0.0,
+            refused_window_xy_per_m: 0.0,
+            refused_min_inlier_gain: 0.0,
+            matched_noise_max_motion: None,
         }
     }
 }
@@ -88,7 +130,8 @@ impl Default for ScanMatchParams {
 impl ScanMatchParams {
     /// Checks every field: the first violation as `(field, value, requirement)`.
     pub fn validate(&self) -> Result<(), (&'static str, f64, &'static str)> {
-        let checks: [(&'static str, f64, bool, &'static str); 8] = [
+        let noise = self.matched_noise_max_motion.unwrap_or(1.0);
+        let checks: [(&'static str, f64, bool, &'static str); 16] = [
             ("scan_match.max_beams", self.max_beams as f64, (1..=100_000).contains(&self.max_beams), "1 to 100000"),
             ("scan_match.window_xy_m", self.window_xy_m, (0.0..=5.0).contains(&self.window_xy_m), "in [0, 5]"),
             ("scan_match.window_yaw_rad", self.window_yaw_rad, (0.0..=1.0).contains(&self.window_yaw_rad), "in [0, 1]"),
@@ -102,6 +145,49 @@ impl ScanMatchParams {
             ),
             ("scan_match.prior_weight", self.prior_weight, self.prior_weight >= 0.0, ">= 0"),
             ("scan_match.max_position_sd_m", self.max_position_sd_m, self.max_position_sd_m > 0.0, "> 0"),
+            (
+                "scan_match.window_xy_per_m",
+                self.window_xy_per_m,
+                (0.0..=5.0).contains(&self.window_xy_per_m),
+                "in [0, 5]",
+            ),
+            (
+                "scan_match.window_yaw_per_motion",
+                self.window_yaw_per_motion,
+                (0.0..=1.0).contains(&self.window_yaw_per_motion),
+                "in [0, 1]",
+            ),
+            (
+                "scan_match.max_window_xy_m",
+                self.max_window_xy_m,
+                (self.window_xy_m..=5.0).contains(&self.max_window_xy_m),
+                "in [window_xy_m, 5]",
+            ),
+            (
+                "scan_match.max_window_yaw_rad",
+                self.max_window_yaw_rad,
+                (self.window_yaw_rad..=1.0).contains(&self.max_window_yaw_rad),
+                "in [window_yaw_rad, 1]",
+            ),
+            ("scan_match.matched_noise_max_motion", noise, noise > 0.0, "> 0 (or absent: no bound)"),
+            (
+                "scan_match.refused_window_xy_per_m",
+                self.refused_window_xy_per_m,
+                (0.0..=5.0).contains(&self.refused_window_xy_per_m),
+                "in [0, 5]",
+            ),
+            (
+                "scan_match.weak_inlier_share",
+                self.weak_inlier_share,
+                (0.0..=1.0).contains(&self.weak_inlier_share),
+                "in [0, 1]",
+            ),
+            (
+                "scan_match.refused_min_inlier_gain",
+                self.refused_min_inlier_gain,
+                (0.0..=1.0).contains(&self.refused_min_inlier_gain),
+                "in [0, 1]",
+            ),
         ];
         for (name, value, ok, requirement) in checks {
             if !(ok && value.is_finite()) {
@@ -109,6 +195,68 @@ impl ScanMatchParams {
             }
         }
         Ok(())
+    }
+}
+
+/// The half-widths of one match's search (and the prior's scale).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Window {
+    /// Position, metres.
+    pub xy_m: f64,
+    /// Yaw, radians.
+    pub yaw_rad: f64,
+}
+
+impl ScanMatchParams {
+    /// The window for a match after the odometry travelled `travel_m` and turned `turn_rad`
+    /// since the last filter update: `window_xy_m` and `window_yaw_rad`, or the travel's share
+    /// (`window_xy_per_m`, `window_yaw_per_motion`) where that is larger, at most
+    /// `max_window_xy_m` and `max_window_yaw_rad`. Scans a few centimetres apart keep the fixed
+    /// window; a metre of travel or a half turn between scans widens it.
+    ///
+    /// ```
+    /// use mapkeeper_localiser::ScanMatchParams;
+    /// let p = ScanMatchParams { window_yaw_per_motion: 0.12, ..ScanMatchParams::default() };
+    /// assert_eq!(p.window_for(0.05, 0.0).yaw_rad, 0.1);
+    /// assert!((p.window_for(1.0, 1.5).yaw_rad - 0.3).abs() < 1e-12);
+    /// assert_eq!(p.window_for(1.0, 6.0).yaw_rad, 0.5, "capped");
+    /// ```
+    pub fn window_for(&self, travel_m: f64, turn_rad: f64) -> Window {
+        let grown = |base: f64, k: f64, motion: f64, max: f64| {
+            let w = k * motion;
+            if w.is_finite() && w > base { w.min(max) } else { base }
+        };
+        Window {
+            xy_m: grown(self.window_xy_m, self.window_xy_per_m, travel_m, self.max_window_xy_m),
+            yaw_rad: grown(
+                self.window_yaw_rad,
+                self.window_yaw_per_motion,
+                travel_m + turn_rad.abs(),
+                self.max_window_yaw_rad,
+            ),
+        }
+    }
+
+    /// The window of the second search when the match in `first` (the window after `travel_m`)
+    /// is refused: the position window `window_xy_m + refused_window_xy_per_m · travel`, at most
+    /// `max_window_xy_m`, the yaw window as in `first`. `None` when it would be no wider.
+    ///
+    /// ```
+    /// use mapkeeper_localiser::ScanMatchParams;
+    /// let p = ScanMatchParams { refused_window_xy_per_m: 2.0, ..ScanMatchParams::default() };
+    /// let first = p.window_for(0.25, 0.0);
+    /// assert!((p.refused_window(0.25, first).unwrap().xy_m - 0.8).abs() < 1e-12);
+    /// assert_eq!(p.refused_window(0.0, first), None);
+    /// assert_eq!(ScanMatchParams::default().refused_window(0.25, first), None);
+    /// ```
+    pub fn refused_window(&self, travel_m: f64, first: Window) -> Option<Window> {
+        let xy = (self.window_xy_m + self.refused_window_xy_per_m * travel_m).min(self.max_window_xy_m);
+        (xy.is_finite() && xy > first.xy_m).then_some(Window { xy_m: xy, yaw_rad: first.yaw_rad })
+    }
+
+    /// The fixed window (`window_xy_m`, `window_yaw_rad`).
+    pub fn base_window(&self) -> Window {
+        Window { xy_m: self.window_xy_m, yaw_rad: self.window_yaw_rad }
     }
 }
 
@@ -121,6 +269,9 @@ pub struct Match {
     pub inlier_share: f64,
     /// Whether it passed `min_inlier_share`.
     pub accepted: bool,
+    /// Whether the best pose of the search lies on its window's edge (within a cell or a yaw
+    /// step): a best fit the window clipped, so the true pose may lie beyond it.
+    pub at_edge: bool,
 }
 
 /// The map's distance table for matching (metres to the nearest occupied cell, capped).
@@ -163,31 +314,58 @@ impl ScanMatcher {
         }
     }
 
-    /// Matches the beam endpoints `ends` (robot frame) around `predicted` (map frame). `None`
-    /// without beams.
+    /// The map's cell size, metres.
+    pub fn resolution_m(&self) -> f64 {
+        self.resolution_m
+    }
+
+    /// Matches the beam endpoints `ends` (robot frame) around `predicted` (map frame) within the
+    /// fixed window ([`ScanMatchParams::base_window`]). `None` without beams.
     pub fn match_scan(&self, predicted: &Pose2, ends: &[[f64; 2]]) -> Option<Match> {
+        self.match_scan_within(predicted, ends, self.params.base_window())
+    }
+
+    /// [`ScanMatcher::match_scan`] within `window` (from [`ScanMatchParams::window_for`]).
+    pub fn match_scan_within(&self, predicted: &Pose2, ends: &[[f64; 2]], window: Window) -> Option<Match> {
         if ends.is_empty() {
             return None;
         }
-        let coarse = self.coarse(predicted, ends);
-        let pose = self.refine(predicted, coarse, ends);
+        let coarse = self.coarse(predicted, ends, window);
+        let pose = self.refine(predicted, coarse, ends, window);
         let inliers = self.inlier_share(&pose, ends);
-        Some(Match { pose_in_map: pose, inlier_share: inliers, accepted: inliers >= self.params.min_inlier_share })
+        Some(Match {
+            pose_in_map: pose,
+            inlier_share: inliers,
+            accepted: inliers >= self.params.min_inlier_share,
+            at_edge: self.at_edge(predicted, &coarse, window),
+        })
     }
 
-    fn prior(&self, predicted: &Pose2, pose: &Pose2) -> f64 {
-        let p = &self.params;
+    /// Whether `found` (the coarse search's best) lies within a cell or a yaw step of the edge
+    /// of `window` around `predicted`, along the grid's axes (the search's square).
+    fn at_edge(&self, predicted: &Pose2, found: &Pose2, w: Window) -> bool {
+        let (s, c) = self.grid_axes_sin_cos;
+        let (dx, dy) = (found.x - predicted.x, found.y - predicted.y);
+        let (i, j) = (c * dx + s * dy, -s * dx + c * dy);
+        let cells = (w.xy_m * self.inv_resolution).round() * self.resolution_m;
+        let yaws = (w.yaw_rad / COARSE_YAW_STEP_RAD).round() * COARSE_YAW_STEP_RAD;
+        let near = |d: f64, half: f64, step: f64| half > 0.0 && d.abs() >= half - 0.5 * step;
+        near(i, cells, self.resolution_m)
+            || near(j, cells, self.resolution_m)
+            || near(wrap_angle(found.yaw - predicted.yaw), yaws, COARSE_YAW_STEP_RAD)
+    }
+
+    fn prior(&self, predicted: &Pose2, pose: &Pose2, w: Window) -> f64 {
         let axis = |d: f64, w: f64| if w > 0.0 { (d / w) * (d / w) } else { 0.0 };
         let (dx, dy) = (pose.x - predicted.x, pose.y - predicted.y);
         let da = wrap_angle(pose.yaw - predicted.yaw);
-        0.5 * p.prior_weight * (axis(dx, p.window_xy_m) + axis(dy, p.window_xy_m) + axis(da, p.window_yaw_rad))
+        0.5 * self.params.prior_weight * (axis(dx, w.xy_m) + axis(dy, w.xy_m) + axis(da, w.yaw_rad))
     }
 
     /// The best pose of the coarse grid (cell steps in x, y; [`COARSE_YAW_STEP_RAD`] in yaw).
-    fn coarse(&self, predicted: &Pose2, ends: &[[f64; 2]]) -> Pose2 {
-        let p = &self.params;
-        let cells = (p.window_xy_m * self.inv_resolution).round() as i64;
-        let yaws = (p.window_yaw_rad / COARSE_YAW_STEP_RAD).round() as i64;
+    fn coarse(&self, predicted: &Pose2, ends: &[[f64; 2]], w: Window) -> Pose2 {
+        let cells = (w.xy_m * self.inv_resolution).round() as i64;
+        let yaws = (w.yaw_rad / COARSE_YAW_STEP_RAD).round() as i64;
         let n = ends.len() as f64;
         let mut best = (f64::NEG_INFINITY, *predicted);
         let mut idx: Vec<(i64, i64)> = Vec::with_capacity(ends.len());
@@ -210,7 +388,7 @@ impl ScanMatcher {
                     }
                     let (sx, sy) = self.cell_shift(i, j);
                     let pose = Pose2::new(predicted.x + sx, predicted.y + sy, yaw);
-                    let score = sum / n - self.prior(predicted, &pose);
+                    let score = sum / n - self.prior(predicted, &pose, w);
                     if score > best.0 {
                         best = (score, pose);
                     }
@@ -267,11 +445,11 @@ impl ScanMatcher {
         }
     }
 
-    fn fine_score(&self, predicted: &Pose2, pose: &Pose2, ends: &[[f64; 2]]) -> f64 {
+    fn fine_score(&self, predicted: &Pose2, pose: &Pose2, ends: &[[f64; 2]], w: Window) -> f64 {
         let s2 = 2.0 * self.params.kernel_sigma_m * self.params.kernel_sigma_m;
         let mut sum = 0.0;
         self.for_each_distance(pose, ends, |d| sum += (-(d * d) / s2).exp());
-        sum / ends.len() as f64 - self.prior(predicted, pose)
+        sum / ends.len() as f64 - self.prior(predicted, pose, w)
     }
 
     fn inlier_share(&self, pose: &Pose2, ends: &[[f64; 2]]) -> f64 {
@@ -282,9 +460,9 @@ impl ScanMatcher {
 
     /// Hill climbing on the interpolated score from `start`, steps halved when no neighbour is
     /// better.
-    fn refine(&self, predicted: &Pose2, start: Pose2, ends: &[[f64; 2]]) -> Pose2 {
+    fn refine(&self, predicted: &Pose2, start: Pose2, ends: &[[f64; 2]], w: Window) -> Pose2 {
         let mut pose = start;
-        let mut score = self.fine_score(predicted, &pose, ends);
+        let mut score = self.fine_score(predicted, &pose, ends, w);
         let (mut step_xy, mut step_yaw) = (0.5 * self.resolution_m, 0.5 * COARSE_YAW_STEP_RAD);
         let mut evaluations = 1;
         while step_xy >= REFINE_MIN_STEP_CELLS * self.resolution_m && evaluations < REFINE_MAX_EVALUATIONS {
@@ -298,7 +476,7 @@ impl ScanMatcher {
                 (0.0, 0.0, -step_yaw),
             ] {
                 let cand = Pose2::new(pose.x + dx, pose.y + dy, wrap_angle(pose.yaw + da));
-                let s = self.fine_score(predicted, &cand, ends);
+                let s = self.fine_score(predicted, &cand, ends, w);
                 evaluations += 1;
                 if s > score {
                     (pose, score, improved) = (cand, s, true);
@@ -397,14 +575,82 @@ mod tests {
     }
 
     #[test]
+    fn a_half_turn_between_scans_is_found_in_the_window_its_motion_opens_and_missed_in_the_fixed_one() {
+        // Scans far apart: the odometry turned 3 rad since the last match and erred by 0.35 rad
+        // (Intel's worst steps thinned to one scan a metre erred by 0.25 rad). From the fixed
+        // ±0.1 rad window the refinement cannot climb back to the truth; the window the motion
+        // opens (0.12 rad per metre plus radian: ±0.40 rad) holds it.
+        let map = room();
+        let truth = Pose2::new(2.33, 1.71, 0.4);
+        let ends = ends_from(&map, &truth, 360);
+        let p = ScanMatchParams { window_yaw_per_motion: 0.12, ..on() };
+        let m = ScanMatcher::new(&map, p);
+        let predicted = Pose2::new(truth.x + 0.05, truth.y - 0.04, truth.yaw + 0.35);
+        let window = p.window_for(0.3, 3.0);
+        assert!((window.yaw_rad - 0.396).abs() < 1e-12 && window.xy_m == 0.3, "{window:?}");
+        let wide = m.match_scan_within(&predicted, &ends, window).unwrap();
+        assert!(wide.accepted && wide.pose_in_map.distance(&truth) < 0.015, "{wide:?}");
+        assert!(wrap_angle(wide.pose_in_map.yaw - truth.yaw).abs() < 0.005, "{wide:?}");
+        let fixed = m.match_scan(&predicted, &ends).unwrap();
+        let off = wrap_angle(fixed.pose_in_map.yaw - truth.yaw).abs();
+        assert!(off > 0.05, "the fixed window cannot turn 0.35 rad back: {fixed:?}");
+        // A few centimetres of motion keep the fixed window, whatever the factor.
+        assert_eq!(p.window_for(0.05, 0.02), p.base_window());
+        // The caps hold, and a non-finite motion keeps the fixed window.
+        let big = ScanMatchParams { window_xy_per_m: 2.0, ..p };
+        assert_eq!(big.window_for(10.0, 10.0), Window { xy_m: 1.0, yaw_rad: 0.5 });
+        assert_eq!(big.window_for(f64::NAN, f64::INFINITY), big.base_window());
+    }
+
+    #[test]
+    fn a_best_fit_the_window_clips_is_flagged_at_its_edge() {
+        let map = room();
+        let truth = Pose2::new(2.33, 1.71, 0.4);
+        let ends = ends_from(&map, &truth, 360);
+        let m = ScanMatcher::new(&map, on());
+        // 0.05 m off: found inside the ±0.3 m window.
+        let near = m.match_scan(&Pose2::new(truth.x + 0.05, truth.y, truth.yaw), &ends).unwrap();
+        assert!(near.accepted && !near.at_edge, "{near:?}");
+        // 0.45 m off along x: the search stops at the window's edge (the refinement may climb a
+        // little further), and says so.
+        let far = m.match_scan(&Pose2::new(truth.x + 0.45, truth.y, truth.yaw), &ends).unwrap();
+        assert!(far.at_edge, "{far:?}");
+        // The same in yaw: 0.25 rad off against a ±0.1 rad window.
+        let turned = m.match_scan(&Pose2::new(truth.x, truth.y, truth.yaw + 0.25), &ends).unwrap();
+        assert!(turned.at_edge, "{turned:?}");
+        // A wider window holds the far one inside.
+        let wide = m.match_scan_within(
+            &Pose2::new(truth.x + 0.45, truth.y, truth.yaw),
+            &ends,
+            Window { xy_m: 0.8, yaw_rad: 0.1 },
+        );
+        let wide = wide.unwrap();
+        assert!(wide.accepted && !wide.at_edge && wide.pose_in_map.distance(&truth) < 0.015, "{wide:?}");
+    }
+
+    #[test]
     fn parameters_are_validated() {
         assert!(on().validate().is_ok());
+        assert!(
+            ScanMatchParams { matched_noise_max_motion: Some(0.5), window_yaw_per_motion: 0.12, ..on() }
+                .validate()
+                .is_ok()
+        );
         for bad in [
             ScanMatchParams { max_beams: 0, ..on() },
             ScanMatchParams { kernel_sigma_m: 0.0, ..on() },
             ScanMatchParams { min_inlier_share: 1.5, ..on() },
             ScanMatchParams { window_yaw_rad: f64::NAN, ..on() },
             ScanMatchParams { prior_weight: -0.1, ..on() },
+            ScanMatchParams { window_xy_per_m: -1.0, ..on() },
+            ScanMatchParams { window_yaw_per_motion: f64::INFINITY, ..on() },
+            ScanMatchParams { max_window_xy_m: 0.2, ..on() },
+            ScanMatchParams { max_window_yaw_rad: 2.0, ..on() },
+            ScanMatchParams { matched_noise_max_motion: Some(0.0), ..on() },
+            ScanMatchParams { matched_noise_max_motion: Some(f64::NAN), ..on() },
+            ScanMatchParams { weak_inlier_share: 1.5, ..on() },
+            ScanMatchParams { refused_window_xy_per_m: -0.5, ..on() },
+            ScanMatchParams { refused_min_inlier_gain: f64::NAN, ..on() },
         ] {
             let (name, _, _) = bad.validate().unwrap_err();
             assert!(name.starts_with("scan_match."), "{name}");
