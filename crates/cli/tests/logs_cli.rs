@@ -328,3 +328,38 @@ fn real_data_on_the_shared_aces_log() {
     assert_eq!(real["localiser"], "mapkeeper-real");
     assert_eq!(real["seeds_meeting_targets"], 1, "{real}");
 }
+
+#[test]
+fn real_data_on_intel_thinned_to_one_scan_a_metre() {
+    // Issue 57: a public corrected log kept one scan per ~0.9 m, and the fixed ±0.1 rad match
+    // window lost the robot there. Intel (the tuning log) thinned to one scan a metre of travel:
+    // the preset for real logs holds both targets (docs/real-data.md, "Scans far apart").
+    let Some(intel) = mapkeeper_common::shared_data::path(
+        "data/carmen/intel-corrected.log.gz",
+        "real_data_on_intel_thinned_to_one_scan_a_metre",
+    ) else {
+        return;
+    };
+    let dir = scratch("logs", "intel-1m");
+    let out = ok(&[
+        "experiment",
+        "real-data",
+        "--log",
+        s(&intel),
+        "--every-m",
+        "1",
+        "--seeds",
+        "1",
+        "--presets",
+        "paper",
+        "--out",
+        s(&dir),
+    ]);
+    assert!(out.contains("intel (430 scans"), "{out}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    let real = &v["datasets"][0]["localisers"][2];
+    assert_eq!(real["localiser"], "mapkeeper-real");
+    assert_eq!(real["seeds_meeting_targets"], 1, "{real}");
+    // The same log before issue 57's window: 0.043 m RMSE, 0.26 m largest (seeds 0-1).
+    assert!(real["mean_max_m"].as_f64().unwrap() < 0.2, "{real}");
+}
