@@ -852,6 +852,61 @@ mod tests {
     }
 
     #[test]
+    fn stamps_that_cannot_order_the_messages_without_record_times_are_refused_naming_the_flag() {
+        // A frozen clock and no record times to order the messages by: refused, unless the
+        // stamps are asked for as written.
+        let frozen = || {
+            let mut a = Assembler::new(Path::new("x.bag"), "test");
+            for _ in 0..10 {
+                a.scan(scan("/scan", "base_link", 5_000));
+                a.odometry(RawOdometry {
+                    topic: "/odom".into(),
+                    stamp_ns: 5_000,
+                    pose: Pose2::IDENTITY,
+                    record_ns: None,
+                });
+            }
+            a
+        };
+        let e = frozen().finish(&ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.starts_with("x.bag: ") && e.contains("9 of 9 consecutive stamps repeat"), "{e}");
+        assert!(e.contains("no record times") && e.contains("--time-source stamp"), "{e}");
+        let stamp = ImportOptions { time_source: TimeSource::Stamp, ..ImportOptions::default() };
+        let (log, report) = frozen().finish(&stamp).unwrap();
+        assert_eq!(log.scans().count(), 10);
+        assert!(report.notes.iter().any(|n| n.starts_with("header stamps taken as written")), "{:?}", report.notes);
+    }
+
+    #[test]
+    fn thinning_keeps_every_nth_scan_or_one_per_distance_travelled() {
+        let build = || {
+            let mut a = Assembler::new(Path::new("x.bag"), "test");
+            for k in 0..10u64 {
+                a.scan(scan("/scan", "base_link", k * 1_000));
+                // The odometry drives 0.3 m between scans.
+                let pose = Pose2::new(0.3 * k as f64, 0.0, 0.0);
+                a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: k * 1_000, pose, record_ns: None });
+            }
+            a
+        };
+        let stamps = |t: Thinning| -> Vec<u64> {
+            let opts = ImportOptions { thinning: t, ..ImportOptions::default() };
+            build().finish(&opts).unwrap().0.scans().map(|s| s.stamp_ns / 1_000).collect()
+        };
+        assert_eq!(stamps(Thinning::KeepEvery(3)), vec![0, 3, 6, 9]);
+        assert_eq!(stamps(Thinning::EveryMetres(1.0)), vec![0, 4, 8], "0.3 m a scan: 1.2 m between kept");
+        assert_eq!(stamps(Thinning::All).len(), 10);
+        let (log, report) =
+            build().finish(&ImportOptions { thinning: Thinning::KeepEvery(5), ..ImportOptions::default() }).unwrap();
+        assert_eq!(log.odometry().count(), 10, "odometry all kept");
+        assert!(
+            report.notes.iter().any(|n| n == "--keep-every 5: 2 of 10 scans kept (odometry and reference all kept)")
+        );
+        let e = build().finish(&ImportOptions { thinning: Thinning::KeepEvery(0), ..ImportOptions::default() });
+        assert!(e.unwrap_err().to_string().contains("expected a whole number from 1"));
+    }
+
+    #[test]
     fn bad_scans_are_refused_with_their_place() {
         let mut a = Assembler::new(Path::new("x.log"), "test");
         let mut s = scan("/scan", "base_link", 0);
