@@ -363,3 +363,11 @@ fn real_data_on_intel_thinned_to_one_scan_a_metre() {
     // The same log before issue 57's window: 0.043 m RMSE, 0.26 m largest (seeds 0-1).
     assert!(real["mean_max_m"].as_f64().unwrap() < 0.2, "{real}");
 }
+
+#[test]
+fn run_takes_the_time_flags_with_a_log_and_refuses_them_with_a_world() {
+    let dir = scratch("logs", "run-time-flags");
+    let e = err(&["run", "--world", "warehouse", "--map", "m.yaml", "--rate", "5", "--out", s(&dir.join("x"))]);
+    assert!(e.contains("--rate") && e.contains("need --log"), "{e}");
+    assert!(!dir.join("x").exists());
+}

@@ -80,19 +80,24 @@ pub struct TimeFlags {
     pub time_source: TimeSource,
     /// The first lidar's scan rate, scans per second, for a CARMEN log timed by its lines whose
     /// printed stamps never move on (e.g. all `1.13486e+09`): the scans are spaced 1/HZ apart.
-    #[arg(long, value_name = "HZ", value_parser = rate_hz)]
+    #[arg(long, value_name = "HZ", value_parser = rate_hz, allow_hyphen_values = true)]
     pub rate: Option<f64>,
     /// Keep the first scan of each lidar and every N-th after it (odometry and reference all
     /// kept): for heavy logs, or to test on sparser scans.
-    #[arg(long, value_name = "N", value_parser = keep_every, conflicts_with = "every_m")]
+    #[arg(long, value_name = "N", value_parser = keep_every, conflicts_with = "every_m", allow_hyphen_values = true)]
     pub keep_every: Option<usize>,
     /// Keep the first scan of each lidar, then one each time the odometry has travelled at least
     /// M metres along its path since the last kept (odometry and reference all kept).
-    #[arg(long, value_name = "M", value_parser = every_m)]
+    #[arg(long, value_name = "M", value_parser = every_m, allow_hyphen_values = true)]
     pub every_m: Option<f64>,
 }
 
 impl TimeFlags {
+    /// Whether every flag is at its default (nothing asked for).
+    pub fn is_default(&self) -> bool {
+        self.time_source == TimeSource::Auto && self.rate.is_none() && self.thinning() == Thinning::All
+    }
+
     /// The thinning these flags ask for.
     pub fn thinning(&self) -> Thinning {
         match (self.keep_every, self.every_m) {

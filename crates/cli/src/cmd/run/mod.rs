@@ -26,6 +26,9 @@ pub struct Args {
     /// --localise` (output: map.yaml, poses.tum, scans.csv, recovered.tum, recoveries.csv, lost.csv).
     #[arg(long, value_name = "PATH", conflicts_with_all = ["world", "route", "baseline_map"])]
     pub log: Option<PathBuf>,
+    /// With --log: where its times come from and which scans are kept (as `convert` takes them).
+    #[command(flatten)]
+    pub time: super::log_input::TimeFlags,
     /// The map to localise on and update (ROS map_server YAML).
     #[arg(long, value_name = "MAP.yaml")]
     pub map: PathBuf,
@@ -76,6 +79,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let in_world = super::log_input::resolve_localiser(&args.localiser, false);
     mapkeeper_localiser::FilterParams::preset(in_world).context("--localiser")?;
     let world_path = match (&args.world, &args.log) {
+        (Some(_), _) if !args.time.is_default() => {
+            anyhow::bail!("--time-source, --rate, --keep-every and --every-m need --log (a world's times are its own)")
+        }
         (Some(w), _) => w.clone(),
         (None, Some(_)) if args.sensor.is_set() => {
             anyhow::bail!("--robot, --sensor-profile and --sensor-effects need --world (a log brings its own scans)")

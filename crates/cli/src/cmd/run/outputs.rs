@@ -48,7 +48,8 @@ pub(super) fn write_outputs(
 
 /// `run --log`: the chain on a recorded log, as `update --localise`.
 pub(super) fn run_log(args: &Args, log: &std::path::Path) -> anyhow::Result<()> {
-    let input = crate::cmd::log_input::LogInput::path(log);
+    let input =
+        crate::cmd::log_input::LogInput { time: args.time.clone(), ..crate::cmd::log_input::LogInput::path(log) };
     crate::cmd::update::run(crate::cmd::update::Args {
         map: args.map.clone(),
         input,
