@@ -32,10 +32,15 @@ impl OdometryDelta {
         Self { trans_m, rot_rad: d.yaw, bearing_rad }
     }
 
-    /// The same motion at most `max` long: its translation at most `max` metres and its turn at
-    /// most `max` radians (the bearing kept). For a noise that stops growing with the motion.
+    /// The same motion at most `max` long: its translation at most `max` metres, its turn and
+    /// its bearing each at most `max` radians (so the differential model's second rotation, the
+    /// turn less the bearing, at most `2 max`). For a noise that stops growing with the motion.
     pub fn shortened_to(&self, max: f64) -> Self {
-        Self { trans_m: self.trans_m.min(max), rot_rad: self.rot_rad.clamp(-max, max), bearing_rad: self.bearing_rad }
+        Self {
+            trans_m: self.trans_m.min(max),
+            rot_rad: self.rot_rad.clamp(-max, max),
+            bearing_rad: self.bearing_rad.clamp(-max, max),
+        }
     }
 
     /// The differential decomposition `(rot1, trans, rot2)`: turn towards the bearing, drive,
@@ -170,6 +175,11 @@ mod tests {
         assert_eq!((short.trans_m, short.rot_rad, short.bearing_rad), (0.5, 0.5, delta.bearing_rad));
         assert_eq!(delta.shortened_to(10.0), delta, "a bound above the motion changes nothing");
         assert_eq!(OdometryDelta { rot_rad: -2.0, ..delta }.shortened_to(0.5).rot_rad, -0.5);
+        // A sideways motion's bearing is bounded too: the differential model's rotations stay
+        // bounded (rot1 by max, rot2 by 2 max), where keeping the bearing grew rot2.
+        let sideways = OdometryDelta { trans_m: 1.0, rot_rad: 0.8, bearing_rad: 1.0 }.shortened_to(0.5);
+        let (r1, _, r2) = sideways.rot_trans_rot();
+        assert!(r1.abs() <= 0.5 && r2.abs() <= 1.0, "{r1} {r2}");
         for kin in [Kinematics::Omni, Kinematics::Differential] {
             // Its own noise: the same pose, bit for bit, as sample_increment.
             let (mut a, mut b) = (ChaCha8Rng::seed_from_u64(3), ChaCha8Rng::seed_from_u64(3));

@@ -75,9 +75,10 @@ pub struct ScanMatchParams {
     /// the odometry since the last filter update, where that exceeds `window_yaw_rad` (up to
     /// `max_window_yaw_rad`). Default 0 (a fixed window).
     pub window_yaw_per_motion: f64,
-    /// The largest position window, metres (the search's cost grows with its square). Default 1.
+    /// The largest position window the growth reaches, metres (the search's cost grows with its
+    /// square; below `window_xy_m` it only stops the growth). Default 1.
     pub max_window_xy_m: f64,
-    /// The largest yaw window, radians. Default 0.5.
+    /// The largest yaw window the growth reaches, radians. Default 0.5.
     pub max_window_yaw_rad: f64,
     /// A match accepted with fewer inliers than this is a weak fit, searched again as a refused
     /// or clipped one is (`refused_window_xy_per_m`). Default 0 (never).
@@ -160,14 +161,14 @@ impl ScanMatchParams {
             (
                 "scan_match.max_window_xy_m",
                 self.max_window_xy_m,
-                (self.window_xy_m..=5.0).contains(&self.max_window_xy_m),
-                "in [window_xy_m, 5]",
+                self.max_window_xy_m > 0.0 && self.max_window_xy_m <= 5.0,
+                "in (0, 5]",
             ),
             (
                 "scan_match.max_window_yaw_rad",
                 self.max_window_yaw_rad,
-                (self.window_yaw_rad..=1.0).contains(&self.max_window_yaw_rad),
-                "in [window_yaw_rad, 1]",
+                self.max_window_yaw_rad > 0.0 && self.max_window_yaw_rad <= 1.0,
+                "in (0, 1]",
             ),
             ("scan_match.matched_noise_max_motion", noise, noise > 0.0, "> 0 (or absent: no bound)"),
             (
@@ -211,8 +212,9 @@ impl ScanMatchParams {
     /// The window for a match after the odometry travelled `travel_m` and turned `turn_rad`
     /// since the last filter update: `window_xy_m` and `window_yaw_rad`, or the travel's share
     /// (`window_xy_per_m`, `window_yaw_per_motion`) where that is larger, at most
-    /// `max_window_xy_m` and `max_window_yaw_rad`. Scans a few centimetres apart keep the fixed
-    /// window; a metre of travel or a half turn between scans widens it.
+    /// `max_window_xy_m` and `max_window_yaw_rad` (never below the fixed window: a cap under it
+    /// only stops the growth). Scans a few centimetres apart keep the fixed window; a metre of
+    /// travel or a half turn between scans widens it.
     ///
     /// ```
     /// use mapkeeper_localiser::ScanMatchParams;
@@ -224,7 +226,7 @@ impl ScanMatchParams {
     pub fn window_for(&self, travel_m: f64, turn_rad: f64) -> Window {
         let grown = |base: f64, k: f64, motion: f64, max: f64| {
             let w = k * motion;
-            if w.is_finite() && w > base { w.min(max) } else { base }
+            if w.is_finite() && w > base { w.min(max).max(base) } else { base }
         };
         Window {
             xy_m: grown(self.window_xy_m, self.window_xy_per_m, travel_m, self.max_window_xy_m),
@@ -600,6 +602,14 @@ mod tests {
         let big = ScanMatchParams { window_xy_per_m: 2.0, ..p };
         assert_eq!(big.window_for(10.0, 10.0), Window { xy_m: 1.0, yaw_rad: 0.5 });
         assert_eq!(big.window_for(f64::NAN, f64::INFINITY), big.base_window());
+        // A cap below the fixed window (a parameter file from before the caps with a 2 m
+        // window) only stops the growth: it never shrinks the window.
+        let wide = ScanMatchParams { window_xy_m: 2.0, window_yaw_rad: 0.6, window_yaw_per_motion: 0.12, ..on() };
+        assert!(wide.validate().is_ok());
+        assert_eq!(wide.window_for(3.0, 3.0), Window { xy_m: 2.0, yaw_rad: 0.6 }, "the 0.5 rad cap stops the growth");
+        let capped = ScanMatchParams { max_window_yaw_rad: 1.0, ..wide };
+        assert!((capped.window_for(3.0, 3.0).yaw_rad - 0.72).abs() < 1e-12);
+        assert_eq!(wide.window_for(0.1, 0.0), wide.base_window());
     }
 
     #[test]
@@ -644,7 +654,7 @@ mod tests {
             ScanMatchParams { prior_weight: -0.1, ..on() },
             ScanMatchParams { window_xy_per_m: -1.0, ..on() },
             ScanMatchParams { window_yaw_per_motion: f64::INFINITY, ..on() },
-            ScanMatchParams { max_window_xy_m: 0.2, ..on() },
+            ScanMatchParams { max_window_xy_m: 0.0, ..on() },
             ScanMatchParams { max_window_yaw_rad: 2.0, ..on() },
             ScanMatchParams { matched_noise_max_motion: Some(0.0), ..on() },
             ScanMatchParams { matched_noise_max_motion: Some(f64::NAN), ..on() },

@@ -183,7 +183,7 @@ impl Assembler {
             return Err(ImportError::unusable(&self.path, format!("thinning {:?}: {problem}", options.thinning)));
         }
         self.settle_time(options)?;
-        let (lidars, mut scan_records, mut backward) = self.lidar_streams(options)?;
+        let (mut lidars, mut scan_records, mut backward) = self.lidar_streams(options)?;
         let (odom_source, mut odom) = self.odometry_track(options)?;
         backward.extend(clamp_track(&odom_source, &mut odom));
         let mut truth: Vec<(u64, Pose2)> =
@@ -197,8 +197,9 @@ impl Assembler {
         }
         if options.thinning != Thinning::All {
             let before: usize = scan_records.iter().map(|r| r.3.len()).sum();
-            for r in &mut scan_records {
+            for (r, info) in scan_records.iter_mut().zip(lidars.iter_mut()) {
                 thin(&mut r.3, &odom, options.thinning);
+                info.scans = r.3.len();
             }
             let after: usize = scan_records.iter().map(|r| r.3.len()).sum();
             self.notes.push(thinning_note(options.thinning, before, after));
@@ -467,7 +468,7 @@ by the odometry over the sweep (docs/real-data.md)"
             return Ok(());
         }
         let reasons: Vec<String> = self
-            .stamp_streams()
+            .stamp_streams(options)
             .iter()
             .filter_map(|(name, v)| StreamStamps::of(name, v, &[], |i| format!("message {}", i + 1)).distrust())
             .collect();
@@ -520,21 +521,32 @@ received it), as --stamp record does"
         Ok(())
     }
 
-    /// The header stamps of every stream in file order: each scan and odometry topic, each edge
-    /// of `/tf`, the reference.
-    fn stamp_streams(&self) -> Vec<(String, Vec<u64>)> {
+    /// The header stamps, in file order, of every stream the import may use: the scan topics
+    /// asked for (else all), the odometry topic asked for (else all), the `odom → base` edge of
+    /// `/tf`, the reference. A stream the import does not read cannot re-time the log.
+    fn stamp_streams(&self, options: &ImportOptions) -> Vec<(String, Vec<u64>)> {
         let mut streams: Vec<(String, Vec<u64>)> = Vec::new();
-        for (topic, v) in &self.scans {
+        let scan_used = |t: &str| options.scan_topics.is_empty() || options.scan_topics.iter().any(|s| s == t);
+        for (topic, v) in self.scans.iter().filter(|(t, _)| scan_used(t)) {
             streams.push((topic.clone(), v.iter().map(|s| s.stamp_ns).collect()));
         }
-        for (topic, v) in &self.odometry {
+        let odom_used = |t: &str| match &options.odometry {
+            OdometryFrom::Topic(o) => o == t,
+            OdometryFrom::Auto => true,
+            OdometryFrom::Tf => false,
+        };
+        for (topic, v) in self.odometry.iter().filter(|(t, _)| odom_used(t)) {
             streams.push((topic.clone(), v.iter().map(|o| o.stamp_ns).collect()));
         }
-        let mut tf_edges: BTreeMap<(String, String), Vec<u64>> = BTreeMap::new();
-        for t in self.transforms.iter().filter(|t| !t.is_static) {
-            tf_edges.entry((t.parent.clone(), t.child.clone())).or_default().push(t.stamp_ns);
+        let odom_edge: Vec<u64> = self
+            .transforms
+            .iter()
+            .filter(|t| !t.is_static && t.parent == options.odom_frame && t.child == options.base_frame)
+            .map(|t| t.stamp_ns)
+            .collect();
+        if !odom_edge.is_empty() {
+            streams.push((format!("/tf {} -> {}", options.odom_frame, options.base_frame), odom_edge));
         }
-        streams.extend(tf_edges.into_iter().map(|((p, c), v)| (format!("/tf {p} -> {c}"), v)));
         if let Some(src) = &self.truth_source {
             streams.push((src.clone(), self.truth.iter().map(|p| p.stamp_ns).collect()));
         }
@@ -878,6 +890,32 @@ mod tests {
     }
 
     #[test]
+    fn a_stream_the_import_does_not_read_cannot_re_time_the_log() {
+        // /scan is sane, /scan_rear's driver clock is frozen. Read without /scan_rear, nothing
+        // is re-timed; read with it, its stamps are judged (and, with no record times, refused).
+        let build = || {
+            let mut a = Assembler::new(Path::new("x.bag"), "test");
+            for k in 0..10u64 {
+                a.scan(scan("/scan", "base_link", k * 1_000));
+                a.scan(scan("/scan_rear", "base_link", 5_000));
+                a.odometry(RawOdometry {
+                    topic: "/odom".into(),
+                    stamp_ns: k * 1_000,
+                    pose: Pose2::IDENTITY,
+                    record_ns: None,
+                });
+            }
+            a
+        };
+        let front = ImportOptions { scan_topics: vec!["/scan".into()], ..ImportOptions::default() };
+        let (log, report) = build().finish(&front).unwrap();
+        assert_eq!(log.scans().count(), 10);
+        assert!(!report.notes.iter().any(|n| n.contains("header stamps")), "{:?}", report.notes);
+        let e = build().finish(&ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("/scan_rear: 9 of 9 consecutive stamps repeat"), "{e}");
+    }
+
+    #[test]
     fn thinning_keeps_every_nth_scan_or_one_per_distance_travelled() {
         let build = || {
             let mut a = Assembler::new(Path::new("x.bag"), "test");
@@ -899,6 +937,7 @@ mod tests {
         let (log, report) =
             build().finish(&ImportOptions { thinning: Thinning::KeepEvery(5), ..ImportOptions::default() }).unwrap();
         assert_eq!(log.odometry().count(), 10, "odometry all kept");
+        assert_eq!((report.scans, report.lidars[0].scans), (2, 2), "the report counts the scans kept");
         assert!(
             report.notes.iter().any(|n| n == "--keep-every 5: 2 of 10 scans kept (odometry and reference all kept)")
         );

@@ -549,7 +549,10 @@ fn settle_time(
     path: &Path,
     options: &ImportOptions,
 ) -> Result<Option<String>, ImportError> {
-    let mut timed: Vec<(usize, Timed)> = p.lasers.iter().enumerate().map(|(i, l)| (l.line, Timed::Laser(i))).collect();
+    // The lidars read (the scan topics asked for, else all) and a raw log's ODOM lines.
+    let chosen = |name: &str| options.scan_topics.is_empty() || options.scan_topics.iter().any(|t| t == name);
+    let mut timed: Vec<(usize, Timed)> =
+        p.lasers.iter().enumerate().filter(|(_, l)| chosen(l.name)).map(|(i, l)| (l.line, Timed::Laser(i))).collect();
     let odom_used = !corrected && !p.odometry.is_empty();
     if odom_used {
         timed.extend(p.odometry.iter().enumerate().map(|(i, (_, o))| (o.line, Timed::Odom(i))));
@@ -564,16 +567,18 @@ fn settle_time(
         Timed::Odom(_) => "ODOM",
     };
     let reasons = distrusted(&timed, &name, &stamp);
+    let unused_rate = options.rate_hz.map(|r| format!("--rate {r} is not used: the stamps time the log"));
     match options.time_source {
-        TimeSource::Stamp if reasons.is_empty() => return Ok(None),
+        TimeSource::Stamp if reasons.is_empty() => return Ok(unused_rate),
         TimeSource::Stamp => {
             return Ok(Some(format!(
                 "timestamps taken as written (--time-source stamp) though they cannot order the messages ({}): scans and \
-odometry may be paired wrongly",
-                reasons.join("; ")
+odometry may be paired wrongly{}",
+                reasons.join("; "),
+                unused_rate.map_or(String::new(), |r| format!("; {r}"))
             )));
         }
-        TimeSource::Auto if reasons.is_empty() => return Ok(None),
+        TimeSource::Auto if reasons.is_empty() => return Ok(unused_rate),
         TimeSource::Auto | TimeSource::Line => {}
     }
     // The first lidar: the first scan topic asked for, else the first by name (lidar 0).
@@ -589,14 +594,20 @@ odometry may be paired wrongly",
     let quantum = quanta.get(quanta.len() / 2).copied().unwrap_or(0);
     let why = if reasons.is_empty() { "--time-source line".to_string() } else { reasons.join("; ") };
     let (times, spacing) = timing::by_order(&stamps, quantum, &scans, options.rate_hz).map_err(|k| {
-        let changes = stamps.windows(2).filter(|w| w[1] > w[0]).count();
+        // The times the printed time moves on past every stamp before it (as by_order counts).
+        let changes = stamps.iter().scan(stamps.first().copied().unwrap_or(0), |high, &s| {
+            let new = s > *high;
+            *high = (*high).max(s);
+            Some(new)
+        });
+        let changes = changes.filter(|&new| new).count();
         ImportError::parse(
             path,
             format!("line {}", timed.get(k).map_or(0, |t| t.0)),
             format!(
                 "the timestamps cannot order the messages ({why}), and the lines cannot be timed from them either: \
-the printed time moves on {changes} time(s) over {} messages; give the scan rate of {} with --rate HZ (or take the \
-stamps as written with --time-source stamp)",
+the printed time moves on {changes} time(s) over {} messages, too few or too far apart to space them; give the scan \
+rate of {} with --rate HZ (or take the stamps as written with --time-source stamp)",
                 stamps.len(),
                 first_lidar.unwrap_or("the first lidar")
             ),
@@ -958,6 +969,32 @@ mod tests {
             "29 scan periods and the ODOM before the first: {}",
             report.duration_s
         );
+    }
+
+    #[test]
+    fn a_first_stamp_far_before_the_rest_is_refused_not_spread_over_decades() {
+        // A negative first stamp (read as 0) before %g epoch stamps: not a spacing of 36 years a
+        // line (which overflowed), a refusal naming the flag.
+        let text = raw_log_stamped(20, |k, _| if k == 0 { "-1".into() } else { "1.13486e+09".into() });
+        let e = read_with("far-first", &text, ImportOptions::default()).unwrap_err();
+        assert!(e.contains("--rate HZ") && e.contains("too few or too far apart"), "{e}");
+        let rate = ImportOptions { rate_hz: Some(2.0), ..ImportOptions::default() };
+        let (log, _) = read_with("far-first-rate", &text, rate).unwrap();
+        let t: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
+        assert!(t.windows(2).all(|w| w[1] > w[0]) && t[19] - t[0] < 20_000_000_000, "{t:?}");
+    }
+
+    #[test]
+    fn a_rate_given_for_a_log_whose_stamps_are_used_is_noted_as_unused() {
+        let text = raw_log_stamped(10, |k, scan| format!("{:.3}", 1.0 + 0.2 * k as f64 + if scan { 0.1 } else { 0.0 }));
+        let rate = ImportOptions { rate_hz: Some(5.0), ..ImportOptions::default() };
+        let (log, report) = read_with("rate-unused", &text, rate).unwrap();
+        assert!(
+            report.notes.iter().any(|n| n == "--rate 5 is not used: the stamps time the log"),
+            "{:?}",
+            report.notes
+        );
+        assert_eq!(log.scans().next().unwrap().stamp_ns, 100_000_000, "the stamps, as written");
     }
 
     #[test]

@@ -150,6 +150,14 @@ pub fn read_log(path: &Path, format: Option<LogFormat>, options: &ImportOptions)
     match format {
         LogFormat::Jsonl => {
             let file = if path.is_dir() { path.join("log.jsonl") } else { path.to_path_buf() };
+            if options.time_source != TimeSource::Auto || options.rate_hz.is_some() || options.thinning != Thinning::All
+            {
+                return Err(ImportError::unusable(
+                    &file,
+                    "--time-source, --rate, --keep-every and --every-m are for imported logs (bags, CARMEN); this \
+project's own log is read as written",
+                ));
+            }
             let log = SensorLog::read(&file)?;
             Ok(Imported { log, report: None, path: file })
         }
@@ -167,5 +175,27 @@ pub fn read_log(path: &Path, format: Option<LogFormat>, options: &ImportOptions)
             let (log, report) = ros1::read(path, options)?;
             Ok(Imported { log, report: Some(report), path: path.to_path_buf() })
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_projects_own_log_refuses_the_import_only_options() {
+        let dir = std::env::temp_dir().join(format!("mapkeeper-logs-jsonl-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("log.jsonl");
+        std::fs::write(&path, "{\"format\":\"mapkeeper-sensor-log\",\"version\":1,\"meta\":{}}\n").unwrap();
+        for options in [
+            ImportOptions { thinning: Thinning::KeepEvery(2), ..ImportOptions::default() },
+            ImportOptions { rate_hz: Some(5.0), ..ImportOptions::default() },
+            ImportOptions { time_source: TimeSource::Line, ..ImportOptions::default() },
+        ] {
+            let e = read_log(&dir, None, &options).unwrap_err().to_string();
+            assert!(e.contains("log.jsonl") && e.contains("are for imported logs"), "{e}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

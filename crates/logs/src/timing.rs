@@ -22,6 +22,9 @@ pub const MAX_BAD_SHARE: f64 = 0.1;
 /// ... and at least this many (two or three clamped steps back in a short log stay clamped, as
 /// always).
 pub const MIN_BAD_PAIRS: usize = 3;
+/// The longest a log timed by its order may last, nanoseconds (about 116 days): printed stamps
+/// that imply more (a first stamp of 0 before `1.13486e+09`s) cannot time its lines.
+pub const MAX_SPAN_NS: f64 = 1e16;
 
 /// What one stream's stamps show, in file order.
 #[derive(Clone, Debug, PartialEq)]
@@ -140,11 +143,12 @@ fn seconds(ns: f64) -> String {
 /// `12` → 1 s), nanoseconds, at least 1.
 pub fn printed_quantum_ns(text: &str) -> u64 {
     let (mantissa, exponent) = match text.find(['e', 'E']) {
-        Some(i) => (&text[..i], text[i + 1..].parse::<i32>().unwrap_or(0)),
+        // An exponent past ±400 prints a value that is 0 or not finite anyway.
+        Some(i) => (&text[..i], text[i + 1..].parse::<i32>().unwrap_or(0).clamp(-400, 400)),
         None => (text, 0),
     };
-    let decimals = mantissa.find('.').map_or(0, |dot| mantissa.len() - dot - 1) as i32;
-    let q = 10f64.powi(exponent - decimals) * 1e9;
+    let decimals = i32::try_from(mantissa.find('.').map_or(0, |dot| mantissa.len() - dot - 1)).unwrap_or(i32::MAX);
+    let q = 10f64.powi(exponent.saturating_sub(decimals)) * 1e9;
     if q.is_finite() { q.max(1.0).min(u64::MAX as f64) as u64 } else { u64::MAX }
 }
 
@@ -174,7 +178,7 @@ pub enum Spacing {
 /// and start at the first printed stamp.
 ///
 /// `Err` (with the index of the message where the time is lost) when neither gives a spacing:
-/// no rate, and fewer than two anchors.
+/// no rate and fewer than two anchors, or times that would span more than [`MAX_SPAN_NS`].
 pub fn by_order(
     stamps: &[u64],
     quantum_ns: u64,
@@ -205,8 +209,15 @@ pub fn by_order(
                     changes.push((i, (s - stamps[0]) as f64));
                 }
             }
-            let span = (running - stamps[0]) as f64;
-            let coarse = quantum_ns as f64 >= 2.0 * span / (n.max(2) - 1) as f64;
+            // The spacing per line the printed changes show: between the first and the last
+            // change where there are two (a first stamp far from the rest, such as a 0 before
+            // epoch times, does not count), else from the first line to the one change.
+            let spacing = match (changes.first(), changes.last()) {
+                (Some(a), Some(b)) if b.0 > a.0 => (b.1 - a.1) / (b.0 - a.0) as f64,
+                (Some(a), _) => a.1 / a.0 as f64,
+                _ => 0.0,
+            };
+            let coarse = quantum_ns as f64 >= 2.0 * spacing;
             // A fine stamp is a time where it is printed; a coarse one only where it changes.
             let mut a = if coarse { Vec::new() } else { vec![(0, 0.0)] };
             a.extend(changes);
@@ -236,13 +247,16 @@ pub fn by_order(
         times.push(t);
     }
     let shift = times[0];
+    if let Some(i) = times.iter().position(|t| !(t - shift).is_finite() || t - shift > MAX_SPAN_NS) {
+        return Err(i);
+    }
     // Relative times in f64 (nanoseconds since the first stamp: exact to 2^53 ns, 104 days), the
     // first stamp added as an integer (1e18 ns as f64 would be 256 ns coarse).
     let mut out: Vec<u64> =
         times.iter().map(|t| stamps[0].saturating_add((t - shift).round().max(0.0) as u64)).collect();
     for i in 1..n {
         if out[i] <= out[i - 1] {
-            out[i] = out[i - 1] + 1;
+            out[i] = out[i - 1].saturating_add(1);
         }
     }
     Ok((out, spacing))
@@ -262,6 +276,9 @@ mod tests {
         assert_eq!(printed_quantum_ns("12"), S);
         assert_eq!(printed_quantum_ns("1.5E2"), 10 * S);
         assert_eq!(printed_quantum_ns("0.0000000001"), 1, "at least a nanosecond");
+        // Exponents past i32 (a value Rust reads as 0 or inf) neither overflow nor panic.
+        assert_eq!(printed_quantum_ns("0.5e-2147483648"), 1);
+        assert_eq!(printed_quantum_ns("5e2147483647"), u64::MAX);
     }
 
     #[test]
@@ -314,6 +331,19 @@ mod tests {
             assert_eq!(w[1] - w[0], S / 2, "{t:?}");
         }
         assert_eq!(t[0], 0, "starts at the first printed stamp");
+    }
+
+    #[test]
+    fn a_first_stamp_far_from_the_rest_is_refused_not_spread_over_years() {
+        // A stamp of 0 (a negative stamp read as 0) before %g epoch stamps: one "change" of 36
+        // years. Not a spacing: refused where the time runs away, never overflowing.
+        let mut stamps = vec![1_134_860_000 * S; 20];
+        stamps[0] = 0;
+        let r = by_order(&stamps, 10_000 * S, &[0, 5, 10, 15], None);
+        assert!(r.is_err(), "{r:?}");
+        // With a rate the lines are timed from it.
+        let (t, _) = by_order(&stamps, 10_000 * S, &[0, 5, 10, 15], Some(5.0)).unwrap();
+        assert!(t.windows(2).all(|w| w[1] > w[0]) && t[19] - t[0] < 10 * S, "{t:?}");
     }
 
     #[test]
