@@ -30,12 +30,12 @@ mod log;
 mod scan;
 pub mod tum;
 
-pub use deskew::{MAX_SWEEP_S, SweepTiming, constant_velocity, deskew, deskew_all};
+pub use deskew::{constant_velocity, deskew, deskew_all};
 pub use log::{
     LOG_FORMAT, LOG_VERSION, LogError, LogHeader, LogRecord, LogWriter, MAX_LINE_BYTES, OdometryReading, SensorLog,
     TruePose,
 };
-pub use scan::{BeamValidity, LaserScan, MAX_BEAMS, ScanError};
+pub use scan::{BeamValidity, LaserScan, MAX_BEAMS, MAX_SWEEP_S, ScanError, SweepTiming};
 pub use tum::{
     StampedPose, TumError, format_tum, interpolate, interpolate_within, read_tum, write_tum, write_tum_with_comment,
 };

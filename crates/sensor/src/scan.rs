@@ -1,6 +1,5 @@
 //! Laser scans, in the shape of ROS `sensor_msgs/LaserScan` plus the lidar's mounting pose.
 
-use crate::deskew::SweepTiming;
 use mapkeeper_grid::{Point2, Pose2};
 use serde::{Deserialize, Serialize};
 
@@ -173,6 +172,63 @@ impl LaserScan {
         let r = self.ranges_m[i] as f64;
         let a = lidar_in_map.yaw + self.beam_angle(i as f64);
         Some(Point2::new(lidar_in_map.x + r * a.cos(), lidar_in_map.y + r * a.sin()))
+    }
+}
+
+/// The longest sweep accepted, seconds (a lidar turning at 1 Hz).
+pub const MAX_SWEEP_S: f64 = 1.0;
+
+/// When the beams of a scan were measured: beam `i` at `stamp + first_beam_s + i ·
+/// time_increment_s` (seconds).
+///
+/// ```
+/// use mapkeeper_sensor::SweepTiming;
+/// // ROS drivers stamp the first beam; the simulator stamps the last.
+/// let ros = SweepTiming { first_beam_s: 0.0, time_increment_s: 1e-4 };
+/// assert!((ros.beam_offset_s(540) - 0.054).abs() < 1e-12);
+/// let sim = SweepTiming::ending_at_stamp(541, 1e-4);
+/// assert!((sim.beam_offset_s(0) + 0.054).abs() < 1e-12 && sim.beam_offset_s(540).abs() < 1e-12);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepTiming {
+    /// Time of beam 0 relative to the scan's stamp, seconds: 0 when the stamp is the first beam's
+    /// time (the ROS drivers' convention, `LaserScan.header.stamp`), `−(n − 1) · time_increment_s`
+    /// when it is the last beam's (the simulator's).
+    pub first_beam_s: f64,
+    /// Time between consecutive beams, seconds (ROS `LaserScan.time_increment`; negative for a
+    /// lidar that sweeps its beams in decreasing index order).
+    pub time_increment_s: f64,
+}
+
+impl SweepTiming {
+    /// The timing of a scan of `beams` beams stamped at its last beam.
+    pub fn ending_at_stamp(beams: usize, time_increment_s: f64) -> Self {
+        Self { first_beam_s: -(beams.saturating_sub(1) as f64) * time_increment_s, time_increment_s }
+    }
+
+    /// Beam `i`'s time relative to the stamp, seconds.
+    pub fn beam_offset_s(&self, i: usize) -> f64 {
+        self.first_beam_s + i as f64 * self.time_increment_s
+    }
+
+    /// Whether the timing is usable for a scan of `beams` beams: finite, and every beam within
+    /// [`MAX_SWEEP_S`] of the stamp. The reason otherwise.
+    pub fn check(&self, beams: usize) -> Result<(), String> {
+        let last = self.beam_offset_s(beams.saturating_sub(1));
+        if !(self.first_beam_s.is_finite() && self.time_increment_s.is_finite()) {
+            return Err(format!(
+                "sweep timing must be finite, got first_beam_s {} and time_increment_s {}",
+                self.first_beam_s, self.time_increment_s
+            ));
+        }
+        if self.first_beam_s.abs() > MAX_SWEEP_S || last.abs() > MAX_SWEEP_S {
+            return Err(format!(
+                "sweep timing puts beams {:.3} s to {last:.3} s from the stamp (at most {MAX_SWEEP_S} s)",
+                self.first_beam_s
+            ));
+        }
+        Ok(())
     }
 }
 
