@@ -1,4 +1,5 @@
-//! `--world` and `--route`: the world a command runs in and the route its robot drives.
+//! `--world` and `--route`: the world a command runs in and the route its robot drives (and W_1 of
+//! the recovery family: `recover` and the experiments).
 
 use anyhow::Context;
 use std::path::Path;
@@ -61,4 +62,20 @@ pub fn load_route(path: &Path, world: &mapkeeper_sim::World) -> anyhow::Result<m
         })
         .context("--route")?;
     Ok(route)
+}
+
+/// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
+/// parameters' tour, exploration route and storage areas taken from it; and its name.
+pub fn site_world(
+    site: &crate::cmd::shared_args::WorldArgs,
+    recovery: &mut mapkeeper_scenario::RecoveryParams,
+) -> anyhow::Result<(mapkeeper_sim::World, String)> {
+    let Some((name, site)) = site.load()? else {
+        return Ok((mapkeeper_sim::World::default_warehouse(), "warehouse".into()));
+    };
+    recovery.tour = site.route;
+    recovery.exploration_route = site.exploration;
+    recovery.generator.storage_areas = site.storage;
+    recovery.validate().context("--world / --route")?;
+    Ok((site.world, name))
 }

@@ -9,9 +9,9 @@ mod kidnap_robot;
 mod setup;
 mod table1;
 
+pub(super) use crate::cmd::site::site_world;
 pub use check_detection::CheckDetectionArgs;
 pub use kidnap_robot::KidnapRobotArgs;
-pub(super) use setup::site_world;
 use setup::{ExperimentFile, load_file};
 pub use table1::Table1Args;
 

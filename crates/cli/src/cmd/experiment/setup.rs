@@ -1,11 +1,10 @@
 //! What every experiment of the recovery family sets up the same way: its parameter file
-//! (`[recovery]` and its own table) and its world W_1.
+//! (`[recovery]` and its own table; its world W_1 is `cmd::site::site_world`).
 
 use super::Common;
 use anyhow::Context;
 use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
-use mapkeeper_sim::World;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
@@ -29,20 +28,4 @@ pub(super) fn load_file<F: ExperimentFile>(c: &Common, quick: bool) -> anyhow::R
         base.set_quick();
     }
     crate::cmd::load_params(base, c.params.as_deref(), F::check)
-}
-
-/// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
-/// parameters' tour, exploration route and storage areas taken from it; and its name.
-pub(crate) fn site_world(
-    site: &crate::cmd::shared_args::WorldArgs,
-    recovery: &mut RecoveryParams,
-) -> anyhow::Result<(World, String)> {
-    let Some((name, site)) = site.load()? else {
-        return Ok((World::default_warehouse(), "warehouse".into()));
-    };
-    recovery.tour = site.route;
-    recovery.exploration_route = site.exploration;
-    recovery.generator.storage_areas = site.storage;
-    recovery.validate().context("--world / --route")?;
-    Ok((site.world, name))
 }
