@@ -589,18 +589,11 @@ odometry may be paired wrongly{}",
     });
     let scans: Vec<usize> = (0..timed.len()).filter(|&k| Some(name(&timed[k].1)) == first_lidar).collect();
     let stamps: Vec<u64> = timed.iter().map(|t| stamp(&t.1).0).collect();
-    let mut quanta: Vec<u64> = timed.iter().map(|t| stamp(&t.1).1).collect();
-    quanta.sort_unstable();
-    let quantum = quanta.get(quanta.len() / 2).copied().unwrap_or(0);
+    let quanta: Vec<u64> = timed.iter().map(|t| stamp(&t.1).1).collect();
+    let quantum = timing::median(&quanta);
     let why = if reasons.is_empty() { "--time-source line".to_string() } else { reasons.join("; ") };
     let (times, spacing) = timing::by_order(&stamps, quantum, &scans, options.rate_hz).map_err(|k| {
-        // The times the printed time moves on past every stamp before it (as by_order counts).
-        let changes = stamps.iter().scan(stamps.first().copied().unwrap_or(0), |high, &s| {
-            let new = s > *high;
-            *high = (*high).max(s);
-            Some(new)
-        });
-        let changes = changes.filter(|&new| new).count();
+        let changes = timing::changes(&stamps).len();
         ImportError::parse(
             path,
             format!("line {}", timed.get(k).map_or(0, |t| t.0)),

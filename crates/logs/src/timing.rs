@@ -68,9 +68,7 @@ impl StreamStamps {
                 first_bad = Some(place(i));
             }
         }
-        let mut q = quanta_ns.to_vec();
-        q.sort_unstable();
-        let quantum_ns = q.get(q.len() / 2).copied().unwrap_or(0);
+        let quantum_ns = median(quanta_ns);
         let span = match (stamps.first(), stamps.iter().max()) {
             (Some(&first), Some(&max)) => (max - first) as f64,
             _ => 0.0,
@@ -125,6 +123,28 @@ impl StreamStamps {
         }
         Some(why)
     }
+}
+
+/// The median of `values` (the upper one of an even count; 0 when empty).
+pub fn median(values: &[u64]) -> u64 {
+    let mut v = values.to_vec();
+    v.sort_unstable();
+    v.get(v.len() / 2).copied().unwrap_or(0)
+}
+
+/// Where the time moves on: each message (index, stamp) whose stamp is above every stamp before
+/// it, the first message not counted.
+pub fn changes(stamps: &[u64]) -> Vec<(usize, u64)> {
+    let mut out = Vec::new();
+    let Some(&first) = stamps.first() else { return out };
+    let mut high = first;
+    for (i, &s) in stamps.iter().enumerate().skip(1) {
+        if s > high {
+            high = s;
+            out.push((i, s));
+        }
+    }
+    out
 }
 
 /// Seconds, briefly: `10000`, `0.01`, `2.91`.
@@ -201,14 +221,8 @@ pub fn by_order(
             }
         }
         None => {
-            let mut running = stamps[0];
-            let mut changes = Vec::new();
-            for (i, &s) in stamps.iter().enumerate().skip(1) {
-                if s > running {
-                    running = s;
-                    changes.push((i, (s - stamps[0]) as f64));
-                }
-            }
+            let changes: Vec<(usize, f64)> =
+                changes(stamps).into_iter().map(|(i, s)| (i, (s - stamps[0]) as f64)).collect();
             // The spacing per line the printed changes show: between the first and the last
             // change where there are two (a first stamp far from the rest, such as a 0 before
             // epoch times, does not count), else from the first line to the one change.
