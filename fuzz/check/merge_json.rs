@@ -15,7 +15,8 @@
 //! Deterministic: no clock, no randomness.
 
 use mapkeeper_scenario::ResultsError;
-use mapkeeper_scenario::results::merge::{MergeProblem, check_summary_json, merge_records, parse_runs_json};
+use mapkeeper_scenario::experiments::validation::merge::{check_summary_json, merge_records, parse_runs_json};
+use mapkeeper_scenario::results::MergeProblem;
 use std::path::{Path, PathBuf};
 
 /// The folder the errors name.

@@ -2,7 +2,7 @@
 //! map = ground truth G, 10 seeds; tracking from 0.1 m / 3° and convergence from 0.5 m and
 //! 0.7 m. `cargo run --release -p mapkeeper-scenario --example localiser_accuracy`.
 
-use mapkeeper_scenario::{NoClock, RunInputs, RunnerParams, WorldRun, run_world};
+use mapkeeper_closed_loop::{NoClock, RunInputs, RunnerParams, WorldRun, run_world};
 use mapkeeper_sim::{Route, World, ground_truth_map};
 
 fn run(world: &World, g: &mapkeeper_grid::OccupancyGrid, err: f64, yaw_deg: f64, seed: u64) -> WorldRun {

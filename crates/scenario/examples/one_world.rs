@@ -2,7 +2,7 @@
 //! `cargo run --release -p mapkeeper-scenario --example one_world`.
 #![allow(clippy::disallowed_methods)] // an example times itself; the libraries read no clock
 
-use mapkeeper_scenario::{
+use mapkeeper_closed_loop::{
     Clock, GeneratorParams, MappingParams, RunInputs, RunnerParams, build_initial_map, generate_worlds, run_world,
 };
 use mapkeeper_sim::{Route, SimParams, World, ground_truth_map};

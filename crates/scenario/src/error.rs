@@ -4,7 +4,7 @@
 
 use crate::experiments::ExperimentError;
 use crate::results::ResultsError;
-use crate::worlds::WorldsError;
+use mapkeeper_closed_loop::worlds::WorldsError;
 
 /// Any error of the scenario crate.
 #[derive(Debug, thiserror::Error)]

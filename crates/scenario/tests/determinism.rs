@@ -6,10 +6,9 @@
 //! The CLI-level twin (`crates/cli/tests/validate_cli.rs`) runs the binary twice and compares
 //! the folders, and merges shards.
 
+use mapkeeper_closed_loop::NoClock;
 use mapkeeper_scenario::experiments::validation::report::{runs_json, summary_json, worlds_csv};
-use mapkeeper_scenario::{
-    NoClock, SeedRun, Shard, ValidationParams, ValidationRecord, run_seed, summarise, summarise_records,
-};
+use mapkeeper_scenario::{SeedRun, Shard, ValidationParams, ValidationRecord, run_seed, summarise, summarise_records};
 use rayon::prelude::*;
 
 fn params() -> ValidationParams {
@@ -72,7 +71,7 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
 
 #[test]
 fn baseline_and_fresh_map_on_threads_of_their_own_give_the_same_run() {
-    use mapkeeper_scenario::{RunInputs, RunnerParams, run_world};
+    use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world};
     use mapkeeper_sim::{World, ground_truth_map};
     let world = World::default_warehouse();
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05).unwrap());

@@ -3,7 +3,8 @@
 //! construction: it takes G_i's state wherever the route looks), shares lie in [0, 100], and
 //! the summary holds them.
 
-use mapkeeper_scenario::{NoClock, ValidationParams, run_seed, summarise};
+use mapkeeper_closed_loop::NoClock;
+use mapkeeper_scenario::{ValidationParams, run_seed, summarise};
 
 #[test]
 fn every_row_has_retention_and_change_classes_and_the_best_map_scores_100() {

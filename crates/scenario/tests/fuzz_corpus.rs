@@ -52,8 +52,8 @@ fn the_seed_folder_is_accepted_as_written() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/validation_run");
     let runs = std::fs::read_to_string(dir.join("runs.json")).unwrap();
     let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
-    let record = mapkeeper_scenario::results::merge::parse_runs_json(&dir, &runs).unwrap();
-    mapkeeper_scenario::results::merge::check_summary_json(&dir, &record, &summary).unwrap();
+    let record = mapkeeper_scenario::experiments::validation::merge::parse_runs_json(&dir, &runs).unwrap();
+    mapkeeper_scenario::experiments::validation::merge::check_summary_json(&dir, &record, &summary).unwrap();
     let mut data = runs.into_bytes();
     data.push(0);
     data.extend(summary.into_bytes());
@@ -74,7 +74,8 @@ fn edited_runs(edit: impl FnOnce(&mut serde_json::Value)) -> String {
 /// `fuzz/corpus/merge_json/huge_histogram.json` on the `merge_json` target's first run.
 #[test]
 fn a_histogram_whose_counts_overflow_u64_is_refused_not_summed() {
-    use mapkeeper_scenario::results::merge::{MergeProblem, parse_runs_json};
+    use mapkeeper_scenario::experiments::validation::merge::parse_runs_json;
+    use mapkeeper_scenario::results::MergeProblem;
     let text =
         edited_runs(|v| v["seeds"][0]["scan_time_histogram_us"] = serde_json::json!([[1, u64::MAX], [2, u64::MAX]]));
     let e = parse_runs_json(Path::new("run"), &text).unwrap_err();
@@ -96,7 +97,8 @@ fn a_histogram_whose_counts_overflow_u64_is_refused_not_summed() {
 /// second folder and the counter, before any summary is computed.
 #[test]
 fn two_folders_whose_counts_add_up_beyond_u64_are_not_merged() {
-    use mapkeeper_scenario::results::merge::{MergeProblem, merge_records, parse_runs_json};
+    use mapkeeper_scenario::experiments::validation::merge::{merge_records, parse_runs_json};
+    use mapkeeper_scenario::results::MergeProblem;
     let half = 1u64 << 63;
     let a =
         parse_runs_json(Path::new("a"), &edited_runs(|v| v["seeds"][0]["rows"][0]["updater"]["beams"] = half.into()));
@@ -132,7 +134,7 @@ fn two_folders_whose_counts_add_up_beyond_u64_are_not_merged() {
 /// `fuzz/corpus/merge_json/regression_newline_in_key.json`. A format name is quoted the same way.
 #[test]
 fn a_key_or_format_with_a_newline_gives_a_one_line_merge_error() {
-    use mapkeeper_scenario::results::merge::parse_runs_json;
+    use mapkeeper_scenario::experiments::validation::merge::parse_runs_json;
     let text = edited_runs(|v| {
         let u = v["params"]["runner"]["updater"].as_object_mut().unwrap();
         let x = u.remove("removal_min_incidence_rad").unwrap();

@@ -2,7 +2,8 @@
 //! is the world's ground truth G. Short routes and a few seeds keep it fast; the full 10-seed
 //! table is `cargo run --release -p mapkeeper-scenario --example localiser_accuracy`.
 
-use mapkeeper_scenario::{NoClock, RunInputs, RunnerParams, ValidationParams, run_world};
+use mapkeeper_closed_loop::{NoClock, RunInputs, RunnerParams, run_world};
+use mapkeeper_scenario::ValidationParams;
 use mapkeeper_sim::{World, ground_truth_map};
 
 fn params(start_error_m: f64, start_yaw_deg: f64, sigma_xy_m: f64, sigma_yaw_rad: f64) -> RunnerParams {

@@ -2,8 +2,8 @@
 //! stands still until pose updating returns a pose, the check clears, or `lost_wait_s` passes;
 //! every episode, attempt, recovery, give-up and the time stopped are counted.
 
-use mapkeeper_scenario::experiments::setup::tour_from;
-use mapkeeper_scenario::{Kidnap, LostEnd, NoClock, RunInputs, RunOptions, RunnerParams, WorldRun, run_world};
+use mapkeeper_closed_loop::setup::tour_from;
+use mapkeeper_closed_loop::{Kidnap, LostEnd, NoClock, RunInputs, RunOptions, RunnerParams, WorldRun, run_world};
 use mapkeeper_sim::{StartPose, World, ground_truth_map};
 
 /// A run of 14 s down the west aisle on the world's own map, the estimate kidnapped by

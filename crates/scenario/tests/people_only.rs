@@ -6,8 +6,8 @@
 //! (pinned below as a negative result).
 #![allow(clippy::unwrap_used)]
 
+use mapkeeper_closed_loop::{NoClock, RunInputs, RunnerParams, run_world};
 use mapkeeper_grid::CellState;
-use mapkeeper_scenario::{NoClock, RunInputs, RunnerParams, run_world};
 use mapkeeper_sim::{AgentKind, Motion, Route, World, ground_truth_map};
 
 /// Runs the default route among people only, on the world's ground truth; returns (cells

@@ -7,9 +7,10 @@
 //! step and at the 90th.
 #![allow(clippy::unwrap_used)]
 
+use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world_with};
 use mapkeeper_harness::{NoClock, Observer, Session, SessionStep, Step};
 use mapkeeper_localiser::FilterParams;
-use mapkeeper_scenario::{RunInputs, RunnerParams, ValidationParams, run_world_with};
+use mapkeeper_scenario::ValidationParams;
 use mapkeeper_sim::{Simulator, World, ground_truth_map};
 use stats_alloc::{INSTRUMENTED_SYSTEM, Region, Stats, StatsAlloc};
 use std::alloc::System;

@@ -3,14 +3,13 @@
 //! Determinism contract: the same seed gives bit-identical `summary.json` (the wall time is the
 //! caller's and is 0 here) and CSV files, whatever the number of threads running the trials.
 
+use mapkeeper_closed_loop::setup::params::SuccessCriterion;
+use mapkeeper_closed_loop::setup::{recovery_time, tour_from};
+use mapkeeper_closed_loop::{Kidnap, NoClock, RunInputs, RunnerParams, run_world};
 use mapkeeper_grid::metrics::{MetricParams, map_metrics};
 use mapkeeper_scenario::experiments::recovery::report::{kidnap_csv, summary_json, write_recovery};
 use mapkeeper_scenario::experiments::recovery::{RecoveryParams, draw_trial, run_recovery};
-use mapkeeper_scenario::experiments::setup::params::SuccessCriterion;
-use mapkeeper_scenario::experiments::setup::{recovery_time, tour_from};
-use mapkeeper_scenario::{
-    Kidnap, NoClock, RecoveryResults, RunInputs, RunnerParams, StagedDir, ValidationParams, run_world,
-};
+use mapkeeper_scenario::{RecoveryResults, StagedDir, ValidationParams};
 use mapkeeper_sim::{StartPose, World, ground_truth_map};
 
 /// Every experiment, shortened so that a run takes about a second in release.

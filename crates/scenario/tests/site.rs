@@ -3,9 +3,10 @@
 //! imported from a map written here (and the real AWS map from `../shared` when present) too.
 #![allow(clippy::unwrap_used)]
 
+use mapkeeper_closed_loop::worlds::site::check_route;
+use mapkeeper_closed_loop::{NoClock, Site, SiteParams, generate_worlds};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
-use mapkeeper_scenario::worlds::site::check_route;
-use mapkeeper_scenario::{NoClock, Site, SiteParams, ValidationParams, generate_worlds, run_seed};
+use mapkeeper_scenario::{ValidationParams, run_seed};
 use mapkeeper_sim::{Route, World};
 
 /// A 10 m × 7 m room with a column and two boxes, one person; no storage areas, no route.

@@ -2,12 +2,13 @@
 //! (random poses, NaN distances) gives bit-identical estimates, verdicts, recoveries and maps.
 #![allow(clippy::unwrap_used)]
 
+use mapkeeper_closed_loop::{GeneratorParams, LostPolicy, SimSource, generate_worlds};
 use mapkeeper_grid::Pose2;
 use mapkeeper_harness::{
     Control, NoClock, Observer, PoseSource, RobotControl, SensorSource, Session, SessionStep, SourceError, Step, Truth,
 };
 use mapkeeper_localiser::{FilterParams, Localiser};
-use mapkeeper_scenario::{GeneratorParams, LostPolicy, SimSource, ValidationParams, generate_worlds};
+use mapkeeper_scenario::ValidationParams;
 use mapkeeper_sim::{Route, SimParams, Simulator, World, ground_truth_map};
 use mapkeeper_updater::{MapUpdater, UpdaterParams};
 use rand::rngs::ChaCha8Rng;

@@ -3,10 +3,9 @@
 //! the baseline run as ever; with `true+noise` the poses it is given are off the truth by noise
 //! of the asked spread; the same seed gives the same noise.
 
+use mapkeeper_closed_loop::{NoClock, PoseNoise, RunInputs, RunnerParams, UpdaterPoses, WorldRun, run_world};
 use mapkeeper_grid::angle_diff;
-use mapkeeper_scenario::{
-    NoClock, PoseNoise, RunInputs, RunnerParams, UpdaterPoses, ValidationParams, WorldRun, run_world,
-};
+use mapkeeper_scenario::ValidationParams;
 use mapkeeper_sim::{World, ground_truth_map};
 
 /// A 20 m drive of the default tour on the world's own map, trajectories recorded (their

@@ -3,8 +3,9 @@
 //! (localiser and updater, which only see the scans) localises and updates the map as well as
 //! with the upright pair.
 
+use mapkeeper_closed_loop::{NoClock, RunInputs, RunnerParams, WorldRun, run_world};
 use mapkeeper_grid::{CellState, OccupancyGrid};
-use mapkeeper_scenario::{NoClock, RunInputs, RunnerParams, ValidationParams, WorldRun, run_world};
+use mapkeeper_scenario::ValidationParams;
 use mapkeeper_sim::{RobotFile, World, ground_truth_map};
 use std::path::Path;
 

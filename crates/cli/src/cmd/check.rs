@@ -1,8 +1,8 @@
 //! `mapkeeper check`: a validation's results against a stored baseline, pass / fail for a
-//! team's CI (`mapkeeper_scenario::results::gate`, `docs/evaluation.md`, "A gate for CI").
+//! team's CI (`mapkeeper_scenario::experiments::validation::check`, `docs/evaluation.md`, "A gate for CI").
 
 use anyhow::Context;
-use mapkeeper_scenario::results::gate::Baseline;
+use mapkeeper_scenario::experiments::validation::check::Baseline;
 use std::path::PathBuf;
 
 /// Arguments of `mapkeeper check`.

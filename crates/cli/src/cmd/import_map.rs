@@ -2,8 +2,8 @@
 //! storage areas derived and a patrol route planned, ready for `validate --world`.
 
 use anyhow::Context;
+use mapkeeper_closed_loop::{Site, SiteParams};
 use mapkeeper_grid::map_io::load_map;
-use mapkeeper_scenario::{Site, SiteParams};
 use mapkeeper_sim::World;
 use std::path::PathBuf;
 

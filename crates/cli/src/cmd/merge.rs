@@ -1,8 +1,8 @@
 //! `mapkeeper merge`: combine validation folders (shards of one sweep, or runs of other seeds
 //! with the same parameters) into one folder, as if one run had made it.
 
-use mapkeeper_scenario::results::comparison::{is_sweep_dir, merge_sweeps};
-use mapkeeper_scenario::results::merge::merge_dirs;
+use mapkeeper_scenario::experiments::validation::comparison::{is_sweep_dir, merge_sweeps};
+use mapkeeper_scenario::experiments::validation::merge::merge_dirs;
 use std::path::PathBuf;
 
 /// Arguments of `mapkeeper merge`.

@@ -3,7 +3,7 @@
 //! updater's pose source").
 
 use anyhow::Context;
-use mapkeeper_scenario::UpdaterPoses;
+use mapkeeper_closed_loop::UpdaterPoses;
 
 /// Largest white-noise σ in x and y, metres: far beyond any localiser worth the name.
 const MAX_SIGMA_XY_M: f64 = 10.0;
@@ -92,7 +92,7 @@ impl PoseArgs {
 mod tests {
     use super::*;
     use clap::Args as _;
-    use mapkeeper_scenario::PoseNoise;
+    use mapkeeper_closed_loop::PoseNoise;
 
     /// The defaults the help states are the noise model's own.
     #[test]

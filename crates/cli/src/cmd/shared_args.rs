@@ -58,7 +58,7 @@ pub struct WorldArgs {
 impl WorldArgs {
     /// The world with its scenario resolved, as the commands that generate worlds need it
     /// ([`super::load_site`] with storage areas required); `None` without either flag.
-    pub fn load(&self) -> anyhow::Result<Option<(String, mapkeeper_scenario::Site)>> {
+    pub fn load(&self) -> anyhow::Result<Option<(String, mapkeeper_closed_loop::Site)>> {
         super::load_site(self.world.as_deref(), self.route.as_deref(), true)
     }
 }

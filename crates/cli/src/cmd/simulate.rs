@@ -2,8 +2,8 @@
 //! trajectory and the ground-truth map.
 
 use super::load_params;
+use mapkeeper_closed_loop::recording::{DriveSpec, record_drive};
 use mapkeeper_grid::map_io;
-use mapkeeper_scenario::recording::{DriveSpec, record_drive};
 use mapkeeper_sensor::{SensorLog, write_tum};
 use mapkeeper_sim::{Route, SimParams, World, ground_truth_map};
 use std::path::PathBuf;

@@ -15,7 +15,7 @@ pub fn load_site(
     world: Option<&Path>,
     route: Option<&Path>,
     need_areas: bool,
-) -> anyhow::Result<Option<(String, mapkeeper_scenario::Site)>> {
+) -> anyhow::Result<Option<(String, mapkeeper_closed_loop::Site)>> {
     if world.is_none() && route.is_none() {
         return Ok(None);
     }
@@ -28,8 +28,8 @@ pub fn load_site(
     };
     let route = route.map(|r| load_route(r, &w)).transpose()?;
     // Commands that do not generate worlds only drive the route (no exploration in W_1).
-    let params = mapkeeper_scenario::SiteParams { check_exploration: need_areas, ..Default::default() };
-    let site = mapkeeper_scenario::Site::resolve(&w, route.as_ref(), &origin, &params).context("--world")?;
+    let params = mapkeeper_closed_loop::SiteParams { check_exploration: need_areas, ..Default::default() };
+    let site = mapkeeper_closed_loop::Site::resolve(&w, route.as_ref(), &origin, &params).context("--world")?;
     if need_areas {
         site.require_storage(&origin, &params).context("--world")?;
     }
@@ -53,14 +53,20 @@ pub fn load_site(
 /// the waypoint and what is in the way.
 pub fn load_route(path: &Path, world: &mapkeeper_sim::World) -> anyhow::Result<mapkeeper_sim::Route> {
     let route = mapkeeper_sim::Route::load(path).context("--route")?;
-    let clearance = mapkeeper_scenario::SiteParams::default().route_clearance_m;
-    mapkeeper_scenario::worlds::site::check_route(world, &route, &path.display().to_string(), "waypoints", clearance)
-        .map_err(|e| match e {
-            // The message names the file and the waypoint; the generator's prefix says nothing here.
-            mapkeeper_scenario::WorldsError::Generator(m) => anyhow::anyhow!(m),
-            other => other.into(),
-        })
-        .context("--route")?;
+    let clearance = mapkeeper_closed_loop::SiteParams::default().route_clearance_m;
+    mapkeeper_closed_loop::worlds::site::check_route(
+        world,
+        &route,
+        &path.display().to_string(),
+        "waypoints",
+        clearance,
+    )
+    .map_err(|e| match e {
+        // The message names the file and the waypoint; the generator's prefix says nothing here.
+        mapkeeper_closed_loop::WorldsError::Generator(m) => anyhow::anyhow!(m),
+        other => other.into(),
+    })
+    .context("--route")?;
     Ok(route)
 }
 

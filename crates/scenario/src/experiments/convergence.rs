@@ -11,9 +11,9 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::runner::{RunInputs, RunnerParams, run_world};
-use crate::experiments::trials::run_each;
 use crate::stats::median;
+use mapkeeper_closed_loop::runner::{RunInputs, RunnerParams, run_world};
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_grid::OccupancyGrid;
 use mapkeeper_harness::NoClock;
 use mapkeeper_localiser::FilterParams;
@@ -212,7 +212,37 @@ pub fn run_job(
     })
 }
 
-/// Every job ([`run_each`]: in parallel on the caller's rayon pool, in job order); `progress` after each.
+/// The convergence runs as [`Trials`]: one job per (localiser, seed, start error), each a drive
+/// of W_1 on its ground-truth map; the outcomes are the runs, in job order.
+struct ConvergenceTrials<'a> {
+    w1: &'a World,
+    map: OccupancyGrid,
+    params: &'a ConvergenceParams,
+}
+
+impl Trials for ConvergenceTrials<'_> {
+    /// (localiser index, seed, start error index), as [`ConvergenceParams::jobs`] lists them.
+    type Job = (usize, u64, usize);
+    type Outcome = ConvergenceRun;
+    type Summary = Vec<ConvergenceRun>;
+
+    fn draw(&self) -> Vec<(usize, u64, usize)> {
+        self.params.jobs()
+    }
+
+    fn run(&self, job: (usize, u64, usize), progress: &(dyn Fn() + Sync)) -> Result<ConvergenceRun, ExperimentError> {
+        let r = run_job(self.w1, &self.map, self.params, job);
+        progress();
+        r
+    }
+
+    fn summarise(&self, runs: Vec<ConvergenceRun>) -> Result<Vec<ConvergenceRun>, ExperimentError> {
+        Ok(runs)
+    }
+}
+
+/// Every job ([`run_trials`]: in parallel on the caller's rayon pool, in job order); `progress`
+/// after each.
 pub fn run_convergence(
     w1: &World,
     params: &ConvergenceParams,
@@ -220,11 +250,7 @@ pub fn run_convergence(
 ) -> Result<Vec<ConvergenceRun>, ExperimentError> {
     params.validate()?;
     let map = ground_truth_map(w1, &w1.default_map_geometry(params.resolution_m)?);
-    run_each(params.jobs(), |job| {
-        let r = run_job(w1, &map, params, job);
-        progress();
-        r
-    })
+    run_trials(&ConvergenceTrials { w1, map, params }, progress)
 }
 
 /// A run's steps as CSV (`t_s,distance_m,error_m,yaw_error_rad`).

@@ -1,13 +1,14 @@
-//! Results: what every report shares (the claims table, [`claims`]; the figures' size, the
-//! error type) and what is done with result folders once written: merging the shards of a
-//! sweep ([`merge`]), comparing presets ([`comparison`]), a team's CI gate ([`gate`]). Each
-//! experiment's own report sits in its folder (`experiments/<name>/report.rs`). Every folder
-//! is written through [`mapkeeper_grid::StagedDir`].
+//! Results: what every report shares: the claims table ([`claims`]), the figures' size and the
+//! error type ([`ResultsError`], with why a folder cannot be merged, [`MergeProblem`]). Each
+//! experiment's own report sits in its folder (`experiments/<name>/report.rs`); what is done
+//! with validation folders once written (merging shards, comparing presets, the CI check) sits
+//! beside the validation (`experiments/validation/{merge,comparison,check}.rs`). Every folder is
+//! written through [`mapkeeper_grid::StagedDir`].
 
 pub mod claims;
-pub mod comparison;
-pub mod gate;
-pub mod merge;
+mod merge_problem;
+
+pub use merge_problem::MergeProblem;
 
 use std::path::PathBuf;
 
@@ -52,7 +53,7 @@ pub enum ResultsError {
         /// The result folder.
         dir: PathBuf,
         /// What is wrong with it.
-        problem: merge::MergeProblem,
+        problem: MergeProblem,
     },
     /// A world or route could not be serialised.
     #[error(transparent)]

@@ -20,12 +20,13 @@ mod table;
 // The parts share their items through this module (each part reads `use super::*`).
 use anyhow::Context;
 use clock::*;
+use mapkeeper_closed_loop::{NoClock, RunInputs, SimSource, build_initial_map, generate_worlds};
 use mapkeeper_grid::mapper::LogOddsMapper;
 use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
 use mapkeeper_harness::jobs::map::{BeamCounts, integrate_scan};
 use mapkeeper_harness::{SensorFrame, SensorSource};
 use mapkeeper_localiser::{Covariance3, FilterParams, LOCALISER_PRESETS, Localiser};
-use mapkeeper_scenario::{NoClock, RunInputs, SimSource, ValidationParams, build_initial_map, generate_worlds};
+use mapkeeper_scenario::ValidationParams;
 use mapkeeper_sim::{Route, Simulator, World, ground_truth_map};
 use mapkeeper_updater::{MapUpdater, PRESET_NAMES, StepOutcome, UpdaterParams};
 use print::*;

@@ -132,6 +132,6 @@ pub(super) fn run_loop(scene: &Scene, m1: &OccupancyGrid, preset: &str, seed: u6
     let inputs = RunInputs { world: &scene.w2, route: &scene.route, prev_map: m1, baseline_map: m1, prev_memory: None };
     let start = Instant::now();
     let c0 = process_cpu_s();
-    let run = mapkeeper_scenario::run_world(&inputs, &params.runner, seed, "bench", &NoClock)?;
+    let run = mapkeeper_closed_loop::run_world(&inputs, &params.runner, seed, "bench", &NoClock)?;
     Ok((process_cpu_s() - c0, start.elapsed().as_secs_f64(), run.sim_time_s))
 }

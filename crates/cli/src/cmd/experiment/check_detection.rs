@@ -1,12 +1,10 @@
 //! `mapkeeper experiment check-detection`.
 
-use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_timed, site_world};
+use super::{Common, ExperimentFile, ExperimentTable, MAX_TRIALS, default_out, load_file, run_timed, site_world};
 use anyhow::Context;
-use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
 use mapkeeper_scenario::experiments::check_detection::report::write_check_detection;
 use mapkeeper_scenario::experiments::check_detection::{CheckDetectionParams, run_check_detection};
-use serde::{Deserialize, Serialize};
 
 /// Arguments of `mapkeeper experiment check-detection`.
 #[derive(clap::Args, Debug)]
@@ -39,32 +37,23 @@ pub struct CheckDetectionArgs {
     pub common: Common,
 }
 
-/// The parameter file of `experiment check-detection`.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct CheckDetectionFile {
-    recovery: RecoveryParams,
-    check_detection: CheckDetectionParams,
-}
+/// `[check_detection]`, the own table of `experiment check-detection`'s parameter file.
+impl ExperimentTable for CheckDetectionParams {
+    const TABLE: &'static str = "check_detection";
+    const KEYS: &'static [&'static str] = &["recovery", "check_detection"];
 
-impl ExperimentFile for CheckDetectionFile {
-    fn recovery_mut(&mut self) -> &mut RecoveryParams {
-        &mut self.recovery
-    }
-
-    fn set_quick(&mut self) {
-        self.check_detection = CheckDetectionParams::quick();
+    fn quick() -> Self {
+        CheckDetectionParams::quick()
     }
 
     fn check(&self) -> Result<(), ExperimentError> {
-        self.recovery.validate()?;
-        self.check_detection.validate()
+        self.validate()
     }
 }
 
 pub(super) fn run(args: CheckDetectionArgs) -> anyhow::Result<()> {
-    let mut file: CheckDetectionFile = load_file(&args.common, args.quick)?;
-    let p = &mut file.check_detection;
+    let mut file: ExperimentFile<CheckDetectionParams> = load_file(&args.common, args.quick)?;
+    let p = &mut file.own;
     if let Some(n) = args.trials {
         p.trials = n;
     }
@@ -79,7 +68,7 @@ pub(super) fn run(args: CheckDetectionArgs) -> anyhow::Result<()> {
     let (w1, world) = site_world(&args.common.site, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
         run_timed("check-detection", &args.common, &w1, default, total, "runs", |w1, progress| {
-            Ok(run_check_detection(w1, &file.recovery, &file.check_detection, args.seed, progress)?)
+            Ok(run_check_detection(w1, &file.recovery, &file.own, args.seed, progress)?)
         })?;
     r.summary.wall_time_s = wall_time_s;
     write_check_detection(&dir, &r)?;

@@ -1,12 +1,10 @@
 //! `mapkeeper experiment kidnap-robot`.
 
-use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_timed, site_world};
+use super::{Common, ExperimentFile, ExperimentTable, MAX_TRIALS, default_out, load_file, run_timed, site_world};
 use anyhow::Context;
-use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
 use mapkeeper_scenario::experiments::kidnap_robot::report::write_kidnap_robot;
 use mapkeeper_scenario::experiments::kidnap_robot::{KidnapRobotParams, run_kidnap_robot};
-use serde::{Deserialize, Serialize};
 
 /// Arguments of `mapkeeper experiment kidnap-robot`.
 #[derive(clap::Args, Debug)]
@@ -32,32 +30,23 @@ pub struct KidnapRobotArgs {
     pub common: Common,
 }
 
-/// The parameter file of `experiment kidnap-robot`.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct KidnapRobotFile {
-    recovery: RecoveryParams,
-    kidnap_robot: KidnapRobotParams,
-}
+/// `[kidnap_robot]`, the own table of `experiment kidnap-robot`'s parameter file.
+impl ExperimentTable for KidnapRobotParams {
+    const TABLE: &'static str = "kidnap_robot";
+    const KEYS: &'static [&'static str] = &["recovery", "kidnap_robot"];
 
-impl ExperimentFile for KidnapRobotFile {
-    fn recovery_mut(&mut self) -> &mut RecoveryParams {
-        &mut self.recovery
-    }
-
-    fn set_quick(&mut self) {
-        self.kidnap_robot = KidnapRobotParams::quick();
+    fn quick() -> Self {
+        KidnapRobotParams::quick()
     }
 
     fn check(&self) -> Result<(), ExperimentError> {
-        self.recovery.validate()?;
-        self.kidnap_robot.validate()
+        self.validate()
     }
 }
 
 pub(super) fn run(args: KidnapRobotArgs) -> anyhow::Result<()> {
-    let mut file: KidnapRobotFile = load_file(&args.common, args.quick)?;
-    let p = &mut file.kidnap_robot;
+    let mut file: ExperimentFile<KidnapRobotParams> = load_file(&args.common, args.quick)?;
+    let p = &mut file.own;
     if let Some(n) = args.trials {
         p.trials = n;
     }
@@ -69,7 +58,7 @@ pub(super) fn run(args: KidnapRobotArgs) -> anyhow::Result<()> {
     let (w1, world) = site_world(&args.common.site, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
         run_timed("kidnap-robot", &args.common, &w1, default, total, "trials", |w1, progress| {
-            Ok(run_kidnap_robot(w1, &file.recovery, &file.kidnap_robot, args.seed, progress)?)
+            Ok(run_kidnap_robot(w1, &file.recovery, &file.own, args.seed, progress)?)
         })?;
     r.wall_time_s = wall_time_s;
     r.world = world;

@@ -12,7 +12,7 @@ mod table1;
 pub(super) use crate::cmd::site::site_world;
 pub use check_detection::CheckDetectionArgs;
 pub use kidnap_robot::KidnapRobotArgs;
-use setup::{ExperimentFile, load_file};
+use setup::{ExperimentFile, ExperimentTable, load_file};
 pub use table1::Table1Args;
 
 use mapkeeper_grid::StagedDir;

@@ -1,12 +1,10 @@
 //! `mapkeeper experiment table1`.
 
-use super::{Common, ExperimentFile, MAX_TRIALS, default_out, load_file, run_timed, site_world};
+use super::{Common, ExperimentFile, ExperimentTable, MAX_TRIALS, default_out, load_file, run_timed, site_world};
 use anyhow::Context;
-use mapkeeper_scenario::RecoveryParams;
 use mapkeeper_scenario::experiments::ExperimentError;
 use mapkeeper_scenario::experiments::table1_hold::report::write_table1_hold;
 use mapkeeper_scenario::experiments::table1_hold::{Table1HoldParams, VARIANTS, run_table1_hold};
-use serde::{Deserialize, Serialize};
 
 /// Arguments of `mapkeeper experiment table1`.
 #[derive(clap::Args, Debug)]
@@ -32,32 +30,23 @@ pub struct Table1Args {
     pub common: Common,
 }
 
-/// The parameter file of `experiment table1`.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct Table1File {
-    recovery: RecoveryParams,
-    table1: Table1HoldParams,
-}
+/// `[table1]`, the own table of `experiment table1`'s parameter file.
+impl ExperimentTable for Table1HoldParams {
+    const TABLE: &'static str = "table1";
+    const KEYS: &'static [&'static str] = &["recovery", "table1"];
 
-impl ExperimentFile for Table1File {
-    fn recovery_mut(&mut self) -> &mut RecoveryParams {
-        &mut self.recovery
-    }
-
-    fn set_quick(&mut self) {
-        self.table1 = Table1HoldParams::quick();
+    fn quick() -> Self {
+        Table1HoldParams::quick()
     }
 
     fn check(&self) -> Result<(), ExperimentError> {
-        self.recovery.validate()?;
-        self.table1.validate()
+        self.validate()
     }
 }
 
 pub(super) fn run(args: Table1Args) -> anyhow::Result<()> {
-    let mut file: Table1File = load_file(&args.common, args.quick)?;
-    let p = &mut file.table1;
+    let mut file: ExperimentFile<Table1HoldParams> = load_file(&args.common, args.quick)?;
+    let p = &mut file.own;
     if let Some(n) = args.trials {
         p.trials = n;
     }
@@ -69,7 +58,7 @@ pub(super) fn run(args: Table1Args) -> anyhow::Result<()> {
     let default = default_out("table1", args.seed, p.trials);
     let (w1, world) = site_world(&args.common.site, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) = run_timed("table1", &args.common, &w1, default, runs, "runs", |w1, progress| {
-        Ok(run_table1_hold(w1, &file.recovery, &file.table1, args.seed, progress)?)
+        Ok(run_table1_hold(w1, &file.recovery, &file.own, args.seed, progress)?)
     })?;
     r.summary.wall_time_s = wall_time_s;
     write_table1_hold(&dir, &r)?;

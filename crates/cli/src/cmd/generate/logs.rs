@@ -1,7 +1,7 @@
 //! `generate --logs`: each world's drive written as a sensor log.
 
 use anyhow::Context;
-use mapkeeper_scenario::recording::{DriveSpec, record_drive};
+use mapkeeper_closed_loop::recording::{DriveSpec, record_drive};
 use mapkeeper_sensor::SensorLog;
 use mapkeeper_sim::{Route, World};
 

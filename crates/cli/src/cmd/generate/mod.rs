@@ -5,8 +5,8 @@ mod logs;
 
 use anyhow::Context;
 use logs::write_logs;
+use mapkeeper_closed_loop::{GeneratorParams, generate_worlds};
 use mapkeeper_scenario::experiments::validation::report::write_scenario_set;
-use mapkeeper_scenario::{GeneratorParams, generate_worlds};
 use mapkeeper_sim::{Route, World};
 
 /// Arguments of `mapkeeper generate`.

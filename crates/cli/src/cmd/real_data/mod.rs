@@ -63,6 +63,8 @@ pub struct Args {
     pub output: super::shared_args::OutputArgs,
     #[command(flatten)]
     pub timing: super::shared_args::TimingArg,
+    #[command(flatten)]
+    pub threads: super::shared_args::JobsArg,
 }
 
 fn default_out(seed: u64) -> PathBuf {
@@ -123,8 +125,9 @@ overrides of crates/scenario/params/odometry_tuned_localiser.toml, odometry-driv
     let datasets = logs.iter().map(|p| read(p, &args.reading)).collect::<anyhow::Result<Vec<_>>>()?;
     let out = args.output.out.clone().unwrap_or_else(|| default_out(args.seed));
     let dir = super::output_dir(&out, args.output.force)?;
+    let pool = super::thread_pool(args.threads.jobs)?;
     let start = Instant::now();
-    let results = run_real_data(&datasets, &params)?;
+    let results = pool.install(|| run_real_data(&datasets, &params, &|| {}))?;
     let wall = args.timing.wall_s(start);
     write_real_data(&dir, &results, &params, wall)?;
     let out = dir.finish()?;

@@ -4,8 +4,8 @@
 mod outputs;
 
 use anyhow::Context;
+use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world, run_world_with};
 use mapkeeper_grid::map_io::{load_map, save_map};
-use mapkeeper_scenario::{RunInputs, RunnerParams, run_world, run_world_with};
 use outputs::{run_log, write_outputs};
 use std::path::PathBuf;
 use std::time::Instant;

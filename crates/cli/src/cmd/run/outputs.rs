@@ -1,7 +1,7 @@
 //! What `mapkeeper run` writes: the trajectories and `run.json` of a closed-loop run; `run --log`, the chain on a recorded log.
 
 use super::Args;
-use mapkeeper_scenario::RunnerParams;
+use mapkeeper_closed_loop::RunnerParams;
 use mapkeeper_scenario::stats::median;
 use mapkeeper_sensor::tum::format_tum;
 
@@ -11,7 +11,7 @@ pub(super) fn write_outputs(
     args: &Args,
     world_path: &std::path::Path,
     params: &RunnerParams,
-    r: &mapkeeper_scenario::WorldRun,
+    r: &mapkeeper_closed_loop::WorldRun,
     wall: f64,
 ) -> anyhow::Result<()> {
     if let Some(t) = &r.trajectories {

@@ -21,12 +21,11 @@ pub mod report;
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::run_events::{PoseErrorHold, TimelineSample};
-use crate::experiments::runner::{NoClock, RunInputs, run_world};
-use crate::experiments::setup::params::RecoveryParams;
-use crate::experiments::setup::{Setup, prepare, tour_from, with_start};
-use crate::experiments::trials::{Trials, run_trials};
 use crate::stats::median;
+use mapkeeper_closed_loop::controls::{PoseErrorHold, TimelineSample};
+use mapkeeper_closed_loop::setup::params::RecoveryParams;
+use mapkeeper_closed_loop::setup::{Setup, prepare};
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::{UpdaterParams, Verdict};
@@ -428,11 +427,11 @@ impl Trials for DetectionTrials<'_> {
 
     fn run(&self, (k, t): (usize, usize), progress: &(dyn Fn() + Sync)) -> Result<DetectionTrial, ExperimentError> {
         let (recovery, p, d) = (self.recovery, self.p, self.draws[t]);
-        let (world, _) = self.setup.world(d.world)?;
         let speed = recovery.runner.sim.robot.max_speed_mps.max(0.1);
-        let (start, route) = tour_from(&recovery.tour, d.tour_position_m, speed * (p.warmup_s + p.window_s) + 2.0);
-        let world = with_start(world, start);
-        let dir = start.yaw + d.direction_rel_rad;
+        let map = self.setup.initial_map(recovery.initial_map);
+        let length = speed * (p.warmup_s + p.window_s) + 2.0;
+        let drive = self.setup.drive(d.world, map, &recovery.tour, d.tour_position_m, length)?;
+        let dir = drive.start.yaw + d.direction_rel_rad;
         let mut rp = recovery.runner.clone();
         rp.updater = self.presets[k].clone();
         rp.record_timeline = true;
@@ -444,9 +443,7 @@ impl Trials for DetectionTrials<'_> {
             dy_m: d.error_m * dir.sin(),
             dyaw_rad: d.yaw_error_rad,
         });
-        let map = self.setup.initial_map(recovery.initial_map);
-        let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
-        let run = run_world(&inputs, &rp, self.seed, &format!("check-detection-{t:05}"), &NoClock)?;
+        let run = drive.run(&rp, self.seed, &format!("check-detection-{t:05}"))?;
         progress();
         Ok(score_trial(d, &p.presets[k], run.pose_error.map(|r| r.began_s), &run.timeline, p))
     }

@@ -14,13 +14,13 @@ pub mod report;
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::run_events::{RobotKidnap, TimelineSample, TrackSample};
-use crate::experiments::runner::{NoClock, RunInputs, run_world};
-use crate::experiments::setup::Scores;
-use crate::experiments::setup::params::RecoveryParams;
-use crate::experiments::setup::{Setup, prepare, recovery_time, scores, tour_from, with_start};
-use crate::experiments::trials::{Trials, run_trials};
+use crate::experiments::scores::Scores;
+use crate::experiments::scores::scores;
 use crate::stats::{frac, mean, median, percentile};
+use mapkeeper_closed_loop::controls::{RobotKidnap, TimelineSample, TrackSample};
+use mapkeeper_closed_loop::setup::params::RecoveryParams;
+use mapkeeper_closed_loop::setup::{Setup, prepare, recovery_time};
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
@@ -434,18 +434,21 @@ fn run_trial(
     seed: u64,
 ) -> Result<RobotKidnapTrial, ExperimentError> {
     let c = &recovery.success;
-    let (world, g) = setup.world(d.world)?;
-    let map = setup.initial_map(recovery.initial_map);
-    let (start, route) = tour_from(&recovery.tour, d.tour_position_m, p.route_length_m);
-    let world = with_start(world, start);
+    let drive = setup.drive(
+        d.world,
+        setup.initial_map(recovery.initial_map),
+        &recovery.tour,
+        d.tour_position_m,
+        p.route_length_m,
+    )?;
+    let (_map, g) = (drive.map, drive.truth);
     let mut rp = recovery.runner.clone();
     rp.updater = updater.clone();
     rp.max_sim_time_s = d.kidnap_s + p.recovery_window_s + c.hold_s;
     rp.record_trajectories = true;
     rp.record_timeline = true;
-    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
     let label = format!("kidnap-robot-{:05}", d.trial);
-    let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
+    let reference = drive.run(&rp, seed, &label)?;
     let reference_scores = scores(&reference.map, g, &recovery.metrics)?;
     let well_localised = |t: &TimelineSample| {
         t.error_m <= p.well_localised_max_error_m && t.yaw_error_rad <= p.well_localised_max_yaw_rad
@@ -483,7 +486,7 @@ fn run_trial(
     rp.record_trajectories = false;
     rp.record_timeline = false;
     rp.robot_kidnap = Some(RobotKidnap { at_s: d.kidnap_s, to });
-    let run = run_world(&inputs, &rp, seed, &label, &NoClock)?;
+    let run = drive.run(&rp, seed, &label)?;
     out.kidnap_scores = scores(&run.map, g, &recovery.metrics)?;
     let Some(rec) = run.kidnap.as_ref() else { return Ok(out) };
     out.applied = true;
@@ -736,7 +739,7 @@ mod tests {
         // localised), a well-localised one, one 0.3 m off, and a Suspend at a right pose.
         let t = [at(Lost, 0.15, 3.7), at(Lost, 0.04, 1.5), at(Lost, 0.3, 0.5), at(Suspend, 0.01, 0.0)];
         let p = KidnapRobotParams::default();
-        let c = crate::experiments::setup::params::SuccessCriterion::default();
+        let c = mapkeeper_closed_loop::setup::params::SuccessCriterion::default();
         assert_eq!(lost_where(&t, |s| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad), 2);
         let well = |s: &TimelineSample| {
             s.error_m <= p.well_localised_max_error_m && s.yaw_error_rad <= p.well_localised_max_yaw_rad

@@ -12,6 +12,7 @@ pub mod report;
 
 use crate::experiments::ExperimentError;
 use crate::stats::{median, percentile};
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_grid::{OccupancyGrid, Pose2, angle_diff};
 use mapkeeper_harness::jobs::localise::localise_log;
 use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
@@ -216,12 +217,45 @@ pub struct DatasetResult {
     pub reference: Vec<StampedPose>,
 }
 
-/// Runs the experiment on every dataset, in order.
-pub fn run_real_data(datasets: &[Dataset], params: &RealDataParams) -> Result<Vec<DatasetResult>, ExperimentError> {
+/// The experiment as [`Trials`]: one job per log (its map, every localiser configuration and
+/// seed, then the updaters), the logs on the caller's rayon pool; the results in the logs' order.
+struct RealDataTrials<'a> {
+    datasets: &'a [Dataset],
+    params: &'a RealDataParams,
+}
+
+impl Trials for RealDataTrials<'_> {
+    /// The log's index.
+    type Job = usize;
+    type Outcome = DatasetResult;
+    type Summary = Vec<DatasetResult>;
+
+    fn draw(&self) -> Vec<usize> {
+        (0..self.datasets.len()).collect()
+    }
+
+    fn run(&self, d: usize, progress: &(dyn Fn() + Sync)) -> Result<DatasetResult, ExperimentError> {
+        let r = run_dataset(&self.datasets[d], self.params);
+        progress();
+        r
+    }
+
+    fn summarise(&self, results: Vec<DatasetResult>) -> Result<Vec<DatasetResult>, ExperimentError> {
+        Ok(results)
+    }
+}
+
+/// Runs the experiment on every dataset (in parallel on the caller's rayon pool; the results
+/// in the datasets' order, the same whatever the thread count); `progress` after each.
+pub fn run_real_data(
+    datasets: &[Dataset],
+    params: &RealDataParams,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<DatasetResult>, ExperimentError> {
     if params.seeds.is_empty() {
         return Err(ExperimentError::Invalid("real-data: no localiser seed".into()));
     }
-    datasets.iter().map(|d| run_dataset(d, params)).collect()
+    run_trials(&RealDataTrials { datasets, params }, progress)
 }
 
 /// An error of one dataset (or preset) of the experiment, named.

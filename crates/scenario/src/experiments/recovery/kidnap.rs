@@ -1,12 +1,13 @@
 //! The kidnap stress suite: seeded kidnappings of the chain localiser's estimate, each paired
 //! with the same run without the kidnap.
 
-use super::{KidnapParams, RecoveryParams, Setup, frac, mean, median, recovery_time, tour_from, with_start};
 use crate::experiments::ExperimentError;
-use crate::experiments::run_events::{Kidnap, TrackSample};
-use crate::experiments::runner::{NoClock, RunInputs, run_world};
-use crate::experiments::trials::run_each;
 use crate::stats::percentile;
+use crate::stats::{frac, mean, median};
+use mapkeeper_closed_loop::controls::{Kidnap, TrackSample};
+use mapkeeper_closed_loop::setup::params::{KidnapParams, RecoveryParams};
+use mapkeeper_closed_loop::setup::{Setup, recovery_time};
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_grid::metrics::map_metrics;
 use mapkeeper_sim::seeds::stream_rng;
 use rand::RngExt;
@@ -227,18 +228,16 @@ pub fn run_kidnap_trial(
     let k = &params.kidnap;
     let c = &params.success;
     let draw = draw_trial(params, seed, trial);
-    let (world, g) = setup.world(draw.world)?;
+    let (_, g) = setup.world(draw.world)?;
     let map = match case {
         MapCase::Stale => setup.initial_map(k.stale_map),
         MapCase::Best => g,
     };
-    let (start, route) = tour_from(&params.tour, draw.tour_position_m, k.route_length_m);
-    let world = with_start(world, start);
+    let drive = setup.drive(draw.world, map, &params.tour, draw.tour_position_m, k.route_length_m)?;
     let mut rp = params.runner.clone();
     rp.max_sim_time_s = draw.kidnap_s + k.recovery_window_s + c.hold_s;
-    let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
     let label = format!("kidnap-{trial:04}");
-    let reference = run_world(&inputs, &rp, seed, &label, &NoClock)?;
+    let reference = drive.run(&rp, seed, &label)?;
     rp.kidnap = Some(Kidnap {
         at_s: draw.kidnap_s,
         dx_m: draw.displacement_m * draw.direction_rad.cos(),
@@ -247,7 +246,7 @@ pub fn run_kidnap_trial(
         sigma_xy_m: k.sigma_xy_m,
         sigma_yaw_rad: k.sigma_yaw_rad,
     });
-    let run = run_world(&inputs, &rp, seed, &label, &NoClock)?;
+    let run = drive.run(&rp, seed, &label)?;
     let opdf_kidnap = map_metrics(&run.map, g, &params.metrics)?.opdf;
     let opdf_reference = map_metrics(&reference.map, g, &params.metrics)?.opdf;
     let opdf_vs_reference = map_metrics(&run.map, &reference.map, &params.metrics)?.opdf;
@@ -282,6 +281,38 @@ pub fn run_kidnap_trial(
     })
 }
 
+/// The kidnap suite as [`Trials`]: one job per (map case, trial), each a pair of runs
+/// ([`run_kidnap_trial`]); the outcomes are the trials, stale ones first.
+struct KidnapSuite<'a> {
+    setup: &'a Setup,
+    params: &'a RecoveryParams,
+    seed: u64,
+}
+
+impl Trials for KidnapSuite<'_> {
+    type Job = (MapCase, usize);
+    type Outcome = KidnapTrial;
+    type Summary = Vec<KidnapTrial>;
+
+    fn draw(&self) -> Vec<(MapCase, usize)> {
+        let mut cases = vec![MapCase::Stale];
+        if self.params.kidnap.best_case {
+            cases.push(MapCase::Best);
+        }
+        cases.iter().flat_map(|&c| (0..self.params.kidnap.trials).map(move |t| (c, t))).collect()
+    }
+
+    fn run(&self, (case, t): (MapCase, usize), progress: &(dyn Fn() + Sync)) -> Result<KidnapTrial, ExperimentError> {
+        let r = run_kidnap_trial(self.setup, self.params, self.seed, t, case);
+        progress();
+        r
+    }
+
+    fn summarise(&self, trials: Vec<KidnapTrial>) -> Result<Vec<KidnapTrial>, ExperimentError> {
+        Ok(trials)
+    }
+}
+
 /// The kidnap suite: every trial in the stale case (and the best case if asked), in parallel,
 /// in order (stale trials first). `progress()` is called after each trial and case.
 pub fn run_kidnap_suite(
@@ -290,15 +321,5 @@ pub fn run_kidnap_suite(
     seed: u64,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<KidnapTrial>, ExperimentError> {
-    let mut cases = vec![MapCase::Stale];
-    if params.kidnap.best_case {
-        cases.push(MapCase::Best);
-    }
-    let jobs: Vec<(MapCase, usize)> =
-        cases.iter().flat_map(|&c| (0..params.kidnap.trials).map(move |t| (c, t))).collect();
-    run_each(jobs, |(case, t)| {
-        let r = run_kidnap_trial(setup, params, seed, t, case);
-        progress();
-        r
-    })
+    run_trials(&KidnapSuite { setup, params, seed }, progress)
 }

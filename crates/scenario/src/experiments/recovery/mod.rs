@@ -22,28 +22,27 @@
 //! seed and the trial, trials run in parallel (rayon) and are collected in order, and no
 //! clock is read (the caller measures the wall time).
 
-mod experiments;
+mod demo;
 mod kidnap;
+mod lost_robot;
 pub mod report;
+mod table1;
 
-pub use crate::experiments::run_events::VerdictCounts;
-pub use crate::experiments::setup::params::{
-    DemoParams, InitialMapKind, KidnapParams, LostParams, RecoveryParams, SuccessCriterion, Table1Params,
-};
-pub use experiments::{
-    DemoSummary, LostRun, LostSummary, MetricFractions, Table1Run, Table1Summary, VerdictSegment, run_demo,
-    run_lost_robot, run_table1,
-};
+pub use demo::{DemoSummary, VerdictSegment, run_demo};
 pub use kidnap::{
     BinSummary, KidnapSummary, KidnapTrial, MapCase, TrialDraw, draw_trial, run_kidnap_suite, run_kidnap_trial,
     summarise_kidnap,
 };
+pub use lost_robot::{LostRun, LostSummary, run_lost_robot};
+pub use mapkeeper_closed_loop::controls::VerdictCounts;
+pub use mapkeeper_closed_loop::setup::params::{
+    DemoParams, InitialMapKind, KidnapParams, LostParams, RecoveryParams, SuccessCriterion, Table1Params,
+};
+pub use table1::{MetricFractions, Table1Run, Table1Summary, run_table1};
 
 use crate::experiments::ExperimentError;
-use crate::experiments::run_events::TimelineSample;
-pub(crate) use crate::experiments::setup::{
-    Setup, frac, mean, mean_scores, median, prepare, recovery_time, scores, tour_from, with_start,
-};
+use mapkeeper_closed_loop::controls::TimelineSample;
+use mapkeeper_closed_loop::setup::prepare;
 use mapkeeper_sim::World;
 use serde::{Deserialize, Serialize};
 

@@ -2,8 +2,8 @@
 //! `lost_robot.csv`, `demo_timeline.csv` and `report.md` (`docs/recovery.md`).
 
 use crate::experiments::recovery::{KidnapSummary, KidnapTrial, LostRun, RecoveryResults, RecoverySummary, Table1Run};
-use crate::experiments::run_events::TimelineSample;
 use crate::results::ResultsError;
+use mapkeeper_closed_loop::controls::TimelineSample;
 use mapkeeper_grid::StagedDir;
 use std::fmt::Write as _;
 

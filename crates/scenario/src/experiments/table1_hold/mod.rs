@@ -15,13 +15,13 @@ pub mod report;
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::run_events::{Kidnap, PoseErrorHold};
-use crate::experiments::runner::{NoClock, RunInputs, run_world};
-use crate::experiments::setup::Scores;
-use crate::experiments::setup::params::RecoveryParams;
-use crate::experiments::setup::{Setup, mean_scores, prepare, scores, tour_from, with_start};
-use crate::experiments::trials::{Trials, run_each, run_trials};
+use crate::experiments::scores::Scores;
+use crate::experiments::scores::{mean_scores, scores};
 use crate::stats::{mean, paired_diff};
+use mapkeeper_closed_loop::controls::{Kidnap, PoseErrorHold};
+use mapkeeper_closed_loop::setup::params::RecoveryParams;
+use mapkeeper_closed_loop::setup::{Setup, prepare};
+use mapkeeper_closed_loop::trials::{Trials, run_each, run_trials};
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
@@ -348,7 +348,7 @@ fn static_scores(runs: &[Table1HoldRun], p: &Table1HoldParams, conditions: &[Str
 
 /// Condition `c` of `p.conditions()` on the run's parameters: a held error or a start error.
 fn set_condition(
-    run_p: &mut crate::experiments::runner::RunnerParams,
+    run_p: &mut mapkeeper_closed_loop::runner::RunnerParams,
     p: &Table1HoldParams,
     recovery: &RecoveryParams,
     d: &Table1Draw,
@@ -411,16 +411,14 @@ impl Trials for Table1Trials<'_> {
         let (recovery, p) = (self.recovery, self.p);
         let d = self.draws[t];
         let setup = &self.setups[t];
-        let (world, g) = setup.world(2)?;
         let length = if p.route_length_m > 0.0 { p.route_length_m } else { recovery.tour.length_m() };
-        let (start, route) = tour_from(&recovery.tour, d.tour_position_m, length);
-        let world = with_start(world, start);
-        let map = setup.initial_map(recovery.initial_map);
+        let drive =
+            setup.drive(2, setup.initial_map(recovery.initial_map), &recovery.tour, d.tour_position_m, length)?;
+        let (map, g) = (drive.map, drive.truth);
         let mut run_p = recovery.runner.clone();
         run_p.updater = variant_params(&self.presets[k], VARIANTS[v]);
-        set_condition(&mut run_p, p, recovery, &d, start.yaw, c);
-        let inputs = RunInputs { world: &world, route: &route, prev_map: map, baseline_map: map, prev_memory: None };
-        let run = run_world(&inputs, &run_p, d.seed, &format!("table1-hold-{t:04}"), &NoClock)?;
+        set_condition(&mut run_p, p, recovery, &d, drive.start.yaw, c);
+        let run = drive.run(&run_p, d.seed, &format!("table1-hold-{t:04}"))?;
         let (wrong, changed) = wrong_flips(&run.map, map, g);
         progress();
         Ok(Table1HoldRun {

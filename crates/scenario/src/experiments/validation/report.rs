@@ -14,7 +14,7 @@ use crate::experiments::validation::figures::{Figure, write_figures};
 use crate::experiments::validation::{Scores, SeedRecord, SeedRun, Summary, ValidationRecord, WorldRow};
 use crate::results::ResultsError;
 use crate::stats::{IntervalUnits, MIN_WORLDS_PER_BATCH, WORLD_BATCHES, with_ci};
-use crate::worlds::generator::WorldChain;
+use mapkeeper_closed_loop::worlds::generator::WorldChain;
 use mapkeeper_grid::GridGeometry;
 use mapkeeper_grid::StagedDir;
 use mapkeeper_grid::map_io::save_map;
@@ -367,7 +367,7 @@ fn ground_truth_section(s: &mut String, summary: &Summary) {
          achievable improvement M_i reaches. The log-odds chain is the \
          `log-odds` preset (`--presets paper,mapkeeper,log-odds` puts it beside).\n",
         summary.ground_truth.name(),
-        crate::worlds::observed::OBSERVATION_STEP_M,
+        mapkeeper_closed_loop::worlds::observed::OBSERVATION_STEP_M,
         summary.params.runner.fresh_map.as_ref().map_or("every".into(), |f| every_kth(f.scan_stride)),
         every_kth(summary.params.mapping.scan_stride),
     );
@@ -690,7 +690,7 @@ pub struct ManifestWorld {
     /// The ground-truth map YAML (its PGM beside it).
     pub ground_truth: String,
     /// The edits that made it from the previous world.
-    pub edits: Vec<crate::worlds::generator::Edit>,
+    pub edits: Vec<mapkeeper_closed_loop::worlds::generator::Edit>,
     /// The route driven in it, when it is not `route.toml` (route variants).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub route: Option<String>,

@@ -4,10 +4,10 @@
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::runner::Clock;
-use crate::experiments::trials::run_each;
 use crate::experiments::validation::checkpoint::Checkpoints;
 use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
+use mapkeeper_closed_loop::runner::Clock;
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 
 /// What to sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,7 +30,7 @@ pub struct SweepSpec {
     pub ground_truth: crate::GroundTruth,
     /// The world W_1 (its name in the outputs and its resolved scenario); `None`: the embedded
     /// default warehouse.
-    pub site: Option<(String, crate::worlds::site::Site)>,
+    pub site: Option<(String, mapkeeper_closed_loop::worlds::site::Site)>,
 }
 
 /// A checked sweep.
@@ -141,22 +141,56 @@ impl SweepPlan {
         for (k, (&(p, _), _)) in self.jobs.iter().zip(&done).enumerate().filter(|(_, (_, d))| d.is_some()) {
             (1..=self.params[p].worlds).for_each(|w| progress(k, w));
         }
-        let jobs: Vec<(usize, (usize, u64), Option<SeedRun>)> =
-            self.jobs.iter().zip(done).enumerate().map(|(k, (&job, done))| (k, job, done)).collect();
-        run_each(jobs, |(k, (p, s), done)| {
-            if let Some(run) = done {
-                return Ok(run);
-            }
-            let run = run_seed(&self.params[p], s, clock, &|w| progress(k, w))?;
-            if let Some(c) = checkpoints {
-                c.save(&self.params[p], &run)?;
-            }
-            Ok(run)
-        })
+        let done = done.into_iter().map(std::sync::Mutex::new).collect();
+        let trials = SweepTrials { plan: self, done, checkpoints, clock, progress };
+        run_trials(&trials, &|| {})
     }
 
     /// The runs of preset `p`, in job order.
     pub fn runs_of(&self, p: usize, runs: &[SeedRun]) -> Vec<SeedRun> {
         self.jobs.iter().zip(runs).filter(|(j, _)| j.0 == p).map(|(_, r)| r.clone()).collect()
+    }
+}
+
+/// A plan's jobs as [`Trials`]: one job per (preset, seed), each the chain of one seed; a job
+/// found done is given back as it is. The validation reports its progress per (job, world)
+/// through its own callback (the time-left estimate needs both), not through the runner's.
+struct SweepTrials<'a> {
+    plan: &'a SweepPlan,
+    /// The finished runs found in the checkpoints, in job order (`None`: to run), each taken
+    /// by its job.
+    done: Vec<std::sync::Mutex<Option<SeedRun>>>,
+    checkpoints: Option<&'a Checkpoints>,
+    clock: &'a dyn Clock,
+    progress: &'a (dyn Fn(usize, usize) + Sync),
+}
+
+impl Trials for SweepTrials<'_> {
+    /// The job's index in the plan.
+    type Job = usize;
+    type Outcome = SeedRun;
+    type Summary = Vec<SeedRun>;
+
+    fn draw(&self) -> Vec<usize> {
+        (0..self.plan.jobs.len()).collect()
+    }
+
+    fn run(&self, k: usize, _: &(dyn Fn() + Sync)) -> Result<SeedRun, ExperimentError> {
+        let found =
+            self.done[k].lock().map_err(|_| ExperimentError::Invalid("a validation job panicked".into()))?.take();
+        if let Some(run) = found {
+            return Ok(run);
+        }
+        let (p, s) = self.plan.jobs[k];
+        let params = &self.plan.params[p];
+        let run = run_seed(params, s, self.clock, &|w| (self.progress)(k, w))?;
+        if let Some(c) = self.checkpoints {
+            c.save(params, &run)?;
+        }
+        Ok(run)
+    }
+
+    fn summarise(&self, runs: Vec<SeedRun>) -> Result<Vec<SeedRun>, ExperimentError> {
+        Ok(runs)
     }
 }

@@ -11,10 +11,10 @@ pub mod report;
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::runner::NoClock;
-use crate::experiments::trials::run_each;
 use crate::experiments::validation::{ValidationParams, WorldRow, run_seed};
 use crate::stats::{PairedDiff, mean, paired_diff};
+use mapkeeper_closed_loop::runner::NoClock;
+use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_sim::{SensorEffect, SensorRealism};
 use serde::{Deserialize, Serialize};
 
@@ -220,6 +220,89 @@ pub struct SensorRealismResult {
     pub rows: Vec<RealismRow>,
 }
 
+/// The sweep as [`Trials`]: one job per (configuration, seed), each a short validation chain;
+/// the summary compares every configuration with the ideal sensors.
+struct RealismTrials<'a> {
+    /// The validation parameters of every chain (worlds, preset, route set from the sweep's).
+    vp: ValidationParams,
+    p: &'a SensorRealismParams,
+    configs: Vec<String>,
+}
+
+impl Trials for RealismTrials<'_> {
+    /// (configuration index, seed).
+    type Job = (usize, u64);
+    /// One row of scores per world of the chain.
+    type Outcome = Vec<RealismScores>;
+    type Summary = SensorRealismResult;
+
+    fn draw(&self) -> Vec<(usize, u64)> {
+        let (p, n) = (self.p, self.configs.len());
+        (0..n).flat_map(|c| (0..p.seeds as u64).map(move |s| (c, p.first_seed + s))).collect()
+    }
+
+    fn run(
+        &self,
+        (c, seed): (usize, u64),
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<Vec<RealismScores>, ExperimentError> {
+        let configs = &self.configs;
+        let mut q = self.vp.clone();
+        q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
+        q.runner.deskew = config_deskews(&configs[c]);
+        q.mapping.deskew = config_deskews(&configs[c]);
+        let run = run_seed(&q, seed, &NoClock, &|_| {})?;
+        progress();
+        Ok(run.rows.iter().map(RealismScores::of).collect())
+    }
+
+    fn summarise(&self, runs: Vec<Vec<RealismScores>>) -> Result<SensorRealismResult, ExperimentError> {
+        let (p, configs, jobs) = (self.p, &self.configs, self.draw());
+        let per_config = |c: usize| -> Vec<&Vec<RealismScores>> {
+            jobs.iter().zip(&runs).filter(|((k, _), _)| *k == c).map(|(_, r)| r).collect()
+        };
+        let seed_means = |c: usize, f: &dyn Fn(&RealismScores) -> f64| -> Vec<f64> {
+            per_config(c).iter().map(|rows| mean(rows.iter().map(f))).collect()
+        };
+        let ideal_cc = seed_means(0, &|r| r.cc_updated);
+        let ideal_err = seed_means(0, &|r| r.err_mean_m);
+        let diff = |a: &[f64], b: &[f64]| paired_diff(&a.iter().zip(b).map(|(x, y)| x - y).collect::<Vec<_>>());
+        let summaries = configs
+            .iter()
+            .enumerate()
+            .map(|(c, name)| {
+                let all: Vec<&RealismScores> = per_config(c).into_iter().flatten().collect();
+                let effects = config_realism(name).map(|r| r.effects()).unwrap_or_default();
+                ConfigSummary {
+                    config: name.clone(),
+                    effects: effects.iter().map(|e| e.name().to_string()).collect(),
+                    cc_updated_mean: mean(all.iter().map(|r| r.cc_updated)),
+                    ms_updated_mean: mean(all.iter().map(|r| r.ms_updated)),
+                    opdf_updated_mean: mean(all.iter().map(|r| r.opdf_updated)),
+                    cc_static_mean: mean(all.iter().map(|r| r.cc_static)),
+                    err_mean_m: mean(all.iter().map(|r| r.err_mean_m)),
+                    err_max_m: all.iter().map(|r| r.err_max_m).fold(0.0, f64::max),
+                    cc_updated_vs_ideal: diff(&seed_means(c, &|r| r.cc_updated), &ideal_cc),
+                    err_mean_vs_ideal_m: diff(&seed_means(c, &|r| r.err_mean_m), &ideal_err),
+                    lost_episodes: all.iter().map(|r| r.lost_episodes).sum(),
+                    collisions: all.iter().map(|r| r.collisions).sum(),
+                    routes_done: all.iter().filter(|r| r.route_done).count(),
+                    runs: all.len(),
+                }
+            })
+            .collect();
+        let rows = jobs
+            .iter()
+            .zip(&runs)
+            .flat_map(|(&(c, _), rows)| {
+                let name = &configs[c];
+                rows.iter().map(move |r| RealismRow { config: name.clone(), row: *r })
+            })
+            .collect();
+        Ok(SensorRealismResult { params: p.clone(), summaries, rows })
+    }
+}
+
 /// Runs every configuration × seed ([`run_each`]: in parallel on the current rayon pool; the result does not
 /// depend on the thread count). `base` gives the world, route, preset-independent parameters
 /// and the localiser; its `worlds`, `preset` and route length are set from `p`. `progress` is
@@ -238,59 +321,7 @@ pub fn run_sensor_realism(
     vp.saved_worlds.clear();
     vp.route = ValidationParams::truncated_route(&base.route, p.route_length_m);
     vp.validate()?;
-    let jobs: Vec<(usize, u64)> =
-        (0..configs.len()).flat_map(|c| (0..p.seeds as u64).map(move |s| (c, p.first_seed + s))).collect();
-    let runs: Vec<Vec<RealismScores>> = run_each(jobs.clone(), |(c, seed)| {
-        let mut q = vp.clone();
-        q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
-        q.runner.deskew = config_deskews(&configs[c]);
-        q.mapping.deskew = config_deskews(&configs[c]);
-        let run = run_seed(&q, seed, &NoClock, &|_| {})?;
-        progress();
-        Ok(run.rows.iter().map(RealismScores::of).collect())
-    })?;
-    let per_config = |c: usize| -> Vec<&Vec<RealismScores>> {
-        jobs.iter().zip(&runs).filter(|((k, _), _)| *k == c).map(|(_, r)| r).collect()
-    };
-    let seed_means = |c: usize, f: &dyn Fn(&RealismScores) -> f64| -> Vec<f64> {
-        per_config(c).iter().map(|rows| mean(rows.iter().map(f))).collect()
-    };
-    let ideal_cc = seed_means(0, &|r| r.cc_updated);
-    let ideal_err = seed_means(0, &|r| r.err_mean_m);
-    let diff = |a: &[f64], b: &[f64]| paired_diff(&a.iter().zip(b).map(|(x, y)| x - y).collect::<Vec<_>>());
-    let summaries = configs
-        .iter()
-        .enumerate()
-        .map(|(c, name)| {
-            let all: Vec<&RealismScores> = per_config(c).into_iter().flatten().collect();
-            let effects = config_realism(name).map(|r| r.effects()).unwrap_or_default();
-            ConfigSummary {
-                config: name.clone(),
-                effects: effects.iter().map(|e| e.name().to_string()).collect(),
-                cc_updated_mean: mean(all.iter().map(|r| r.cc_updated)),
-                ms_updated_mean: mean(all.iter().map(|r| r.ms_updated)),
-                opdf_updated_mean: mean(all.iter().map(|r| r.opdf_updated)),
-                cc_static_mean: mean(all.iter().map(|r| r.cc_static)),
-                err_mean_m: mean(all.iter().map(|r| r.err_mean_m)),
-                err_max_m: all.iter().map(|r| r.err_max_m).fold(0.0, f64::max),
-                cc_updated_vs_ideal: diff(&seed_means(c, &|r| r.cc_updated), &ideal_cc),
-                err_mean_vs_ideal_m: diff(&seed_means(c, &|r| r.err_mean_m), &ideal_err),
-                lost_episodes: all.iter().map(|r| r.lost_episodes).sum(),
-                collisions: all.iter().map(|r| r.collisions).sum(),
-                routes_done: all.iter().filter(|r| r.route_done).count(),
-                runs: all.len(),
-            }
-        })
-        .collect();
-    let rows = jobs
-        .iter()
-        .zip(&runs)
-        .flat_map(|(&(c, _), rows)| {
-            let name = &configs[c];
-            rows.iter().map(move |r| RealismRow { config: name.clone(), row: *r })
-        })
-        .collect();
-    Ok(SensorRealismResult { params: p.clone(), summaries, rows })
+    run_trials(&RealismTrials { vp, p, configs }, progress)
 }
 
 #[cfg(test)]

@@ -1,38 +1,20 @@
-//! What the experiments share: the worlds and maps of a run of the robustness experiments
-//! ([`Setup`], made by [`prepare`] from the `[recovery]` table, [`params::RecoveryParams`]),
-//! places on the tour ([`tour_from`]), the scores every report gives ([`Scores`]) and when a
-//! pose counts as recovered ([`recovery_time`]). The loop every experiment runs is
-//! [`crate::experiments::runner`]; the trial runner is [`crate::experiments::trials`]. No
-//! experiment imports another: what two of them need lives here.
+//! What the robustness experiments share: their worlds and maps ([`Setup`], made by [`prepare`]
+//! from the `[recovery]` table, [`params::RecoveryParams`]), places on the tour
+//! ([`tour_from`]), one drive set up from them ([`Setup::drive`], [`Drive`]) and when a pose
+//! counts as recovered ([`recovery_time`]). The loop every experiment runs is [`crate::runner`];
+//! the trial runner is [`crate::trials`]. No experiment imports another: what two of them need
+//! lives here or in `mapkeeper-scenario`'s `experiments` module.
 
 pub mod params;
 
-use crate::experiments::ExperimentError;
-use crate::experiments::run_events::TrackSample;
+use crate::ExperimentError;
+use crate::controls::TrackSample;
+use crate::runner::{NoClock, RunInputs, RunnerParams, WorldRun, run_world};
 use crate::worlds::generator::{WorldChain, generate_worlds};
 use crate::worlds::mapping::build_initial_map;
-use mapkeeper_grid::metrics::{MapMetrics, MetricParams, map_metrics};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sim::{Route, StartPose, World, ground_truth_map};
 use params::{InitialMapKind, RecoveryParams, SuccessCriterion};
-use serde::{Deserialize, Serialize};
-
-/// CC, MS and OPDF of one comparison, percent.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Scores {
-    /// Cross-correlation.
-    pub cc: f64,
-    /// Map score.
-    pub ms: f64,
-    /// Occupied picture-distance function.
-    pub opdf: f64,
-}
-
-impl From<MapMetrics> for Scores {
-    fn from(m: MapMetrics) -> Self {
-        Scores { cc: m.cc, ms: m.ms, opdf: m.opdf }
-    }
-}
 
 /// The worlds and maps every experiment shares.
 #[derive(Clone, Debug)]
@@ -48,7 +30,8 @@ pub struct Setup {
 }
 
 impl Setup {
-    pub(crate) fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ExperimentError> {
+    /// W_`i` and G_`i` (1-based), or an error naming the world if it was not generated.
+    pub fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ExperimentError> {
         match (self.chain.worlds.get(i.wrapping_sub(1)), self.ground_truth.get(i.wrapping_sub(1))) {
             (Some(w), Some(g)) => Ok((w, g)),
             _ => Err(ExperimentError::InvalidParam {
@@ -122,7 +105,63 @@ pub fn tour_from(tour: &Route, s: f64, length_m: f64) -> (Pose2, Route) {
     (Pose2::new(start.x, start.y, yaw), Route::new(&route))
 }
 
-pub(crate) fn with_start(world: &World, start: Pose2) -> World {
+/// One drive of a robustness experiment, set up once: W_k with the robot started on the tour,
+/// the route from there, the map the robot localises on (and the updater starts from) and
+/// G_k to score against. Every trial of every experiment runs through it ([`Setup::drive`],
+/// then [`Drive::run`] with the trial's runner parameters), so that a drive is set up one way.
+#[derive(Clone, Debug)]
+pub struct Drive<'a> {
+    /// W_k with the robot started at [`Drive::start`].
+    pub world: World,
+    /// The route from the start onwards.
+    pub route: Route,
+    /// Where the robot starts: on the tour, heading along it.
+    pub start: Pose2,
+    /// The map the chain and baseline localisers run on and the updater starts from.
+    pub map: &'a OccupancyGrid,
+    /// G_k, the ground truth of W_k.
+    pub truth: &'a OccupancyGrid,
+}
+
+impl Setup {
+    /// The drive in W_`world` (1-based) on `map`, starting `position_m` along the closed `tour`
+    /// and driving `length_m` of it ([`tour_from`]); an error names a world not generated.
+    pub fn drive<'a>(
+        &'a self,
+        world: usize,
+        map: &'a OccupancyGrid,
+        tour: &Route,
+        position_m: f64,
+        length_m: f64,
+    ) -> Result<Drive<'a>, ExperimentError> {
+        let (w, truth) = self.world(world)?;
+        let (start, route) = tour_from(tour, position_m, length_m);
+        Ok(Drive { world: with_start(w, start), route, start, map, truth })
+    }
+}
+
+impl Drive<'_> {
+    /// The closed loop's inputs: the chain and the baseline both on [`Drive::map`], no
+    /// cross-world memory (a surveyed or stale map: every occupied cell established).
+    pub fn inputs(&self) -> RunInputs<'_> {
+        RunInputs {
+            world: &self.world,
+            route: &self.route,
+            prev_map: self.map,
+            baseline_map: self.map,
+            prev_memory: None,
+        }
+    }
+
+    /// Runs the drive once with `params` (the trial's updater, controls and time limit); the
+    /// random streams derive from `seed` and `label`; nothing is timed.
+    pub fn run(&self, params: &RunnerParams, seed: u64, label: &str) -> Result<WorldRun, ExperimentError> {
+        run_world(&self.inputs(), params, seed, label, &NoClock)
+    }
+}
+
+/// `world` with the robot started at `start`.
+fn with_start(world: &World, start: Pose2) -> World {
     let mut w = world.clone();
     w.robot_start = StartPose { x: start.x, y: start.y, yaw_deg: start.yaw.to_degrees() };
     w
@@ -144,16 +183,6 @@ pub fn recovery_time(track: &[TrackSample], c: &SuccessCriterion) -> Option<f64>
     let t_r = track[first_good].t_s;
     let period = if track.len() >= 2 { (last.t_s - track[0].t_s) / (track.len() - 1) as f64 } else { 0.0 };
     (last.t_s - t_r + period + 1e-9 >= c.hold_s).then_some(t_r)
-}
-
-pub(crate) use crate::stats::{frac, mean, median};
-
-pub(crate) fn mean_scores<'a>(v: impl Iterator<Item = &'a Scores> + Clone) -> Scores {
-    Scores { cc: mean(v.clone().map(|s| s.cc)), ms: mean(v.clone().map(|s| s.ms)), opdf: mean(v.map(|s| s.opdf)) }
-}
-
-pub(crate) fn scores(map: &OccupancyGrid, g: &OccupancyGrid, m: &MetricParams) -> Result<Scores, ExperimentError> {
-    Ok(Scores::from(map_metrics(map, g, m)?))
 }
 
 #[cfg(test)]

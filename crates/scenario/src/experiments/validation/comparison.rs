@@ -4,15 +4,16 @@
 //! Everything is recomputed from the presets' records, so the comparison of merged shards is
 //! that of the unsharded sweep.
 
-use crate::experiments::pose_oracle::UpdaterPoses;
-use crate::experiments::run_events::{LostCounts, VerdictCounts};
 use crate::experiments::validation::erosion::{ChangeClassSummary, RetentionSummary};
 use crate::experiments::validation::html::{Part, page_html, world_steppers};
+use crate::experiments::validation::merge::{load_result_dir, merge_dirs};
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, WorldRow, summarise_records};
+use crate::results::MergeProblem;
 use crate::results::ResultsError;
-use crate::results::merge::{MergeProblem, load_result_dir, merge_dirs};
 use crate::stats::with_ci;
 use crate::stats::{IntervalUnits, PairedDiff, batch_means_half_width, chain_units, mean, paired_diff};
+use mapkeeper_closed_loop::controls::{LostCounts, VerdictCounts};
+use mapkeeper_closed_loop::pose_oracle::UpdaterPoses;
 use mapkeeper_grid::StagedDir;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;

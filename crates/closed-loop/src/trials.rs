@@ -7,8 +7,16 @@
 //! on the caller's rayon pool (`--jobs`), the outcomes collected in job order, so the result is
 //! the same whatever the thread count. A job's seed is part of the job: nothing in the runner
 //! draws a random number.
+//!
+//! **One way.** Every experiment family runs its trials as a [`Trials`] through [`run_trials`]:
+//! the validation's (preset, seed) chains and its sensor-realism sweep, the recovery suite's
+//! Table 1, lost-robot and kidnap runs, check detection, Table 1 with a held pose, kidnaps of the
+//! robot, the real logs and the localisers' convergence. A trial's drive is set up one way too
+//! ([`crate::setup::Setup::drive`]). [`run_each`] is what [`run_trials`] runs on; an experiment
+//! calls it directly only for work that is not a trial (Table 1 with a held pose sets up one
+//! chain of worlds per draw before its trials).
 
-use crate::experiments::ExperimentError;
+use crate::ExperimentError;
 use rayon::prelude::*;
 
 /// One experiment's trials: draw, run one, summarise.
@@ -40,9 +48,8 @@ pub fn run_trials<T: Trials>(trials: &T, progress: &(dyn Fn() + Sync)) -> Result
 
 /// The runner itself: `run` on every job on the caller's rayon pool, the outcomes in the order
 /// of `jobs`. The first error met stops the collection (which one, when several jobs fail, may
-/// depend on the thread count; the outputs never do). For runs that are not worth a [`Trials`]
-/// of their own (a few paired runs inside a larger experiment, the worlds set up before the
-/// trials).
+/// depend on the thread count; the outputs never do). Only for work that is not a trial (the
+/// worlds set up before the trials): trials go through [`run_trials`].
 pub fn run_each<J: Send, O: Send>(
     jobs: Vec<J>,
     run: impl Fn(J) -> Result<O, ExperimentError> + Sync + Send,

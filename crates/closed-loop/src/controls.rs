@@ -4,7 +4,7 @@
 //! (`RunnerParams::kidnap`, `RunnerParams::record_timeline`; used by the robustness
 //! experiments, `docs/recovery.md`). Each is a control or an observer of the harness loop.
 
-use crate::experiments::ExperimentError;
+use crate::ExperimentError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
 pub use mapkeeper_harness::lost::{LostCounts, LostEnd, LostEpisode, LostPolicy};
 use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, SessionStep, Step};

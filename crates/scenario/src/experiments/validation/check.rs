@@ -25,9 +25,9 @@
 //! code is bit-identical, so any move at all is a change of the code; the tolerance says which
 //! moves matter. The file is JSON with sorted keys, the same bytes for the same results.
 
+use crate::experiments::validation::merge::load_result_dir;
 use crate::experiments::validation::{ValidationRecord, WorldRow};
 use crate::results::ResultsError;
-use crate::results::merge::load_result_dir;
 use crate::stats::{batch_means_half_width, frac, mean, paired_diff};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

@@ -7,17 +7,17 @@
 //! robot resumes, and after `lost_wait_s` without one it resumes anyway ([`LostPolicy`]).
 //!
 //! The loop itself is `mapkeeper_harness::run`: this module builds the simulated source, the
-//! session and the experiment's controls and observers ([`crate::experiments::run_events`]), and assembles
+//! session and the experiment's controls and observers ([`crate::controls`]), and assembles
 //! the [`WorldRun`]. No wall clock is read here: the time the updater spends per processed scan
 //! is measured only if the caller passes a [`Clock`] (the CLI and the benchmarks do);
 //! otherwise it is reported as 0 and the work counters (processed scans, beams) stand in for it.
 
-use crate::experiments::ExperimentError;
-use crate::experiments::pose_oracle::{GivenPoseError, GivenPoseStats, PoseOracle, UpdaterPoses};
-use crate::experiments::run_events::{
+use crate::ExperimentError;
+use crate::controls::{
     Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEpisode, LostPolicy, PoseErrorControl, PoseErrorHold,
     PoseErrorRecord, RobotKidnap, TimelineRecorder, TimelineSample,
 };
+use crate::pose_oracle::{GivenPoseError, GivenPoseStats, PoseOracle, UpdaterPoses};
 use crate::sim_source::{SimSource, Simulated};
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_harness::jobs::map::{EstimateMapper, ThreadedEstimateMapper};

@@ -92,7 +92,7 @@ pub fn default_storage_areas() -> Vec<StorageArea> {
 /// Parameters of the generator.
 ///
 /// ```
-/// use mapkeeper_scenario::GeneratorParams;
+/// use mapkeeper_closed_loop::GeneratorParams;
 /// let mut p = GeneratorParams::default();
 /// assert_eq!(p.route_clearance_m, 0.98);
 /// p.max_edits_per_world = 5;
@@ -476,7 +476,7 @@ fn try_edit(
 /// `"generator"`). The first k worlds are the same for any `count ≥ k`.
 ///
 /// ```
-/// use mapkeeper_scenario::{GeneratorParams, generate_worlds};
+/// use mapkeeper_closed_loop::{GeneratorParams, generate_worlds};
 /// use mapkeeper_sim::{Route, World};
 /// let chain = generate_worlds(&World::default_warehouse(), &Route::default_warehouse(), 4, 7,
 ///     &GeneratorParams::default()).unwrap();

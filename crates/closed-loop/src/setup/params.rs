@@ -1,10 +1,10 @@
 //! Parameters of the robustness experiments (`docs/recovery.md`).
 
-use crate::experiments::ExperimentError;
-use crate::experiments::runner::RunnerParams;
-use crate::experiments::{check_route, check_turn, invalid};
+use crate::ExperimentError;
+use crate::runner::RunnerParams;
 use crate::worlds::generator::GeneratorParams;
 use crate::worlds::mapping::MappingParams;
+use crate::{check_route, check_turn, invalid};
 use mapkeeper_grid::metrics::MetricParams;
 use mapkeeper_sim::Route;
 use serde::{Deserialize, Serialize};
