@@ -186,6 +186,7 @@ const FLAGS: &[Flag] = &[
     other("experiment real-data", "--presets", Names),
     ok("experiment real-data", "--seed", Count, SEED_OK, SEED_WHY),
     num("experiment real-data", "--seeds", Count),
+    num("experiment real-data", "--jobs", Count),
     other("experiment real-data", "--out", Path),
     other("map", "--log", Path),
     other("map", "--log-format", Name),

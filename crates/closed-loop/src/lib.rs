@@ -41,8 +41,8 @@ pub use controls::{
 pub use error::{ExperimentError, check_route, check_turn, invalid};
 pub use pose_oracle::{PoseNoise, UpdaterPoses};
 pub use runner::{
-    Clock, ErrorSample, LocStats, NoClock, RunInputs, RunOptions, RunnerParams, Trajectories, UpdaterCounts, WorldRun,
-    run_world, run_world_with,
+    Checked, Clock, ErrorSample, Execution, LocStats, NoClock, RunInputs, RunOptions, RunnerParams, Trajectories,
+    UpdaterCounts, WorldRun, run_world, run_world_with,
 };
 pub use setup::params::RecoveryParams;
 pub use sim_source::{AheadSource, SimSource, Simulated};

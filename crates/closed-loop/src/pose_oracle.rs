@@ -14,7 +14,7 @@
 //! [`GivenPoseError`] scores the poses the updater was given against the truth.
 //!
 //! ```
-//! use mapkeeper_closed_loop::experiments::pose_oracle::{PoseNoise, UpdaterPoses};
+//! use mapkeeper_closed_loop::pose_oracle::{PoseNoise, UpdaterPoses};
 //! let mut poses: UpdaterPoses = "true+noise".parse().unwrap();
 //! if let UpdaterPoses::TrueNoise(n) = &mut poses {
 //!     n.sigma_xy_m = 0.05;
@@ -118,7 +118,7 @@ impl std::str::FromStr for UpdaterPoses {
 /// the start). The defaults are a well-localised robot's error.
 ///
 /// ```
-/// use mapkeeper_closed_loop::experiments::pose_oracle::PoseNoise;
+/// use mapkeeper_closed_loop::pose_oracle::PoseNoise;
 /// let noise = PoseNoise { sigma_xy_m: 0.05, ..PoseNoise::default() };
 /// assert_eq!(noise.yaw_bias_tau_s, 20.0);
 /// assert!(noise.validate().is_ok());

@@ -69,10 +69,6 @@ pub struct RunnerParams {
     pub max_sim_time_s: f64,
     /// Record the true, chain and baseline trajectories (at every scan tick). Default false.
     pub record_trajectories: bool,
-    /// How the run is executed, not what it computes ([`RunOptions`]): never read from a
-    /// parameter file, never written with the parameters, not in a checkpoint's fingerprint.
-    #[serde(skip)]
-    pub run: RunOptions,
     /// Displace the chain localiser's estimate once during the run (a kidnapping of the
     /// estimate; the robot keeps driving). Default none.
     pub kidnap: Option<Kidnap>,
@@ -106,8 +102,28 @@ pub struct RunnerParams {
     pub deskew: bool,
 }
 
-/// How a run is executed, apart from what it computes ([`RunnerParams`]): no option changes a
-/// bit of any output, only the threads the run uses (tests: `determinism.rs`).
+/// Runner parameters that passed [`RunnerParams::validate`]: made only by
+/// [`RunnerParams::checked`] (or [`Checked::assume`] by a caller that checked a whole it is part
+/// of, as the validation's parameters are checked once per seed).
+#[derive(Clone, Copy, Debug)]
+pub struct Checked<'a>(&'a RunnerParams);
+
+impl<'a> Checked<'a> {
+    /// `params` as checked: for a caller whose own `validate` has just checked them as part of
+    /// a larger whole (e.g. `ValidationParams::validate` checks its `runner`).
+    pub fn assume(params: &'a RunnerParams) -> Self {
+        Checked(params)
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &'a RunnerParams {
+        self.0
+    }
+}
+
+/// How a run is executed, apart from what it computes ([`RunnerParams`]) and given beside it
+/// ([`Execution`]), never inside it: no option changes a bit of any output, only the threads the
+/// run uses (tests: `determinism.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RunOptions {
     /// Run the baseline localiser on a thread of its own, fed the same frames in the same
@@ -122,18 +138,29 @@ pub struct RunOptions {
     /// ([`mapkeeper_harness::jobs::map::ThreadedEstimateMapper`]; shorter wall time when a core
     /// is free). Default true.
     pub parallel_fresh_map: bool,
-    /// With [`RunOptions::simulate_ahead`], run the chain localiser one frame ahead of the
-    /// updater on a thread of its own, going back to a saved state when a control acts on it
-    /// or on the robot before its update is used (`mapkeeper_harness::Session::set_localise_ahead`).
-    /// Default false, and `validate` leaves it off: on the 2-core machine it gained no wall time
-    /// (docs/benchmarks.md, "Issue 29, third round"), the second core being already taken by
-    /// the simulator, the baseline and the fresh map.
-    pub localise_ahead: bool,
 }
 
 impl Default for RunOptions {
     fn default() -> Self {
-        Self { parallel_baseline: true, simulate_ahead: false, parallel_fresh_map: true, localise_ahead: false }
+        Self { parallel_baseline: true, simulate_ahead: false, parallel_fresh_map: true }
+    }
+}
+
+/// How a run is executed, beside what it computes ([`RunnerParams`]) and what it is given
+/// ([`RunInputs`]): its threads ([`RunOptions`]) and the clock the updater's time per processed
+/// scan is read from (the only thing of a run that is measured, not computed).
+#[derive(Clone, Copy)]
+pub struct Execution<'a> {
+    /// The threads the run uses.
+    pub options: RunOptions,
+    /// The clock of the updater's time per scan.
+    pub clock: &'a dyn Clock,
+}
+
+impl<'a> Execution<'a> {
+    /// The default threads, timed by `clock`.
+    pub fn timed_by(clock: &'a dyn Clock) -> Self {
+        Execution { options: RunOptions::default(), clock }
     }
 }
 
@@ -172,7 +199,6 @@ impl Default for RunnerParams {
             lost_wait_s: mapkeeper_harness::DEFAULT_LOST_WAIT_S,
             max_sim_time_s: 300.0,
             record_trajectories: false,
-            run: RunOptions::default(),
             kidnap: None,
             record_timeline: false,
             fresh_map: None,
@@ -190,6 +216,13 @@ impl RunnerParams {
         self.filter = FilterParams::preset(name)?;
         self.localiser = name.to_string();
         Ok(())
+    }
+
+    /// The parameters, checked once where a run starts ([`RunnerParams::validate`]): what
+    /// [`run_world_with`] takes, so a chain of worlds checks its parameters once, not per world.
+    pub fn checked(&self) -> Result<Checked<'_>, ExperimentError> {
+        self.validate()?;
+        Ok(Checked(self))
     }
 
     /// Checks every field (and the components' own parameters).
@@ -373,10 +406,9 @@ pub struct RunInputs<'a> {
     pub prev_memory: Option<&'a StructureMemory>,
 }
 
-/// Runs one world. All random streams derive from `seed` and `label` (e.g. `"W007"`); the
-/// updater's time per processed scan is read from `clock`. With
-/// [`RunOptions::parallel_baseline`] the baseline localiser runs on its own thread, fed the
-/// same scan ticks in the same order, so the results are the same either way.
+/// Runs one world with the default threads ([`RunOptions`]). All random streams derive from
+/// `seed` and `label` (e.g. `"W007"`); the updater's time per processed scan is read from
+/// `clock`. The parameters are checked here, where the run starts.
 pub fn run_world(
     inputs: &RunInputs<'_>,
     params: &RunnerParams,
@@ -384,7 +416,7 @@ pub fn run_world(
     label: &str,
     clock: &dyn Clock,
 ) -> Result<WorldRun, ExperimentError> {
-    run_world_with(inputs, params, seed, label, clock, &mut [])
+    run_world_with(inputs, params.checked()?, seed, label, &Execution::timed_by(clock), &mut [])
 }
 
 /// The baseline localiser on M_1 (if the run has one), started where the chain starts.
@@ -395,13 +427,14 @@ fn baseline(
     label: &str,
     start_est: Pose2,
     cov: mapkeeper_localiser::Covariance3,
+    threaded: bool,
 ) -> Result<Option<Baseline>, ExperimentError> {
     if !params.run_baseline {
         return Ok(None);
     }
     let mut b = Localiser::new(baseline_map, params.filter, stream_seed(seed, &format!("baseline/{label}")))?;
     b.init_pose(start_est, cov)?;
-    Ok(Some(if params.run.parallel_baseline { Baseline::threaded(b) } else { Baseline::inline(b) }))
+    Ok(Some(if threaded { Baseline::threaded(b) } else { Baseline::inline(b) }))
 }
 
 /// The run's updater on M_{i-1} with its memory, if the run has one.
@@ -440,19 +473,19 @@ impl FreshMapper {
 }
 
 /// The mapper of the run's fresh map on M_{i-1}'s grid, if the run makes one.
-fn fresh_mapper(params: &RunnerParams, prev_map: &OccupancyGrid) -> Result<Option<FreshMapper>, ExperimentError> {
+fn fresh_mapper(
+    params: &RunnerParams,
+    prev_map: &OccupancyGrid,
+    threaded: bool,
+) -> Result<Option<FreshMapper>, ExperimentError> {
     let Some(f) = params.fresh_map else { return Ok(None) };
     let m = EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
         .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })?;
-    Ok(Some(if params.run.parallel_fresh_map {
-        FreshMapper::Threaded(ThreadedEstimateMapper::spawn(m))
-    } else {
-        FreshMapper::Inline(m)
-    }))
+    Ok(Some(if threaded { FreshMapper::Threaded(ThreadedEstimateMapper::spawn(m)) } else { FreshMapper::Inline(m) }))
 }
 
 /// The session of one world: the chain localiser, the updater and the baseline, with the
-/// run's deskewing and threads.
+/// run's deskewing.
 fn session<'c>(
     params: &RunnerParams,
     chain: Localiser,
@@ -462,22 +495,24 @@ fn session<'c>(
 ) -> Session<'c> {
     let mut session = Session::new(PoseSource::Localiser(Box::new(chain)), updater, baseline, clock);
     session.set_deskew(params.deskew);
-    // The localiser runs ahead only with a source that shows the next frame.
-    session.set_localise_ahead(params.run.localise_ahead && params.run.simulate_ahead);
     session
 }
 
-/// [`run_world`] with `extra` observers seeing every step after the run's own (an MCAP
-/// recorder, say); observers cannot change the run.
+/// [`run_world`] with parameters checked where the run started ([`RunnerParams::checked`]),
+/// run as `exec` says (threads, clock), and `extra` observers seeing every step after the run's
+/// own (an MCAP recorder, say); observers cannot change the run. With
+/// [`RunOptions::parallel_baseline`] the baseline localiser runs on its own thread, fed the same
+/// scan ticks in the same order, so the results are the same either way.
 pub fn run_world_with(
     inputs: &RunInputs<'_>,
-    params: &RunnerParams,
+    params: Checked<'_>,
     seed: u64,
     label: &str,
-    clock: &dyn Clock,
+    exec: &Execution<'_>,
     extra: &mut [&mut dyn Observer],
 ) -> Result<WorldRun, ExperimentError> {
-    params.validate()?;
+    let Checked(params) = params;
+    let (options, clock) = (exec.options, exec.clock);
     let RunInputs { world, route, prev_map, baseline_map, prev_memory } = *inputs;
     let mut sim = Simulator::new(world, params.sim.clone(), stream_seed(seed, &format!("sim/{label}")))?;
     sim.set_route(route.points());
@@ -485,10 +520,10 @@ pub fn run_world_with(
     let cov = init_cov(params);
     let mut chain = Localiser::new(prev_map, params.filter, stream_seed(seed, &format!("chain/{label}")))?;
     chain.init_pose(start_est, cov)?;
-    let baseline = baseline(params, baseline_map, seed, label, start_est, cov)?;
+    let baseline = baseline(params, baseline_map, seed, label, start_est, cov, options.parallel_baseline)?;
     let updater = updater(params, prev_map, prev_memory)?;
     let mut session = session(params, chain, updater, baseline, clock);
-    let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), params.run.simulate_ahead);
+    let mut source = Simulated::new(SimSource::new(sim, params.max_sim_time_s), options.simulate_ahead);
     let mut score = LocScore::new(params.record_trajectories);
     let mut work = UpdaterWork::default();
     let mut timeline = TimelineRecorder::default();
@@ -497,7 +532,7 @@ pub fn run_world_with(
     let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
     let mut oracle = PoseOracle::new(&params.updater_poses, seed, label);
     let mut given = GivenPoseError::default();
-    let mut fresh = fresh_mapper(params, prev_map)?;
+    let mut fresh = fresh_mapper(params, prev_map, options.parallel_fresh_map)?;
     let result = {
         let mut observers: Vec<&mut dyn Observer> = vec![&mut score, &mut work];
         if let Some(f) = fresh.as_mut() {

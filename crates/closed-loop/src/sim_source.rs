@@ -193,9 +193,6 @@ pub struct AheadSource {
     rewinds: u64,
     /// The source ended (in the current epoch).
     ended: bool,
-    /// The next message of the current epoch, received by [`SensorSource::peek_frame`] and not
-    /// yet handed out (dropped when a control acts on the robot before it is).
-    peeked: Option<Box<Ahead>>,
 }
 
 impl std::fmt::Debug for AheadSource {
@@ -220,7 +217,6 @@ impl AheadSource {
             ops: Vec::new(),
             rewinds: 0,
             ended: false,
-            peeked: None,
         }
     }
 
@@ -283,9 +279,8 @@ fn ahead_worker(
     rewind: &std::sync::mpsc::Receiver<Rewind>,
 ) -> SimSource {
     // Copies after steps index - copies.len() + 1 ..= index; the caller is at most
-    // AHEAD_STEPS + 2 steps behind (the channel's steps, the one in hand, and one more once the
-    // caller has peeked at its next step); the AHEAD_STEPS + 4 copies kept (one to spare) reach
-    // every rewind.
+    // AHEAD_STEPS + 1 steps behind (the channel's steps and the one in hand); the
+    // AHEAD_STEPS + 4 copies kept (spares) reach every rewind.
     let mut copies: std::collections::VecDeque<SimSource> = std::collections::VecDeque::new();
     let (mut epoch, mut index) = (0u64, 0u64);
     let mut ended = false;
@@ -371,13 +366,7 @@ impl SensorSource for AheadSource {
         if self.ended && self.ops.is_empty() {
             return Ok(None);
         }
-        // A step peeked before a control acted on the robot is not the one to come.
-        let peeked = self.peeked.take().filter(|_| self.ops.is_empty());
-        let message = match peeked {
-            Some(m) => *m,
-            None => self.receive()?,
-        };
-        match message {
+        match self.receive()? {
             Ahead::Step { index, step, stopped, .. } => {
                 self.index = index;
                 self.stopped = stopped;
@@ -387,23 +376,6 @@ impl SensorSource for AheadSource {
                 self.ended = true;
                 error.map_or(Ok(None), Err)
             }
-        }
-    }
-
-    fn peek_frame(&mut self) -> Option<&SensorFrame> {
-        if self.ended && self.ops.is_empty() {
-            return None;
-        }
-        if !self.ops.is_empty() {
-            self.peeked = None;
-        }
-        if self.peeked.is_none() {
-            // An error here shows again at the next step.
-            self.peeked = Some(Box::new(self.receive().ok()?));
-        }
-        match self.peeked.as_deref() {
-            Some(Ahead::Step { step, .. }) => Some(&step.frame),
-            _ => None,
         }
     }
 
@@ -469,13 +441,6 @@ impl SensorSource for Simulated {
         }
     }
 
-    fn peek_frame(&mut self) -> Option<&SensorFrame> {
-        match self {
-            Self::Inline(_) => None,
-            Self::Ahead(a) => a.peek_frame(),
-        }
-    }
-
     fn control(&mut self) -> Option<&mut dyn RobotControl> {
         match self {
             Self::Inline(s) => s.control(),
@@ -522,26 +487,15 @@ mod tests {
             let mut inline = source(3);
             let mut ahead = AheadSource::start(source(3));
             let mut k = 0;
-            // The frame peeked at the last step, if no action followed.
-            let mut shown: Option<SensorFrame> = None;
             loop {
                 let (a, b) = (inline.next_step().expect("inline"), ahead.next_step().expect("ahead"));
                 assert_eq!(a, b, "step {k}");
-                if let (Some(f), Some(b)) = (shown.take(), &b) {
-                    assert_eq!(&f, &b.frame, "step {k}: not the frame peeked");
-                }
                 if a.is_none() || stop_at == Some(k) {
                     break;
                 }
                 assert_eq!(inline.is_stopped(), ahead.is_stopped(), "step {k}");
-                // Peek at every other step (before the actions of the even steps, which then
-                // drop what was peeked), as the driver does for a localiser run ahead.
-                let peeked = if k % 2 == 0 { ahead.peek_frame().cloned() } else { None };
-                assert_eq!(ahead.is_stopped(), inline.is_stopped(), "step {k}: peeking moved nothing");
                 act(k, &mut inline);
-                if !act(k, &mut ahead) {
-                    shown = peeked;
-                }
+                act(k, &mut ahead);
                 assert_eq!(inline.is_stopped(), ahead.is_stopped(), "step {k}, after the actions");
                 k += 1;
             }

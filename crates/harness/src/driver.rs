@@ -49,11 +49,7 @@ pub fn step_once(
     for c in controls.iter_mut() {
         c.before_step(&step, session, source.control())?;
     }
-    // With the localiser run ahead, the session is given the next frame too, if the source
-    // already has it (after the controls' actions before this step; one after it makes the
-    // source drop that frame, and the session, seeing another, goes back).
-    let next = if session.localises_ahead() { source.peek_frame() } else { None };
-    let report = session.process_with_next(&step.frame, next);
+    let report = session.process(&step.frame);
     for o in observers.iter_mut() {
         o.on_step(&step, &report, session);
     }

@@ -21,7 +21,6 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod ahead;
 pub mod driver;
 mod error;
 pub mod jobs;
@@ -32,7 +31,6 @@ pub mod scoring;
 pub mod session;
 pub mod source;
 
-pub use ahead::AheadCounts;
 pub use driver::{Control, Observer, run, step_once};
 pub use error::HarnessError;
 pub use lost::{DEFAULT_LOST_WAIT_S, LostCounts, LostEnd, LostEpisode, LostPolicy};

@@ -5,7 +5,6 @@
 //! ([`Session::set_updater_pose_override`]).
 
 use crate::HarnessError;
-use crate::ahead::{AheadCounts, LocaliserAhead};
 use crate::clock::Clock;
 use crate::source::SensorFrame;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
@@ -162,8 +161,6 @@ pub struct Session<'c> {
     deskew: bool,
     /// The last frame's odometry and its time (the motion over the next sweep).
     last_odometry: Option<(u64, Pose2)>,
-    /// The chain localiser run one frame ahead ([`Session::set_localise_ahead`]).
-    ahead: Option<LocaliserAhead>,
 }
 
 /// Odometry older than this gives no motion for deskewing, nanoseconds.
@@ -203,17 +200,7 @@ impl<'c> Session<'c> {
         baseline: Option<Baseline>,
         clock: &'c dyn Clock,
     ) -> Self {
-        Self {
-            pose,
-            updater,
-            baseline,
-            clock,
-            bias: None,
-            updater_pose: None,
-            deskew: true,
-            last_odometry: None,
-            ahead: None,
-        }
+        Self { pose, updater, baseline, clock, bias: None, updater_pose: None, deskew: true, last_odometry: None }
     }
 
     /// Whether the scans that carry a sweep timing (`LaserScan::sweep`) are deskewed before
@@ -224,55 +211,6 @@ impl<'c> Session<'c> {
     /// left as they are. Observers still see the raw frame.
     pub fn set_deskew(&mut self, on: bool) {
         self.deskew = on;
-    }
-
-    /// Whether the chain localiser runs one frame ahead of the updater, on a thread of its own
-    /// (default false; only with [`PoseSource::Localiser`]): given the next frame
-    /// ([`Session::process_with_next`]), the localiser processes it while the updater works on
-    /// the current one, and goes back to its saved state when that frame changes or a control
-    /// re-initialises it before it is used. The results are those of a run in one thread, bit
-    /// for bit (module [`crate::ahead`]).
-    pub fn set_localise_ahead(&mut self, on: bool) {
-        if !on {
-            self.settle_ahead(None);
-            self.ahead = None;
-        } else if self.ahead.is_none() && matches!(self.pose, PoseSource::Localiser(_)) {
-            self.ahead = Some(LocaliserAhead::start());
-        }
-    }
-
-    /// Whether the localiser runs ahead, so that [`Session::process_with_next`] wants the next
-    /// frame.
-    pub fn localises_ahead(&self) -> bool {
-        self.ahead.is_some()
-    }
-
-    /// What happened to the localiser's updates run ahead (zeros when it does not run ahead).
-    pub fn ahead_counts(&self) -> AheadCounts {
-        self.ahead.as_ref().map(LocaliserAhead::counts).unwrap_or_default()
-    }
-
-    /// Takes back the localiser from the update running ahead, if one runs, and puts it back as
-    /// the pose source: in its state after that update (returned) if `input` is the frame it
-    /// processed, otherwise in its state before it.
-    fn settle_ahead(&mut self, input: Option<&SensorFrame>) -> Option<UpdateReport> {
-        let (localiser, report) = self.ahead.as_mut()?.take(input)?;
-        self.pose = PoseSource::Localiser(localiser);
-        report
-    }
-
-    /// Sends the localiser ahead with `next` when it will run a sensor update on it.
-    fn send_ahead(&mut self, next: &SensorFrame) {
-        let (Some(ahead), Some(odometry)) = (self.ahead.as_ref(), next.odometry) else { return };
-        if ahead.is_pending() || !matches!(&self.pose, PoseSource::Localiser(l) if l.would_update(&odometry)) {
-            return;
-        }
-        let input = self.deskewed(next, self.last_odometry).unwrap_or_else(|| next.clone());
-        // The localiser goes to the worker; `settle_ahead` puts it back.
-        match (std::mem::replace(&mut self.pose, PoseSource::None), self.ahead.as_mut()) {
-            (PoseSource::Localiser(localiser), Some(ahead)) => ahead.send(localiser, odometry, input),
-            (pose, _) => self.pose = pose,
-        }
     }
 
     /// The frame the estimators see: `frame` with its timed scans deskewed, when deskewing is
@@ -321,27 +259,19 @@ impl<'c> Session<'c> {
     /// that pose (or the override, [`Session::set_updater_pose_override`]; and the frame's
     /// odometry, or the pose where there is none), then the baseline.
     pub fn process(&mut self, frame: &SensorFrame) -> SessionStep {
-        self.process_with_next(frame, None)
-    }
-
-    /// [`Session::process`], given the frame that will come next, if known: with
-    /// [`Session::set_localise_ahead`], the chain localiser processes it while the updater
-    /// works on this one. The same result as [`Session::process`] whatever `next` is.
-    pub fn process_with_next(&mut self, frame: &SensorFrame, next: Option<&SensorFrame>) -> SessionStep {
         let before = self.last_odometry;
         if let Some(o) = frame.odometry {
             self.last_odometry = Some((frame.stamp_ns, o));
         }
         let deskewed = self.deskewed(frame, before);
         let frame = deskewed.as_ref().unwrap_or(frame);
-        let ahead = self.settle_ahead(Some(frame));
         let oracle = self.updater_pose.take();
         let (pose, localiser) = match &mut self.pose {
             PoseSource::Localiser(loc) => {
                 let Some(odometry) = frame.odometry else {
                     return SessionStep::skipped(frame.stamp_ns, Skip::NoOdometry);
                 };
-                let r = ahead.unwrap_or_else(|| loc.update(odometry, &frame.scans));
+                let r = loc.update(odometry, &frame.scans);
                 (Some(r.estimate.pose_in_map), Some(r))
             }
             PoseSource::Track(track) => match interpolate(track, frame.stamp_ns) {
@@ -355,9 +285,6 @@ impl<'c> Session<'c> {
             (Some(p), Some(b)) => Some(b.apply(p)),
             _ => pose,
         };
-        if let Some(next) = next {
-            self.send_ahead(next);
-        }
         let (mut updater_ns, mut updater_state_bytes) = (None, 0);
         // The localiser's own uncertainty goes with its pose (not with an oracle's).
         let sigma = match (&localiser, oracle) {
@@ -395,7 +322,6 @@ impl<'c> Session<'c> {
     /// Re-initialises the chain localiser at `pose_in_map` with `covariance` (an experiment
     /// biasing the estimate, or pose updating handing a pose back).
     pub fn set_estimate(&mut self, pose_in_map: Pose2, covariance: Covariance3) -> Result<(), HarnessError> {
-        self.settle_ahead(None);
         match &mut self.pose {
             PoseSource::Localiser(loc) => {
                 loc.init_pose(pose_in_map, covariance)?;
@@ -416,9 +342,6 @@ impl<'c> Session<'c> {
 
     /// The chain localiser's particles (with [`PoseSource::Localiser`]).
     pub fn particles(&self) -> Option<&[Pose2]> {
-        if let Some(p) = self.ahead.as_ref().and_then(LocaliserAhead::saved_particles) {
-            return Some(p);
-        }
         match &self.pose {
             PoseSource::Localiser(l) => Some(l.particles()),
             _ => None,
@@ -436,8 +359,7 @@ impl<'c> Session<'c> {
     }
 
     /// Ends the session: joins the baseline and hands back the updater.
-    pub fn finish(mut self) -> Result<SessionOutput, HarnessError> {
-        self.set_localise_ahead(false);
+    pub fn finish(self) -> Result<SessionOutput, HarnessError> {
         let baseline = match self.baseline {
             Some(b) => b.finish()?,
             None => Vec::new(),

@@ -40,14 +40,6 @@ pub trait SensorSource {
     /// The next step, or `None` at the end of the stream.
     fn next_step(&mut self) -> Result<Option<Step>, SourceError>;
 
-    /// The frame of the next step, if the source can tell it now without taking the step
-    /// (a source running ahead on its own thread can; the default cannot). A control acting
-    /// on the robot after this call makes the source drop that step and produce another, so
-    /// the frame shown may not be the one that comes.
-    fn peek_frame(&mut self) -> Option<&SensorFrame> {
-        None
-    }
-
     /// The robot behind the stream, if the source can act on it (a simulator can; a log
     /// cannot).
     fn control(&mut self) -> Option<&mut dyn RobotControl> {

@@ -19,8 +19,8 @@ pub use experiments::ExperimentError;
 pub use experiments::recovery::{RecoveryParams, RecoveryResults, RecoverySummary, run_recovery};
 pub use experiments::validation::sweep::{SweepPlan, SweepSpec};
 pub use experiments::validation::{
-    GroundTruth, Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, WorldRow, run_seed,
-    run_seed_in, summarise, summarise_records,
+    GroundTruth, Scores, SeedRecord, SeedRun, Shard, Summary, ValidationParams, ValidationRecord, ValidationRun,
+    WorldRow, run_seed, summarise, summarise_records,
 };
 pub use mapkeeper_grid::StagedDir;
 pub use results::ResultsError;

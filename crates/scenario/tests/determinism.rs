@@ -8,7 +8,9 @@
 
 use mapkeeper_closed_loop::NoClock;
 use mapkeeper_scenario::experiments::validation::report::{runs_json, summary_json, worlds_csv};
-use mapkeeper_scenario::{SeedRun, Shard, ValidationParams, ValidationRecord, run_seed, summarise, summarise_records};
+use mapkeeper_scenario::{
+    SeedRun, Shard, ValidationParams, ValidationRecord, ValidationRun, run_seed, summarise, summarise_records,
+};
 use rayon::prelude::*;
 
 fn params() -> ValidationParams {
@@ -22,7 +24,8 @@ fn params() -> ValidationParams {
 fn run_on(threads: usize, seeds: &[u64]) -> Vec<SeedRun> {
     let p = params();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
-    pool.install(|| seeds.par_iter().map(|&s| run_seed(&p, s, &NoClock, &|_| {}).expect("run")).collect())
+    let given = ValidationRun::timed_by(&NoClock);
+    pool.install(|| seeds.par_iter().map(|&s| run_seed(&p, s, &given, &|_| {}).expect("run")).collect())
 }
 
 #[test]
@@ -34,12 +37,11 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
     assert_eq!(summary_json(&sa).unwrap(), summary_json(&sb).unwrap());
     let records = |r: &[SeedRun]| r.iter().map(SeedRun::record).collect::<Vec<_>>();
     assert_eq!(worlds_csv(&records(&a)), worlds_csv(&records(&b)));
-    // The simulator run ahead of the estimators and the chain localiser ahead of the updater,
-    // each on a thread of its own: the same seeds.
-    let mut pa = params();
-    pa.runner.run.simulate_ahead = true;
-    pa.runner.run.localise_ahead = true;
-    let c: Vec<SeedRun> = [5, 6].iter().map(|&s| run_seed(&pa, s, &NoClock, &|_| {}).expect("run")).collect();
+    // The simulator run ahead of the estimators on a thread of its own: the same seeds.
+    let pa = params();
+    let mut ahead = ValidationRun::timed_by(&NoClock);
+    ahead.exec.options.simulate_ahead = true;
+    let c: Vec<SeedRun> = [5, 6].iter().map(|&s| run_seed(&pa, s, &ahead, &|_| {}).expect("run")).collect();
     assert_eq!(summary_json(&summarise(&pa, &c, 0.0)).unwrap(), summary_json(&sa).unwrap());
     assert_eq!(worlds_csv(&records(&c)), worlds_csv(&records(&a)));
     for (ra, rc) in a.iter().zip(&c) {
@@ -71,7 +73,7 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
 
 #[test]
 fn baseline_and_fresh_map_on_threads_of_their_own_give_the_same_run() {
-    use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world};
+    use mapkeeper_closed_loop::{Execution, RunInputs, RunnerParams, run_world, run_world_with};
     use mapkeeper_sim::{World, ground_truth_map};
     let world = World::default_warehouse();
     let g = ground_truth_map(&world, &world.default_map_geometry(0.05).unwrap());
@@ -79,13 +81,14 @@ fn baseline_and_fresh_map_on_threads_of_their_own_give_the_same_run() {
     let inputs = RunInputs { world: &world, route: &route, prev_map: &g, baseline_map: &g, prev_memory: None };
     let fresh_map = ValidationParams::default().runner.fresh_map;
     assert!(fresh_map.is_some(), "the validation makes a fresh map");
-    let mut p = RunnerParams { record_trajectories: true, fresh_map, ..RunnerParams::default() };
-    assert!(p.run.parallel_baseline && p.run.parallel_fresh_map, "threads by default");
+    let p = RunnerParams { record_trajectories: true, fresh_map, ..RunnerParams::default() };
+    let mut exec = Execution::timed_by(&NoClock);
+    assert!(exec.options.parallel_baseline && exec.options.parallel_fresh_map, "threads by default");
     let a = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
-    p.run.parallel_baseline = false;
-    let b = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
-    p.run.parallel_fresh_map = false;
-    let c = run_world(&inputs, &p, 9, "W002", &NoClock).unwrap();
+    exec.options.parallel_baseline = false;
+    let b = run_world_with(&inputs, p.checked().unwrap(), 9, "W002", &exec, &mut []).unwrap();
+    exec.options.parallel_fresh_map = false;
+    let c = run_world_with(&inputs, p.checked().unwrap(), 9, "W002", &exec, &mut []).unwrap();
     assert_eq!(a, b);
     assert_eq!(a, c);
     assert!(a.baseline.updates > 0);

@@ -4,7 +4,7 @@
 //! the summary holds them.
 
 use mapkeeper_closed_loop::NoClock;
-use mapkeeper_scenario::{ValidationParams, run_seed, summarise};
+use mapkeeper_scenario::{ValidationParams, ValidationRun, run_seed, summarise};
 
 #[test]
 fn every_row_has_retention_and_change_classes_and_the_best_map_scores_100() {
@@ -12,7 +12,7 @@ fn every_row_has_retention_and_change_classes_and_the_best_map_scores_100() {
     p.route = ValidationParams::short_route(12.0);
     p.exploration_route = ValidationParams::short_route(20.0);
     p.saved_worlds = vec![];
-    let run = run_seed(&p, 5, &NoClock, &|_| {}).expect("run");
+    let run = run_seed(&p, 5, &ValidationRun::timed_by(&NoClock), &|_| {}).expect("run");
     for w in &run.rows {
         let r = w.retention.expect("retention in every new row");
         let c = w.change_classes.expect("change classes in every new row");

@@ -5,8 +5,8 @@
 //! copied into chains of worlds with known values.
 
 use mapkeeper_scenario::experiments::validation::comparison::Comparison;
+use mapkeeper_scenario::experiments::validation::markdown::report_md;
 use mapkeeper_scenario::experiments::validation::merge::check_summary_json;
-use mapkeeper_scenario::experiments::validation::report::report_md;
 use mapkeeper_scenario::experiments::validation::{SeedRecord, ValidationRecord};
 use mapkeeper_scenario::stats::{IntervalUnits, batch_means_half_width, mean, paired_diff};
 

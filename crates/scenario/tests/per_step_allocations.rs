@@ -7,7 +7,7 @@
 //! step and at the 90th.
 #![allow(clippy::unwrap_used)]
 
-use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world_with};
+use mapkeeper_closed_loop::{Execution, RunInputs, RunOptions, RunnerParams, run_world_with};
 use mapkeeper_harness::{NoClock, Observer, Session, SessionStep, Step};
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_scenario::ValidationParams;
@@ -58,9 +58,10 @@ impl Observer for Window {
 
 /// Blocks and bytes allocated from the window's start to its end, and the most bytes in one
 /// step, running one world with `p`.
-fn window_allocations(inputs: &RunInputs<'_>, p: &RunnerParams) -> (usize, usize, usize) {
+fn window_allocations(inputs: &RunInputs<'_>, p: &RunnerParams, options: RunOptions) -> (usize, usize, usize) {
     let mut window = Window { k: 0, from: 30, to: 90, start: None, end: None, last: None, most_in_a_step: 0 };
-    let run = run_world_with(inputs, p, 5, "W002", &NoClock, &mut [&mut window]).unwrap();
+    let exec = Execution { options, clock: &NoClock };
+    let run = run_world_with(inputs, p.checked().unwrap(), 5, "W002", &exec, &mut [&mut window]).unwrap();
     assert!(run.updater.processed > 60, "the updater should have worked through the window");
     let (Some(a), Some(b)) = (window.start, window.end) else {
         panic!("the route should last past the window ({} steps)", window.k);
@@ -79,13 +80,14 @@ fn no_map_sized_allocation_while_a_world_runs() {
     // baseline and the fresh map on threads of their own.
     let mut p = ValidationParams::new(2, "mapkeeper").unwrap().runner;
     p.filter = FilterParams::amcl();
-    assert!(p.run.parallel_baseline && p.run.parallel_fresh_map && p.fresh_map.is_some());
+    let mut options = RunOptions::default();
+    assert!(options.parallel_baseline && options.parallel_fresh_map && p.fresh_map.is_some());
     // A map's cells at one byte a cell (the smallest of the per-cell arrays: states; the fields
     // and log-odds take four bytes a cell).
     let cells = map.geometry().width() * map.geometry().height();
 
     // Everything in order (the simulator not ahead: the default validation's six runs).
-    let (blocks, bytes, most) = window_allocations(&inputs, &p);
+    let (blocks, bytes, most) = window_allocations(&inputs, &p, options);
     println!("60 steps: {blocks} blocks, {bytes} bytes, at most {most} in a step; the map has {cells} cells");
     // The count works: a step allocates (its scans, and their copies for the other threads).
     assert!(blocks > 60 && bytes > 0 && most > 0, "{blocks} blocks, {bytes} bytes");
@@ -102,8 +104,8 @@ fn no_map_sized_allocation_while_a_world_runs() {
     let c = copy.change();
     drop(twin);
     let copy_bytes = c.bytes_allocated;
-    p.run.simulate_ahead = true;
-    let (blocks_ahead, bytes_ahead, _) = window_allocations(&inputs, &p);
+    options.simulate_ahead = true;
+    let (blocks_ahead, bytes_ahead, _) = window_allocations(&inputs, &p, options);
     println!("ahead: {blocks_ahead} blocks, {bytes_ahead} bytes; a copy of the simulator {copy_bytes} bytes");
     let extra = bytes_ahead.saturating_sub(bytes);
     assert!(

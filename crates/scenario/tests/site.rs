@@ -6,7 +6,7 @@
 use mapkeeper_closed_loop::worlds::site::check_route;
 use mapkeeper_closed_loop::{NoClock, Site, SiteParams, generate_worlds};
 use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
-use mapkeeper_scenario::{ValidationParams, run_seed};
+use mapkeeper_scenario::{ValidationParams, ValidationRun, run_seed};
 use mapkeeper_sim::{Route, World};
 
 /// A 10 m × 7 m room with a column and two boxes, one person; no storage areas, no route.
@@ -94,7 +94,8 @@ fn a_world_without_scenario_gets_one_and_validates() {
     for w in &chain.worlds {
         check_route(w, &site.route, &w.name, "route.waypoints", sp.route_clearance_m).unwrap();
     }
-    let run = run_seed(&params_for("room", &site, 3), 1, &NoClock, &|_| {}).unwrap();
+    let given = ValidationRun { w1: Some(&site.world), ..ValidationRun::timed_by(&NoClock) };
+    let run = run_seed(&params_for("room", &site, 3), 1, &given, &|_| {}).unwrap();
     assert_eq!(run.rows.len(), 2);
     for r in &run.rows {
         assert!(r.route_done, "W{} route not done", r.world);
@@ -180,7 +181,8 @@ fn validate_imported(world: &World, origin: &str, route_m: Option<f64>) {
     if let Some(len) = route_m {
         p.route = ValidationParams::truncated_route(&p.route, len);
     }
-    let run = run_seed(&p, 2, &NoClock, &|_| {}).unwrap();
+    let run = run_seed(&p, 2, &ValidationRun { w1: Some(&site.world), ..ValidationRun::timed_by(&NoClock) }, &|_| {})
+        .unwrap();
     let row = &run.rows[0];
     println!(
         "{origin}: route {:.1} m, M_1/G_2 CC {:.2}, M_2/G_2 CC {:.2}, collisions {}",

@@ -99,7 +99,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         site: args.site.load()?,
     };
     let world_name = spec.site.as_ref().map_or_else(|| "warehouse".to_string(), |(n, _)| n.clone());
-    let mut vp = spec.plan()?.params.swap_remove(0);
+    let mut plan = spec.plan()?;
+    let mut vp = plan.params.swap_remove(0);
     if let Some(path) = &args.robot {
         mapkeeper_sim::RobotFile::named_or_load(path).context("--robot")?.apply(&mut vp.runner.sim);
         vp.runner.sim.validate().context("--robot")?;
@@ -110,7 +111,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let chains = (p.run_configs().len() * p.seeds) as u64;
     let bar = pool.install(|| super::progress_bar("experiment sensor-realism", chains, "chains", &out));
     let start = Instant::now();
-    let r = pool.install(|| run_sensor_realism(&vp, p, &|| bar.inc(1)))?;
+    let r = pool.install(|| run_sensor_realism(plan.w1.as_ref(), &vp, p, &|| bar.inc(1)))?;
     bar.finish_and_clear();
     let header = format!(
         "World `{world_name}`, robot `{}`, localiser `{}`.",

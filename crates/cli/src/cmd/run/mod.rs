@@ -4,7 +4,8 @@
 mod outputs;
 
 use anyhow::Context;
-use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world, run_world_with};
+use mapkeeper_closed_loop::runner::Execution;
+use mapkeeper_closed_loop::{RunInputs, RunnerParams, run_world_with};
 use mapkeeper_grid::map_io::{load_map, save_map};
 use outputs::{run_log, write_outputs};
 use std::path::PathBuf;
@@ -115,15 +116,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let wall_clock = super::Wall::start();
     let clock = args.timing.clock(&wall_clock);
     let inputs = RunInputs { world: &world, route: &route, prev_map: &map, baseline_map: &baseline, prev_memory: None };
+    let (checked, exec) = (params.checked().context("closed-loop run")?, Execution::timed_by(clock));
     let r = match args.mcap.as_deref() {
         Some(path) => {
             let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(path)?;
-            let r = run_world_with(&inputs, &params, args.seed, "run", clock, &mut [&mut rec])
+            let r = run_world_with(&inputs, checked, args.seed, "run", &exec, &mut [&mut rec])
                 .context("closed-loop run")?;
             outln!("wrote {}", rec.finish(Some(&r.map))?.display());
             r
         }
-        None => run_world(&inputs, &params, args.seed, "run", clock).context("closed-loop run")?,
+        None => run_world_with(&inputs, checked, args.seed, "run", &exec, &mut []).context("closed-loop run")?,
     };
     let wall = args.timing.wall_s(start);
     save_map(&r.map, &dir.file("map.yaml")?)?;

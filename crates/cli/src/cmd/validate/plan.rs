@@ -31,7 +31,7 @@ pub(super) fn plan_mcap(plan: &mut SweepPlan, dirs: &[StagedDir], worlds: &[usiz
         let mcap_dir = dir.path().join("mcap");
         std::fs::create_dir_all(&mcap_dir).with_context(|| format!("{}", mcap_dir.display()))?;
         plan.params[p].mcap_worlds = worlds.to_vec();
-        plan.params[p].mcap_dir = Some(mcap_dir);
+        plan.mcap_dirs[p] = Some(mcap_dir);
     }
     Ok(())
 }
@@ -43,10 +43,7 @@ pub(super) fn simulate_ahead_if_cores_free(
     runs: usize,
     pool: rayon::ThreadPool,
 ) -> rayon::ThreadPool {
-    let ahead = runs < pool.current_num_threads();
-    for p in &mut plan.params {
-        p.runner.run.simulate_ahead = ahead;
-    }
+    plan.options.simulate_ahead = runs < pool.current_num_threads();
     pool
 }
 

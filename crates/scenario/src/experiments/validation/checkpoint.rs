@@ -10,8 +10,9 @@
 //! so a resumed sweep's outputs equal an uninterrupted one's.
 
 use crate::experiments::ExperimentError;
-use crate::experiments::validation::{SeedRun, ValidationParams, mcap_name};
+use crate::experiments::validation::{SeedRun, ValidationParams, ValidationRun, mcap_name};
 use mapkeeper_grid::{hidden_sibling, write_atomic};
+use mapkeeper_sim::World;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -45,9 +46,10 @@ struct JobFile {
 }
 
 /// What a checkpoint must match: the serialised parameters (how the run is executed,
-/// [`crate::RunOptions`], is not among them), the world, the seed.
-fn fingerprint(params: &ValidationParams, seed: u64) -> Result<Fingerprint, ExperimentError> {
-    let world = match &params.world_data {
+/// [`mapkeeper_closed_loop::RunOptions`], is not among them), the world W_1 the run was given
+/// (`None`: the embedded default warehouse), the seed.
+fn fingerprint(params: &ValidationParams, w1: Option<&World>, seed: u64) -> Result<Fingerprint, ExperimentError> {
+    let world = match w1 {
         Some(w) => format!("{:016x}", mapkeeper_sim::seeds::fnv1a64(w.to_toml_string()?.as_bytes())),
         None => "default".to_string(),
     };
@@ -87,26 +89,38 @@ impl Checkpoints {
         ExperimentError::Checkpoint { path: path.to_path_buf(), problem: problem.to_string() }
     }
 
-    /// Writes a finished job, copying its MCAP bags from `params.mcap_dir`.
-    pub fn save(&self, params: &ValidationParams, run: &SeedRun) -> Result<(), ExperimentError> {
+    /// Writes a finished job of `params` given `given` (its W_1 and MCAP folder), copying its
+    /// MCAP bags from that folder.
+    pub fn save(
+        &self,
+        params: &ValidationParams,
+        given: &ValidationRun<'_>,
+        run: &SeedRun,
+    ) -> Result<(), ExperimentError> {
         std::fs::create_dir_all(&self.dir).map_err(|e| Self::err(&self.dir, e))?;
         let mcap = mcap_names(params, run.seed);
-        if let Some(src) = &params.mcap_dir {
+        if let Some(src) = given.mcap_dir {
             for name in &mcap {
                 let (from, to) = (src.join(name), self.dir.join(name));
                 std::fs::copy(&from, &to).map_err(|e| Self::err(&to, format!("copying {}: {e}", from.display())))?;
             }
         }
-        let file = JobFile { format: FORMAT, fingerprint: fingerprint(params, run.seed)?, mcap, run: run.clone() };
+        let file =
+            JobFile { format: FORMAT, fingerprint: fingerprint(params, given.w1, run.seed)?, mcap, run: run.clone() };
         let path = self.file(&params.preset, run.seed);
         let bytes = serde_json::to_vec(&file).map_err(|e| Self::err(&path, e))?;
         write_atomic(&path, &bytes).map_err(|e| Self::err(&path, e))
     }
 
     /// The finished run of a job, if its checkpoint is there; its MCAP bags are copied back to
-    /// `params.mcap_dir`. A checkpoint that cannot be read, or that another run wrote (its
+    /// `given.mcap_dir`. A checkpoint that cannot be read, or that another run wrote (its
     /// parameters, world or seed differ), is an error naming the file.
-    pub fn load(&self, params: &ValidationParams, seed: u64) -> Result<Option<SeedRun>, ExperimentError> {
+    pub fn load(
+        &self,
+        params: &ValidationParams,
+        given: &ValidationRun<'_>,
+        seed: u64,
+    ) -> Result<Option<SeedRun>, ExperimentError> {
         let path = self.file(&params.preset, seed);
         let bytes = match std::fs::read(&path) {
             Ok(b) => b,
@@ -118,7 +132,7 @@ impl Checkpoints {
         if file.format != FORMAT {
             return Err(Self::err(&path, format!("format {} is not {FORMAT}; remove it", file.format)));
         }
-        let want = fingerprint(params, seed)?;
+        let want = fingerprint(params, given.w1, seed)?;
         if file.fingerprint != want || file.run.seed != seed {
             let what = if file.fingerprint.world != want.world {
                 "another world"
@@ -138,7 +152,7 @@ impl Checkpoints {
         if file.mcap != mcap_names(params, seed) {
             return Err(Self::err(&path, "its MCAP bags are not the ones this run asks for"));
         }
-        if let Some(dst) = &params.mcap_dir {
+        if let Some(dst) = given.mcap_dir {
             for name in &file.mcap {
                 let (from, to) = (self.dir.join(name), dst.join(name));
                 std::fs::copy(&from, &to).map_err(|e| Self::err(&from, format!("copying to {}: {e}", to.display())))?;

@@ -14,6 +14,7 @@ pub mod erosion;
 pub mod eta;
 pub mod figures;
 pub mod html;
+pub mod markdown;
 pub mod merge;
 pub mod params;
 pub mod record;
@@ -31,7 +32,7 @@ pub use record::{
     GroundTruthScores, RUNS_FORMAT, RUNS_FORMAT_VERSION, SavedWorld, SeedRecord, SeedRun, ValidationRecord, WorldRow,
     scan_time_histogram,
 };
-pub use run::{mcap_name, run_seed, run_seed_in};
+pub use run::{ValidationRun, mcap_name, run_seed};
 pub use summary::{
     BestAchievable, BestSummary, ByGroundTruth, GroundTruthQuality, HeavyChange, LocSummary, Localisation, MapQuality,
     MetricSummary, Summary, UpdaterSummary, interval_units, summarise, summarise_records,

@@ -7,7 +7,7 @@ use mapkeeper_closed_loop::worlds::generator::GeneratorParams;
 use mapkeeper_closed_loop::worlds::mapping::MappingParams;
 use mapkeeper_grid::Point2;
 use mapkeeper_grid::metrics::MetricParams;
-use mapkeeper_sim::{Route, World};
+use mapkeeper_sim::Route;
 use mapkeeper_updater::UpdaterParams;
 use serde::{Deserialize, Serialize};
 
@@ -90,22 +90,15 @@ pub struct ValidationParams {
     /// change of the experiments issue). Default 1 (every world; not written when 1).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub update_every: usize,
-    /// Worlds whose drive is also written as a ROS 2 MCAP bag into [`Self::mcap_dir`]
+    /// Worlds whose drive is also written as a ROS 2 MCAP bag into the run's MCAP folder
+    /// (`ValidationRun::mcap_dir`)
     /// (`validate --mcap-worlds`; `docs/real-data.md`). Default none (not written when empty).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub mcap_worlds: Vec<usize>,
-    /// Where those bags go, `<preset>-s<seed>-W<i>.mcap` (set by the caller, never read from or
-    /// written to a file).
-    #[serde(skip)]
-    pub mcap_dir: Option<std::path::PathBuf>,
     /// The world W_1 by name (`validate --world`: an embedded world's name or the file as
     /// given). Default none: the embedded default warehouse (not written when none).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub world: Option<String>,
-    /// W_1 itself, with its scenario resolved ([`ValidationParams::use_site`]); never read from
-    /// or written to a file (`world` names it). None: the embedded default warehouse.
-    #[serde(skip)]
-    pub world_data: Option<World>,
 }
 
 fn one() -> usize {
@@ -138,9 +131,7 @@ impl Default for ValidationParams {
             saved_worlds: vec![2, 50, 100],
             update_every: 1,
             mcap_worlds: Vec::new(),
-            mcap_dir: None,
             world: None,
-            world_data: None,
         }
     }
 }
@@ -159,13 +150,13 @@ impl ValidationParams {
     }
 
     /// Runs in `site`'s world (named `name` in the outputs): its route, exploration tour and
-    /// storage areas.
+    /// storage areas; the world itself is given beside the parameters
+    /// (`ValidationRun::w1`, `SweepPlan::w1`).
     pub fn use_site(&mut self, name: &str, site: &mapkeeper_closed_loop::worlds::site::Site) {
         self.route = site.route.clone();
         self.exploration_route = site.exploration.clone();
         self.generator.storage_areas.clone_from(&site.storage);
         self.world = Some(name.to_string());
-        self.world_data = Some(site.world.clone());
     }
 
     /// A shortened route (the first `length_m` metres of the default tour), for quick tests.

@@ -7,27 +7,54 @@ use crate::experiments::ExperimentError;
 use crate::experiments::scores::Scores;
 use crate::experiments::validation::erosion::{ChangeClasses, ErosionJudge, Retention};
 use crate::stats::median;
-use mapkeeper_closed_loop::runner::{Clock, RunInputs, RunnerParams, run_world, run_world_with};
+use mapkeeper_closed_loop::runner::{Checked, Clock, Execution, RunInputs, run_world_with};
 use mapkeeper_closed_loop::worlds::generator::generate_worlds;
 use mapkeeper_closed_loop::worlds::mapping::build_initial_map;
 use mapkeeper_closed_loop::worlds::observed::{OBSERVATION_STEP_M, restrict_to, route_poses, visible_cells};
 use mapkeeper_grid::metrics::{interior_mask, map_metrics, map_metrics_in};
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2};
 use mapkeeper_sim::{World, ground_truth_map};
+use std::path::Path;
 
-/// Runs the validation for one seed. `progress(i)` is called after each world i (and with 1
-/// after M_1).
+/// What one seed's validation is given beside its parameters, never inside them: W_1 (with
+/// its scenario resolved; `None`: the embedded default warehouse), how its worlds are run (the
+/// threads and the clock of the updater's time per scan) and where the MCAP bags of the
+/// parameters' `mcap_worlds` go.
+#[derive(Clone, Copy)]
+pub struct ValidationRun<'a> {
+    /// W_1; `None`: the embedded default warehouse.
+    pub w1: Option<&'a World>,
+    /// Threads and clock of every world's run.
+    pub exec: Execution<'a>,
+    /// The folder of the MCAP bags (`mcap_worlds`); `None`: no bag is written.
+    pub mcap_dir: Option<&'a Path>,
+}
+
+impl<'a> ValidationRun<'a> {
+    /// In the embedded default warehouse, default threads, timed by `clock`, no bags.
+    pub fn timed_by(clock: &'a dyn Clock) -> Self {
+        ValidationRun { w1: None, exec: Execution::timed_by(clock), mcap_dir: None }
+    }
+}
+
+/// Runs the validation for one seed; the parameters are checked once, here. `progress(i)` is
+/// called after each world i (and with 1 after M_1).
 pub fn run_seed(
     params: &ValidationParams,
     seed: u64,
-    clock: &dyn Clock,
+    run: &ValidationRun<'_>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SeedRun, ExperimentError> {
     params.validate()?;
-    match &params.world_data {
-        Some(w1) => run_seed_in(w1, params, seed, clock, progress),
-        None => run_seed_in(&World::default_warehouse(), params, seed, clock, progress),
-    }
+    let default;
+    let w1 = match run.w1 {
+        Some(w) => w,
+        None => {
+            default = World::default_warehouse();
+            &default
+        }
+    };
+    run_chain(w1, params, seed, run, progress)
 }
 
 /// The file name of the MCAP bag of world `i` of a seed (`--mcap-worlds`).
@@ -145,33 +172,33 @@ impl<'a> Judge<'a> {
 /// One world of the chain, recorded as an MCAP bag when `params.mcap_worlds` asks for it.
 fn run_chain_world(
     inputs: &RunInputs<'_>,
-    rp: &RunnerParams,
+    rp: Checked<'_>,
     params: &ValidationParams,
     seed: u64,
     i: usize,
-    clock: &dyn Clock,
+    run: &ValidationRun<'_>,
 ) -> Result<mapkeeper_closed_loop::runner::WorldRun, ExperimentError> {
-    match &params.mcap_dir {
+    let label = format!("W{i:03}");
+    match run.mcap_dir {
         Some(dir) if params.mcap_worlds.contains(&i) => {
             let path = dir.join(mcap_name(&params.preset, seed, i));
             let mut rec = mapkeeper_harness::mcap_out::McapRecorder::create(&path)?;
-            let run = run_world_with(inputs, rp, seed, &format!("W{i:03}"), clock, &mut [&mut rec])?;
-            rec.finish(Some(&run.map))?;
-            Ok(run)
+            let world_run = run_world_with(inputs, rp, seed, &label, &run.exec, &mut [&mut rec])?;
+            rec.finish(Some(&world_run.map))?;
+            Ok(world_run)
         }
-        _ => run_world(inputs, rp, seed, &format!("W{i:03}"), clock),
+        _ => run_world_with(inputs, rp, seed, &label, &run.exec, &mut []),
     }
 }
 
-/// [`run_seed`] from a given W_1.
-pub fn run_seed_in(
+/// The chain of one seed from W_1, its parameters checked.
+fn run_chain(
     w1: &World,
     params: &ValidationParams,
     seed: u64,
-    clock: &dyn Clock,
+    run: &ValidationRun<'_>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SeedRun, ExperimentError> {
-    params.validate()?;
     let geometry: GridGeometry = w1.default_map_geometry(params.resolution_m)?;
     let chain = generate_worlds(w1, &params.route, params.worlds, seed, &params.generator)?;
     let m1 = build_initial_map(w1, &params.exploration_route, &geometry, &params.runner.sim, &params.mapping, seed)?;
@@ -197,7 +224,8 @@ pub fn run_seed_in(
             baseline_map: &m1.map,
             prev_memory: Some(&memory),
         };
-        let run = run_chain_world(&inputs, &rp, params, seed, i, clock)?;
+        // `params.validate` checked the runner; only two flags changed.
+        let run = run_chain_world(&inputs, Checked::assume(&rp), params, seed, i, run)?;
         // Validated: runner.fresh_map is set, so every run returns its fresh map.
         let fresh = run.fresh_map.as_ref().unwrap_or(&run.map);
         let Judged { chosen, other, gi, retention, change_classes } =

@@ -5,9 +5,11 @@
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
 use crate::experiments::validation::checkpoint::Checkpoints;
-use crate::experiments::validation::{SeedRun, Shard, ValidationParams, run_seed};
-use mapkeeper_closed_loop::runner::Clock;
+use crate::experiments::validation::{SeedRun, Shard, ValidationParams, ValidationRun, run_seed};
+use mapkeeper_closed_loop::runner::{Clock, Execution, NoClock, RunOptions};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_sim::World;
+use std::path::PathBuf;
 
 /// What to sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,7 +35,9 @@ pub struct SweepSpec {
     pub site: Option<(String, mapkeeper_closed_loop::worlds::site::Site)>,
 }
 
-/// A checked sweep.
+/// A checked sweep: what it computes (each preset's parameters, the jobs) and, beside it, what
+/// it is given and how it runs (W_1, the threads, the MCAP folders), never inside the
+/// parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SweepPlan {
     /// The presets' names.
@@ -42,6 +46,12 @@ pub struct SweepPlan {
     pub params: Vec<ValidationParams>,
     /// This shard's jobs: (preset index, seed), preset by preset.
     pub jobs: Vec<(usize, u64)>,
+    /// W_1 with its scenario resolved; `None`: the embedded default warehouse.
+    pub w1: Option<World>,
+    /// The threads of every world's run.
+    pub options: RunOptions,
+    /// Each preset's folder of MCAP bags (`--mcap-worlds`); `None`: no bag is written.
+    pub mcap_dirs: Vec<Option<PathBuf>>,
 }
 
 impl SweepSpec {
@@ -98,7 +108,9 @@ impl SweepSpec {
                 )
             })?,
         };
-        Ok(SweepPlan { presets: presets.clone(), params, jobs })
+        let mcap_dirs = vec![None; presets.len()];
+        let w1 = self.site.as_ref().map(|(_, site)| site.world.clone());
+        Ok(SweepPlan { presets: presets.clone(), params, jobs, w1, options: RunOptions::default(), mcap_dirs })
     }
 }
 
@@ -121,7 +133,16 @@ impl SweepPlan {
     /// The finished runs of this plan's jobs found in `checkpoints` (in job order; `None`: to
     /// run). A checkpoint another run wrote is an error.
     pub fn load_checkpoints(&self, checkpoints: &Checkpoints) -> Result<Vec<Option<SeedRun>>, ExperimentError> {
-        self.jobs.iter().map(|&(p, s)| checkpoints.load(&self.params[p], s)).collect()
+        self.jobs.iter().map(|&(p, s)| checkpoints.load(&self.params[p], &self.given(p, &NoClock), s)).collect()
+    }
+
+    /// What preset `p`'s runs are given beside their parameters, timed by `clock`.
+    pub fn given<'a>(&'a self, p: usize, clock: &'a dyn Clock) -> ValidationRun<'a> {
+        ValidationRun {
+            w1: self.w1.as_ref(),
+            exec: Execution { options: self.options, clock },
+            mcap_dir: self.mcap_dirs.get(p).and_then(Option::as_deref),
+        }
     }
 
     /// Runs the jobs that `done` (in job order) does not hold, on the current rayon pool, each
@@ -182,10 +203,10 @@ impl Trials for SweepTrials<'_> {
             return Ok(run);
         }
         let (p, s) = self.plan.jobs[k];
-        let params = &self.plan.params[p];
-        let run = run_seed(params, s, self.clock, &|w| (self.progress)(k, w))?;
+        let (params, given) = (&self.plan.params[p], self.plan.given(p, self.clock));
+        let run = run_seed(params, s, &given, &|w| (self.progress)(k, w))?;
         if let Some(c) = self.checkpoints {
-            c.save(params, &run)?;
+            c.save(params, &given, &run)?;
         }
         Ok(run)
     }

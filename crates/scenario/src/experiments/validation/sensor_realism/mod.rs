@@ -11,10 +11,11 @@ pub mod report;
 
 use crate::experiments::ExperimentError;
 use crate::experiments::invalid;
-use crate::experiments::validation::{ValidationParams, WorldRow, run_seed};
+use crate::experiments::validation::{ValidationParams, ValidationRun, WorldRow, run_seed};
 use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_closed_loop::runner::NoClock;
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_sim::World;
 use mapkeeper_sim::{SensorEffect, SensorRealism};
 use serde::{Deserialize, Serialize};
 
@@ -223,6 +224,8 @@ pub struct SensorRealismResult {
 /// The sweep as [`Trials`]: one job per (configuration, seed), each a short validation chain;
 /// the summary compares every configuration with the ideal sensors.
 struct RealismTrials<'a> {
+    /// W_1; `None`: the embedded default warehouse.
+    w1: Option<&'a World>,
     /// The validation parameters of every chain (worlds, preset, route set from the sweep's).
     vp: ValidationParams,
     p: &'a SensorRealismParams,
@@ -251,7 +254,7 @@ impl Trials for RealismTrials<'_> {
         q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
         q.runner.deskew = config_deskews(&configs[c]);
         q.mapping.deskew = config_deskews(&configs[c]);
-        let run = run_seed(&q, seed, &NoClock, &|_| {})?;
+        let run = run_seed(&q, seed, &ValidationRun { w1: self.w1, ..ValidationRun::timed_by(&NoClock) }, &|_| {})?;
         progress();
         Ok(run.rows.iter().map(RealismScores::of).collect())
     }
@@ -308,6 +311,7 @@ impl Trials for RealismTrials<'_> {
 /// and the localiser; its `worlds`, `preset` and route length are set from `p`. `progress` is
 /// called once per finished chain.
 pub fn run_sensor_realism(
+    w1: Option<&World>,
     base: &ValidationParams,
     p: &SensorRealismParams,
     progress: &(dyn Fn() + Sync),
@@ -321,7 +325,7 @@ pub fn run_sensor_realism(
     vp.saved_worlds.clear();
     vp.route = ValidationParams::truncated_route(&base.route, p.route_length_m);
     vp.validate()?;
-    run_trials(&RealismTrials { vp, p, configs }, progress)
+    run_trials(&RealismTrials { w1, vp, p, configs }, progress)
 }
 
 #[cfg(test)]
