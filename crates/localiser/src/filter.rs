@@ -19,6 +19,9 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::PI;
 
+mod state;
+pub use state::FilterState;
+
 /// A 3×3 covariance of (x m, y m, yaw rad), row-major.
 pub type Covariance3 = [[f64; 3]; 3];
 
@@ -165,40 +168,6 @@ pub struct Localiser {
     last_match: Option<Match>,
 }
 
-/// Everything a [`Localiser`] carries from one update to the next (its particles, weights,
-/// random stream, odometry references and filter statistics), without its map tables or
-/// scratch: [`Localiser::save_state`] / [`Localiser::restore_state`] take a filter back to an
-/// earlier step, after which it gives the same updates, bit for bit, as it gave from there the
-/// first time (for running it ahead of its consumers and going back when they act on it).
-#[derive(Debug)]
-pub struct FilterState {
-    rng: ChaCha8Rng,
-    particles: Vec<Pose2>,
-    weights: Vec<f64>,
-    odom_at_filter: Option<Pose2>,
-    last_odom: Option<Pose2>,
-    force_update: bool,
-    sensor_updates_since_resample: u32,
-    ln_w_slow: f64,
-    ln_w_fast: f64,
-    filter_estimate: Estimate,
-    ess: f64,
-    last_match: Option<Match>,
-}
-
-impl FilterState {
-    /// The particles' poses at the saved step.
-    pub fn particles(&self) -> &[Pose2] {
-        &self.particles
-    }
-}
-
-/// An exact copy of a random stream (rand's generator is not `Clone`; its saved state is its
-/// key, stream and position, so the copy draws exactly the numbers the original would).
-fn copy_rng(rng: &ChaCha8Rng) -> ChaCha8Rng {
-    ChaCha8Rng::deserialize_state(&rng.serialize_state())
-}
-
 fn free_cells(map: &OccupancyGrid) -> Vec<u32> {
     map.cells().iter().enumerate().filter(|(_, s)| **s == CellState::Free).map(|(i, _)| i as u32).collect()
 }
@@ -304,85 +273,6 @@ impl Localiser {
             e.pose_in_map = e.pose_in_map.compose(&at.between(&now));
         }
         e
-    }
-
-    /// The filter's state now ([`FilterState`]).
-    pub fn state(&self) -> FilterState {
-        FilterState {
-            rng: copy_rng(&self.rng),
-            particles: self.particles.clone(),
-            weights: self.weights.clone(),
-            odom_at_filter: self.odom_at_filter,
-            last_odom: self.last_odom,
-            force_update: self.force_update,
-            sensor_updates_since_resample: self.sensor_updates_since_resample,
-            ln_w_slow: self.ln_w_slow,
-            ln_w_fast: self.ln_w_fast,
-            filter_estimate: self.filter_estimate,
-            ess: self.ess,
-            last_match: self.last_match,
-        }
-    }
-
-    /// [`Localiser::state`] into `into`, reusing its buffers.
-    pub fn save_state(&self, into: &mut FilterState) {
-        let FilterState {
-            rng,
-            particles,
-            weights,
-            odom_at_filter,
-            last_odom,
-            force_update,
-            sensor_updates_since_resample,
-            ln_w_slow,
-            ln_w_fast,
-            filter_estimate,
-            ess,
-            last_match,
-        } = into;
-        *rng = copy_rng(&self.rng);
-        particles.clone_from(&self.particles);
-        weights.clone_from(&self.weights);
-        *odom_at_filter = self.odom_at_filter;
-        *last_odom = self.last_odom;
-        *force_update = self.force_update;
-        *sensor_updates_since_resample = self.sensor_updates_since_resample;
-        *ln_w_slow = self.ln_w_slow;
-        *ln_w_fast = self.ln_w_fast;
-        *filter_estimate = self.filter_estimate;
-        *ess = self.ess;
-        *last_match = self.last_match;
-    }
-
-    /// Takes the filter back to a state saved from it (or from a filter with the same map and
-    /// parameters): its next updates are those it gave after the save.
-    pub fn restore_state(&mut self, from: &FilterState) {
-        let FilterState {
-            rng,
-            particles,
-            weights,
-            odom_at_filter,
-            last_odom,
-            force_update,
-            sensor_updates_since_resample,
-            ln_w_slow,
-            ln_w_fast,
-            filter_estimate,
-            ess,
-            last_match,
-        } = from;
-        self.rng = copy_rng(rng);
-        self.particles.clone_from(particles);
-        self.weights.clone_from(weights);
-        self.odom_at_filter = *odom_at_filter;
-        self.last_odom = *last_odom;
-        self.force_update = *force_update;
-        self.sensor_updates_since_resample = *sensor_updates_since_resample;
-        self.ln_w_slow = *ln_w_slow;
-        self.ln_w_fast = *ln_w_fast;
-        self.filter_estimate = *filter_estimate;
-        self.ess = *ess;
-        self.last_match = *last_match;
     }
 
     /// Whether [`Localiser::update`] with odometry `robot_in_odom` would run a sensor update
@@ -814,27 +704,4 @@ impl Localiser {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn normalisation_reports_degeneracy() {
-        let mut w = Vec::new();
-        let (ess, ln_sum) = normalise_log_weights(&[0.0, 3f64.ln()], &mut w).unwrap();
-        assert!((w[0] - 0.25).abs() < 1e-15 && (w[1] - 0.75).abs() < 1e-15);
-        assert!((ess - 1.0 / 0.625).abs() < 1e-12 && (ln_sum - 4f64.ln()).abs() < 1e-12);
-        // Huge negative log-weights do not underflow.
-        let (ess, _) = normalise_log_weights(&[-5000.0, -5000.0, f64::NEG_INFINITY], &mut w).unwrap();
-        assert!((ess - 2.0).abs() < 1e-12 && w[2] == 0.0);
-        // A NaN among finite ones is a zero weight.
-        normalise_log_weights(&[f64::NAN, -1.0], &mut w).unwrap();
-        assert_eq!(w, vec![0.0, 1.0]);
-        let ninf = f64::NEG_INFINITY;
-        assert_eq!(normalise_log_weights(&[ninf, ninf], &mut w), Err(Degeneracy::AllWeightsZero));
-        assert_eq!(
-            normalise_log_weights(&[f64::NAN, ninf, f64::NAN], &mut w),
-            Err(Degeneracy::NonFiniteWeights { nan_count: 2 })
-        );
-        assert_eq!(normalise_log_weights(&[], &mut w), Err(Degeneracy::AllWeightsZero));
-    }
-}
+mod tests;
