@@ -4,22 +4,19 @@
 //! the robot after the source showed the next frame (which then changes).
 #![allow(clippy::unwrap_used)]
 
-use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2, cast_ray};
+use mapkeeper_grid::{CellState, OccupancyGrid, Pose2, cast_ray};
 use mapkeeper_harness::{
     Control, HarnessError, NoClock, Observer, PoseSource, RobotControl, SensorFrame, SensorSource, Session,
     SessionStep, SourceError, Step, run,
 };
 use mapkeeper_localiser::{FilterParams, Localiser};
 use mapkeeper_sensor::LaserScan;
+use mapkeeper_testkit::rooms::{fill_cells, ten_by_ten_centred};
 
-/// A 10 m × 10 m room with an occupied border and a pillar, 0.1 m cells, origin at (-5, -5).
+/// The 10 m × 10 m room centred on the origin (0.1 m cells) with a pillar.
 fn room() -> OccupancyGrid {
-    let mut m = OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap());
-    for ix in 60..64 {
-        for iy in 30..36 {
-            m.set(mapkeeper_grid::CellCoord::new(ix, iy), mapkeeper_grid::CellState::Occupied);
-        }
-    }
+    let mut m = ten_by_ten_centred();
+    fill_cells(&mut m, 60..64, 30..36, CellState::Occupied);
     m
 }
 
