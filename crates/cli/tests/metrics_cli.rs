@@ -8,28 +8,16 @@ mod common;
 use common::{mapkeeper, s, scratch};
 
 use mapkeeper_grid::metrics::{MetricParams, map_metrics};
-use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Point2, Pose2, RayStop, cast_ray, map_io};
+use mapkeeper_grid::{CellCoord, CellState, GridGeometry, Point2, Pose2, RayStop, cast_ray, map_io};
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, LogWriter, TruePose};
+use mapkeeper_testkit::rooms::four_by_three_in_unknown;
 use std::path::Path;
-
-/// A 4 m × 3 m walled room in a 6 m × 5 m grid at 0.05 m, unknown outside.
-fn room(origin: Pose2) -> OccupancyGrid {
-    let g = GridGeometry::new(120, 100, 0.05, origin).unwrap();
-    let mut m = OccupancyGrid::filled(g, CellState::Unknown);
-    for iy in 20..=79 {
-        for ix in 20..=99 {
-            let wall = ix == 20 || ix == 99 || iy == 20 || iy == 79;
-            m.set(CellCoord::new(ix, iy), if wall { CellState::Occupied } else { CellState::Free });
-        }
-    }
-    m
-}
 
 #[test]
 fn metrics_of_a_map_with_itself_is_100_in_json() {
     let dir = scratch("metrics-cli", "self");
     let a = dir.join("a.yaml");
-    map_io::save_map(&room(Pose2::new(-1.0, -1.0, 0.0)), &a).unwrap();
+    map_io::save_map(&four_by_three_in_unknown(Pose2::new(-1.0, -1.0, 0.0)), &a).unwrap();
     let out = mapkeeper(&["metrics", s(&a), s(&a), "--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8(out.stdout).unwrap();
@@ -55,7 +43,7 @@ fn mismatched_maps_fail_naming_both_unless_resampled() {
     let dir = scratch("metrics-cli", "mismatch");
     let a = dir.join("first_map.yaml");
     let b = dir.join("second_map.yaml");
-    let truth = room(Pose2::new(-1.0, -1.0, 0.0));
+    let truth = four_by_three_in_unknown(Pose2::new(-1.0, -1.0, 0.0));
     map_io::save_map(&truth, &a).unwrap();
     // The same room, on a grid shifted by 2 cells: same world content, different origin.
     let shifted_geometry = GridGeometry::new(120, 100, 0.05, Pose2::new(-1.1, -1.0, 0.0)).unwrap();
@@ -104,7 +92,7 @@ fn render_writes_a_png_and_a_diff() {
     let dir = scratch("metrics-cli", "render");
     let a = dir.join("a.yaml");
     let b = dir.join("b.yaml");
-    let m = room(Pose2::IDENTITY);
+    let m = four_by_three_in_unknown(Pose2::IDENTITY);
     map_io::save_map(&m, &a).unwrap();
     let mut m2 = m.clone();
     m2.set(CellCoord::new(50, 50), CellState::Occupied); // added
@@ -134,7 +122,7 @@ fn render_writes_a_png_and_a_diff() {
 
     // A diff of maps of different geometry names both files.
     let c = dir.join("c.yaml");
-    map_io::save_map(&room(Pose2::new(1.0, 0.0, 0.0)), &c).unwrap();
+    map_io::save_map(&four_by_three_in_unknown(Pose2::new(1.0, 0.0, 0.0)), &c).unwrap();
     let out = mapkeeper(&["render", s(&a), "--diff", s(&c), "-o", s(&diff_path)]);
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -148,7 +136,7 @@ fn render_writes_a_png_and_a_diff() {
 #[test]
 fn map_from_a_logged_room_run_matches_the_room() {
     let dir = scratch("metrics-cli", "map");
-    let truth_map = room(Pose2::new(-1.0, -1.0, 0.0));
+    let truth_map = four_by_three_in_unknown(Pose2::new(-1.0, -1.0, 0.0));
     // Drive along a line inside the room; the lidar is mounted 0.2 m ahead, turned by 0.1 rad.
     let mount = Pose2::new(0.2, 0.0, 0.1);
     let beams = 360usize;

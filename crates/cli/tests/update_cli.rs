@@ -7,15 +7,11 @@ mod common;
 
 use common::{mapkeeper, s, scratch};
 
-use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2, map_io};
+use mapkeeper_grid::{Pose2, map_io};
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, LogWriter, OdometryReading, TruePose};
+use mapkeeper_testkit::rooms::ten_by_ten_centred;
 
-/// A 10 m × 10 m free room with an occupied border, 0.1 m cells, origin at (-5, -5).
-fn room() -> OccupancyGrid {
-    OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap())
-}
-
-/// A whole turn of beams from `robot` in `room()` (inner wall faces at ±4.9 m).
+/// A whole turn of beams from `robot` in `ten_by_ten_centred()` (inner wall faces at ±4.9 m).
 fn scan(stamp_ns: u64, lidar_id: u32, robot: Pose2) -> LaserScan {
     let inc = 2.0 * std::f64::consts::PI / 360.0;
     let ranges_m = (0..360)
@@ -44,7 +40,7 @@ fn scan(stamp_ns: u64, lidar_id: u32, robot: Pose2) -> LaserScan {
 fn update_groups_unsynchronised_lidars_and_writes_the_pose_recoveries() {
     let dir = scratch("update-cli", "sync");
     let map = dir.join("room.yaml");
-    map_io::save_map(&room(), &map).unwrap();
+    map_io::save_map(&ten_by_ten_centred(), &map).unwrap();
     let log_dir = dir.join("log");
     std::fs::create_dir_all(&log_dir).unwrap();
     let mut w = LogWriter::create(&log_dir.join("log.jsonl"), &LogHeader::new(serde_json::Map::new())).unwrap();

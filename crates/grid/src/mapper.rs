@@ -335,7 +335,8 @@ mod tests {
     }
 
     /// A 4 m × 3 m room (walls one cell thick) centred in a 6 m × 5 m grid at 0.05 m; outside
-    /// the walls is unknown.
+    /// the walls is unknown. The twin of `mapkeeper_testkit::rooms::four_by_three_in_unknown`,
+    /// which a unit test of the grid cannot take: its grid is not this test build's.
     fn room() -> OccupancyGrid {
         let g = GridGeometry::new(120, 100, 0.05, Pose2::new(-1.0, -1.0, 0.0)).unwrap();
         let mut m = OccupancyGrid::filled(g, CellState::Unknown);

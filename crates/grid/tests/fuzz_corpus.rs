@@ -6,20 +6,8 @@
 use mapkeeper_grid::map_io::{self, MapYaml};
 use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::metrics::MetricParams;
-use std::path::{Path, PathBuf};
-
-/// Every file of the corpus of fuzz target `target`, sorted.
-fn corpus(target: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus").join(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.is_file())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 10, "{}: only {} files", dir.display(), files.len());
-    files
-}
+use mapkeeper_testkit::corpus::replay;
+use std::path::Path;
 
 /// A one-line error that starts with the file's name.
 fn assert_names_file(message: &str, file: &Path) {
@@ -32,25 +20,24 @@ fn assert_names_file(message: &str, file: &Path) {
 #[test]
 fn map_yaml_corpus_never_panics_and_errors_name_file_and_line_or_key() {
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus("map_yaml") {
-        let bytes = std::fs::read(&file).expect("reads");
-        let result = match std::str::from_utf8(&bytes) {
-            Ok(text) => map_io::parse_map_yaml(text, &file).map(|_| ()),
+    replay("map_yaml", 10, |file, bytes| {
+        let result = match std::str::from_utf8(bytes) {
+            Ok(text) => map_io::parse_map_yaml(text, file).map(|_| ()),
             // Not UTF-8: only the file reader sees it; it names the file and the line.
-            Err(_) => map_io::load_map(&file).map(|_| ()),
+            Err(_) => map_io::load_map(file).map(|_| ()),
         };
         match result {
             Ok(()) => ok += 1,
             Err(e) => {
                 refused += 1;
                 let m = e.to_string();
-                assert_names_file(&m, &file);
+                assert_names_file(&m, file);
                 let rest = &m[file.display().to_string().len()..];
                 let line_named = rest.starts_with(':') && rest[1..].starts_with(|c: char| c.is_ascii_digit());
                 assert!(line_named || rest.contains("key '"), "names neither line nor key: {m}");
             }
         }
-    }
+    });
     eprintln!("map_yaml corpus: {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }
@@ -66,16 +53,15 @@ fn image_meta() -> MapYaml {
 fn replay_images(target: &str) {
     let meta = image_meta();
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus(target) {
-        let bytes = std::fs::read(&file).expect("reads");
-        match map_io::map_from_image_bytes(&meta, &bytes, &file, Path::new("corpus.yaml")) {
+    replay(target, 10, |file, bytes| {
+        match map_io::map_from_image_bytes(&meta, bytes, file, Path::new("corpus.yaml")) {
             Ok(_) => ok += 1,
             Err(e) => {
                 refused += 1;
-                assert_names_file(&e.to_string(), &file);
+                assert_names_file(&e.to_string(), file);
             }
         }
-    }
+    });
     eprintln!("{target} corpus: {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }
@@ -117,14 +103,12 @@ fn params_ok<T: serde::de::DeserializeOwned, E: std::fmt::Display>(
 #[test]
 fn params_corpus_never_panics_for_mapper_and_metric_params() {
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus("params_toml") {
-        let Ok(text) = std::fs::read_to_string(&file) else { continue };
-        for accepted in
-            [params_ok(&text, &file, MapperParams::validate), params_ok(&text, &file, MetricParams::validate)]
-        {
+    replay("params_toml", 10, |file, bytes| {
+        let Ok(text) = std::str::from_utf8(bytes) else { return };
+        for accepted in [params_ok(text, file, MapperParams::validate), params_ok(text, file, MetricParams::validate)] {
             if accepted { ok += 1 } else { refused += 1 }
         }
-    }
+    });
     eprintln!("params_toml corpus (MapperParams, MetricParams): {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }

@@ -372,15 +372,10 @@ impl<'c> Session<'c> {
 mod tests {
     use super::*;
     use crate::NoClock;
-    use mapkeeper_grid::GridGeometry;
     use mapkeeper_localiser::FilterParams;
     use mapkeeper_sensor::LaserScan;
+    use mapkeeper_testkit::rooms::ten_by_ten_centred;
     use mapkeeper_updater::UpdaterParams;
-
-    /// A 10 m × 10 m room, free inside an occupied border, 0.1 m cells, origin at (-5, -5).
-    fn room() -> OccupancyGrid {
-        OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap())
-    }
 
     /// Step k: the robot 0.3 m further along x, one scan.
     fn frame(k: u64) -> SensorFrame {
@@ -405,12 +400,12 @@ mod tests {
     }
 
     fn session(pose: PoseSource) -> Session<'static> {
-        let updater = MapUpdater::new(room(), UpdaterParams::paper()).unwrap();
+        let updater = MapUpdater::new(ten_by_ten_centred(), UpdaterParams::paper()).unwrap();
         Session::new(pose, Some(updater), None, &NoClock)
     }
 
     fn localiser() -> PoseSource {
-        let mut loc = Localiser::new(&room(), FilterParams::default(), 5).unwrap();
+        let mut loc = Localiser::new(&ten_by_ten_centred(), FilterParams::default(), 5).unwrap();
         loc.init_pose(Pose2::IDENTITY, [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]]).unwrap();
         PoseSource::Localiser(Box::new(loc))
     }

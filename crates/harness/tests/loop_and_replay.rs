@@ -3,7 +3,7 @@
 //! replay jobs end to end on a hand-built map.
 #![allow(clippy::unwrap_used)]
 
-use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2};
+use mapkeeper_grid::Pose2;
 use mapkeeper_harness::jobs::localise::{InitFrom, localise_log};
 use mapkeeper_harness::jobs::update::{PoseInput, update_log};
 use mapkeeper_harness::{
@@ -12,6 +12,7 @@ use mapkeeper_harness::{
 };
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, TruePose};
+use mapkeeper_testkit::rooms::ten_by_ten_centred;
 use mapkeeper_updater::UpdaterParams;
 use std::cell::RefCell;
 
@@ -39,11 +40,6 @@ fn odom(stamp_ns: u64, x: f64) -> LogRecord {
 
 fn truth(stamp_ns: u64, x: f64) -> LogRecord {
     LogRecord::Truth(TruePose { stamp_ns, pose_in_map: Pose2::new(x, 0.0, 0.0) })
-}
-
-/// A 10 m × 10 m room of free cells with an occupied border, 0.1 m cells, origin at (-5, -5).
-fn room() -> OccupancyGrid {
-    OccupancyGrid::walled(GridGeometry::new(100, 100, 0.1, Pose2::new(-5.0, -5.0, 0.0)).unwrap())
 }
 
 #[test]
@@ -154,7 +150,7 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
     }
     let (r, init) = localise_log(
         LogSource::new(log(records.clone()), "t", ReplayOptions::default()),
-        &room(),
+        &ten_by_ten_centred(),
         FilterParams::default(),
         None,
         3,
@@ -168,7 +164,7 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
     let options = ReplayOptions { odometry_at: OdometryAt::Interpolated, ..ReplayOptions::default() };
     let u = update_log(
         LogSource::new(log(records), "t", options),
-        room(),
+        ten_by_ten_centred(),
         UpdaterParams::paper(),
         PoseInput::LoggedTruth,
         &NoClock,
@@ -182,7 +178,7 @@ fn replay_jobs_localise_and_update_a_hand_built_log() {
     // No scans, no job.
     let e = update_log(
         LogSource::new(log(vec![odom(1, 0.0)]), "empty.jsonl", options),
-        room(),
+        ten_by_ten_centred(),
         UpdaterParams::paper(),
         PoseInput::AlignedOdometry,
         &NoClock,
@@ -237,7 +233,7 @@ fn scans_within_the_sync_window_form_one_step_with_at_most_one_scan_per_lidar() 
     assert_eq!(ReplayOptions::default().sync_window_ns, 0);
 }
 
-/// Ranges of a scan from `robot` (lidar at the robot's centre) in `room()`: the inner faces of
+/// Ranges of a scan from `robot` (lidar at the robot's centre) in `ten_by_ten_centred()`: the inner faces of
 /// its walls are at ±4.9 m.
 fn room_ranges(robot: Pose2, s: &LaserScan) -> Vec<f32> {
     (0..s.ranges_m.len())
@@ -287,7 +283,7 @@ fn update_writes_every_pose_recovery_with_its_pose_or_refusal_reason() {
     };
     let u = update_log(
         LogSource::new(log(records), "t", options),
-        room(),
+        ten_by_ten_centred(),
         UpdaterParams::paper(),
         PoseInput::Track(track),
         &NoClock,
@@ -320,7 +316,7 @@ fn a_pose_bias_moves_the_pose_the_updater_sees_and_a_new_estimate_removes_it() {
         odometry: Some(Pose2::IDENTITY),
         scans: vec![scan(t, 0)],
     };
-    let mut loc = Localiser::new(&room(), FilterParams::default(), 7).unwrap();
+    let mut loc = Localiser::new(&ten_by_ten_centred(), FilterParams::default(), 7).unwrap();
     loc.init_pose(Pose2::IDENTITY, [[1e-4, 0.0, 0.0], [0.0, 1e-4, 0.0], [0.0, 0.0, 1e-4]]).unwrap();
     let mut session = Session::new(PoseSource::Localiser(Box::new(loc)), None, None, &NoClock);
     let plain = session.process(&frame(1)).pose_in_map.unwrap();
@@ -373,7 +369,7 @@ fn a_replayed_log_hands_a_recovered_pose_back_to_the_localiser() {
         (0.05f64.powi(2), 0.05f64.powi(2), 0.02f64.powi(2));
     let u = update_log(
         LogSource::new(log(records), "t", options),
-        room(),
+        ten_by_ten_centred(),
         UpdaterParams::paper(),
         PoseInput::Localise { params: Box::new(params), seed: 3, init: Some(given) },
         &NoClock,

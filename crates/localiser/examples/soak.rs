@@ -18,9 +18,10 @@
 #![allow(clippy::disallowed_methods)] // an example times itself; the libraries read no clock
 #![allow(missing_docs, clippy::unwrap_used)]
 
-use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, RayCaster, RayStop};
+use mapkeeper_grid::{CellState, OccupancyGrid, Pose2, RayCaster, RayStop};
 use mapkeeper_localiser::{FilterParams, Localiser};
 use mapkeeper_sensor::LaserScan;
+use mapkeeper_testkit::rooms::{fill_rect, walled_cells};
 use mapkeeper_updater::{MapUpdater, StepOutcome, UpdaterParams};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
@@ -33,23 +34,9 @@ fn vm_rss_kb() -> u64 {
     line.split_whitespace().nth(1).unwrap().parse().unwrap()
 }
 
-/// Sets every cell whose centre lies in [x0, x1) × [y0, y1) to `state`.
-fn fill_rect(m: &mut OccupancyGrid, x0: f64, y0: f64, x1: f64, y1: f64, state: CellState) {
-    let g = *m.geometry();
-    for iy in 0..g.height() as i32 {
-        for ix in 0..g.width() as i32 {
-            let c = g.cell_center(CellCoord::new(ix, iy));
-            if c.x >= x0 && c.x < x1 && c.y >= y0 && c.y < y1 {
-                m.set(CellCoord::new(ix, iy), state);
-            }
-        }
-    }
-}
-
-/// A 14 × 20.9 m room with one-cell walls, free inside.
+/// A 14 × 20.9 m room with one-cell walls, free inside: 280 × 418 cells at 0.05 m.
 fn room() -> OccupancyGrid {
-    // 14 m × 20.9 m at 0.05 m, walled all round.
-    OccupancyGrid::walled(GridGeometry::new(280, 418, 0.05, Pose2::IDENTITY).unwrap())
+    walled_cells(280, 418, 0.05, Pose2::IDENTITY)
 }
 
 fn box_positions() -> Vec<(f64, f64)> {

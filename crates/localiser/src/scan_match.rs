@@ -501,18 +501,14 @@ fn floor_i64(x: f64) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mapkeeper_grid::{CellCoord, CellState, GridGeometry, cast_ray};
+    use mapkeeper_grid::{CellState, GridGeometry, cast_ray};
+    use mapkeeper_testkit::rooms::{fill_cells, walled_cells};
 
     /// A 6 m × 4 m room with walls on the border and two boxes, 0.05 m cells.
     fn room() -> OccupancyGrid {
-        let g = GridGeometry::new(120, 80, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::walled(g);
+        let mut m = walled_cells(120, 80, 0.05, Pose2::IDENTITY);
         for (i0, j0) in [(40, 20), (80, 50)] {
-            for i in i0..i0 + 6 {
-                for j in j0..j0 + 4 {
-                    m.set(CellCoord::new(i, j), CellState::Occupied);
-                }
-            }
+            fill_cells(&mut m, i0..i0 + 6, j0..j0 + 4, CellState::Occupied);
         }
         m
     }

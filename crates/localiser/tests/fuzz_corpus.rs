@@ -3,21 +3,14 @@
 //! validation error the parameter.
 
 use mapkeeper_localiser::FilterParams;
-use std::path::Path;
+use mapkeeper_testkit::corpus::replay;
 
 #[test]
 fn params_toml_corpus_never_panics_for_filter_params() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/params_toml");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 10);
     let (mut ok, mut refused) = (0, 0);
-    for file in files {
-        let Ok(text) = std::fs::read_to_string(&file) else { continue };
-        match toml::from_str::<FilterParams>(&text) {
+    replay("params_toml", 10, |file, bytes| {
+        let Ok(text) = std::str::from_utf8(bytes) else { return };
+        match toml::from_str::<FilterParams>(text) {
             Ok(p) => match p.validate() {
                 Ok(()) => ok += 1,
                 Err(e) => {
@@ -33,7 +26,7 @@ fn params_toml_corpus_never_panics_for_filter_params() {
                 assert!(e.span().is_none() || m.contains("line "), "{}: TOML error names no line: {m}", file.display());
             }
         }
-    }
+    });
     eprintln!("params_toml corpus (FilterParams): {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }

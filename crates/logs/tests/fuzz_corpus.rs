@@ -16,34 +16,18 @@ mod ros1_writer;
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Pose2};
 use mapkeeper_logs::McapRunWriter;
 use mapkeeper_sensor::LaserScan;
+use mapkeeper_testkit::corpus::{self, corpus_dir};
 use ros1_writer::{BagWriter, Compression, laser_scan, odometry, tf_message};
-use std::path::{Path, PathBuf};
-
-fn corpus_dir(target: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus").join(target)
-}
-
-/// Every file of the kept corpus of `target`, sorted.
-fn corpus(target: &str) -> Vec<PathBuf> {
-    let dir = corpus_dir(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.is_file())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 10, "{}: only {} files", dir.display(), files.len());
-    files
-}
+use std::path::Path;
 
 /// Replays `target`'s corpus through `property`; some inputs must be read and some refused.
 fn replay(target: &str, reads_per_input: usize, property: fn(&[u8], &Path) -> usize) {
     let dir = log_readers::scratch_dir(&format!("replay-{target}"));
     let (mut ok, mut total) = (0, 0);
-    for file in corpus(target) {
-        ok += property(&std::fs::read(&file).unwrap(), &dir);
+    corpus::replay(target, 10, |_, bytes| {
+        ok += property(bytes, &dir);
         total += reads_per_input;
-    }
+    });
     eprintln!("{target} corpus: {ok} of {total} reads accepted");
     assert!(ok > 0 && ok < total, "{target}: {ok} of {total} reads accepted: the corpus tests one side only");
     let _ = std::fs::remove_dir_all(&dir);

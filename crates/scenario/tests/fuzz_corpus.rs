@@ -9,21 +9,15 @@
 #[path = "../../../fuzz/check/merge_json.rs"]
 mod property;
 
+use mapkeeper_testkit::corpus::corpus_files;
 use property::Checked;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
 #[test]
 fn merge_json_corpus_holds_the_fuzz_property() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/merge_json");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 15, "{} files in {}", files.len(), dir.display());
     let mut total = Checked::default();
-    for file in files {
+    for file in corpus_files("merge_json", 15) {
         let data = std::fs::read(&file).unwrap();
         let c = match catch_unwind(AssertUnwindSafe(|| property::check(&data))) {
             Ok(c) => c,
@@ -156,14 +150,8 @@ fn a_key_or_format_with_a_newline_gives_a_one_line_merge_error() {
 /// joins the parser's lines into one).
 #[test]
 fn params_toml_corpus_never_panics_for_recovery_params() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/params_toml");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .collect();
-    files.sort();
     let (mut ok, mut refused) = (0, 0);
-    for file in files {
+    for file in corpus_files("params_toml", 1) {
         let Ok(text) = std::fs::read_to_string(&file) else { continue };
         let base = mapkeeper_scenario::RecoveryParams::default();
         let got = catch_unwind(AssertUnwindSafe(|| {

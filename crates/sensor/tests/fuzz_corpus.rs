@@ -5,20 +5,8 @@
 use mapkeeper_sensor::tum::parse_tum;
 use mapkeeper_sensor::{LogError, SensorLog};
 use mapkeeper_sensor::{TumError, read_tum};
-use std::path::{Path, PathBuf};
-
-/// Every file of the corpus of fuzz target `target`, sorted.
-fn corpus(target: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus").join(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.is_file())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 10, "{}: only {} files", dir.display(), files.len());
-    files
-}
+use mapkeeper_testkit::corpus::replay;
+use std::path::Path;
 
 fn assert_one_line_naming(m: &str, file: &Path) {
     let name = file.display().to_string();
@@ -29,19 +17,18 @@ fn assert_one_line_naming(m: &str, file: &Path) {
 #[test]
 fn sensor_log_corpus_never_panics_and_errors_name_file_and_line() {
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus("sensor_log") {
-        let bytes = std::fs::read(&file).expect("reads");
-        match SensorLog::from_reader(bytes.as_slice(), &file) {
+    replay("sensor_log", 10, |file, bytes| {
+        match SensorLog::from_reader(bytes, file) {
             Ok(_) => ok += 1,
             Err(e) => {
                 refused += 1;
-                assert_one_line_naming(&e.to_string(), &file);
+                assert_one_line_naming(&e.to_string(), file);
                 assert!(matches!(e, LogError::Parse { line: 1.., .. } | LogError::Empty { .. }), "{e}");
             }
         }
         // The file reader agrees with the in-memory one.
-        assert_eq!(SensorLog::read(&file).is_ok(), SensorLog::from_reader(bytes.as_slice(), &file).is_ok());
-    }
+        assert_eq!(SensorLog::read(file).is_ok(), SensorLog::from_reader(bytes, file).is_ok());
+    });
     eprintln!("sensor_log corpus: {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }
@@ -49,21 +36,20 @@ fn sensor_log_corpus_never_panics_and_errors_name_file_and_line() {
 #[test]
 fn tum_corpus_never_panics_and_errors_name_file_and_line() {
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus("tum") {
-        let bytes = std::fs::read(&file).expect("reads");
-        let result = match std::str::from_utf8(&bytes) {
-            Ok(text) => parse_tum(text, &file),
-            Err(_) => read_tum(&file),
+    replay("tum", 10, |file, bytes| {
+        let result = match std::str::from_utf8(bytes) {
+            Ok(text) => parse_tum(text, file),
+            Err(_) => read_tum(file),
         };
         match result {
             Ok(_) => ok += 1,
             Err(e) => {
                 refused += 1;
-                assert_one_line_naming(&e.to_string(), &file);
+                assert_one_line_naming(&e.to_string(), file);
                 assert!(matches!(e, TumError::Parse { line: 1.., .. }), "{e}");
             }
         }
-    }
+    });
     eprintln!("tum corpus: {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }

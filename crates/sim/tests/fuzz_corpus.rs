@@ -4,20 +4,8 @@
 //! a syntax error, the entry for an invalid value).
 
 use mapkeeper_sim::{RobotFile, Route, SimError, SimParams, World};
-use std::path::{Path, PathBuf};
-
-/// Every file of the corpus of fuzz target `target`, sorted.
-fn corpus(target: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus").join(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.is_file())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 10, "{}: only {} files", dir.display(), files.len());
-    files
-}
+use mapkeeper_testkit::corpus;
+use std::path::Path;
 
 /// A rejection names the file, then the line (syntax) or the entry (validation), on one line.
 fn assert_names_place(e: &SimError, file: &Path) {
@@ -37,17 +25,16 @@ fn assert_names_place(e: &SimError, file: &Path) {
 /// Replays `target` through `parse`; returns (accepted, refused).
 fn replay<T>(target: &str, parse: impl Fn(&str, &str) -> Result<T, SimError>) -> (usize, usize) {
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus(target) {
-        let bytes = std::fs::read(&file).expect("reads");
-        let Ok(text) = std::str::from_utf8(&bytes) else { continue };
+    corpus::replay(target, 10, |file, bytes| {
+        let Ok(text) = std::str::from_utf8(bytes) else { return };
         match parse(text, &file.display().to_string()) {
             Ok(_) => ok += 1,
             Err(e) => {
                 refused += 1;
-                assert_names_place(&e, &file);
+                assert_names_place(&e, file);
             }
         }
-    }
+    });
     eprintln!("{target} corpus: {ok} accepted, {refused} refused");
     (ok, refused)
 }
@@ -73,9 +60,9 @@ fn robot_toml_corpus_never_panics_and_errors_name_the_place() {
 #[test]
 fn params_toml_corpus_never_panics_for_sim_params() {
     let (mut ok, mut refused) = (0, 0);
-    for file in corpus("params_toml") {
-        let Ok(text) = std::fs::read_to_string(&file) else { continue };
-        match toml::from_str::<SimParams>(&text) {
+    corpus::replay("params_toml", 10, |file, bytes| {
+        let Ok(text) = std::str::from_utf8(bytes) else { return };
+        match toml::from_str::<SimParams>(text) {
             Ok(p) => match p.validate() {
                 Ok(()) => ok += 1,
                 Err(e) => {
@@ -90,7 +77,7 @@ fn params_toml_corpus_never_panics_for_sim_params() {
                 assert!(e.span().is_none() || m.contains("line "), "{}: TOML error names no line: {m}", file.display());
             }
         }
-    }
+    });
     eprintln!("params_toml corpus (SimParams): {ok} accepted, {refused} refused");
     assert!(ok > 0 && refused > 0);
 }

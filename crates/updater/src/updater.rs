@@ -745,12 +745,8 @@ impl MapUpdater {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mapkeeper_grid::{CellCoord, CellState, GridGeometry, cast_ray};
-
-    /// A `w` × `h`-cell room at 0.05 m with one-cell walls on the map's edge.
-    fn room(w: usize, h: usize) -> OccupancyGrid {
-        OccupancyGrid::walled(GridGeometry::new(w, h, 0.05, Pose2::IDENTITY).unwrap())
-    }
+    use mapkeeper_grid::{CellState, cast_ray};
+    use mapkeeper_testkit::rooms::{fill_cells, walled_cells};
 
     /// A 360° scan of `world` from `robot`, 1° apart, ranges 5 mm beyond the cast.
     fn scan(world: &OccupancyGrid, robot: Pose2, stamp_ns: u64) -> LaserScan {
@@ -774,13 +770,10 @@ mod tests {
     /// Runs 12 processed steps past a box that the map lacks; returns (cache, change state)
     /// before and after.
     fn run(w: usize, h: usize) -> ((usize, usize), (usize, usize)) {
-        let map = room(w, h);
+        // A `w` × `h`-cell room at 0.05 m with one-cell walls on the map's edge.
+        let map = walled_cells(w, h, 0.05, Pose2::IDENTITY);
         let mut world = map.clone();
-        for x in 40..46 {
-            for y in 30..36 {
-                world.set(CellCoord::new(x, y), CellState::Occupied);
-            }
-        }
+        fill_cells(&mut world, 40..46, 30..36, CellState::Occupied);
         let mut up = MapUpdater::new(map, UpdaterParams::paper()).unwrap();
         let before = (up.cache_bytes(), up.change_state_bytes());
         for k in 0..12 {

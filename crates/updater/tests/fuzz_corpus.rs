@@ -11,10 +11,10 @@
 #[path = "../../../fuzz/check/updater_params.rs"]
 mod property;
 
+use mapkeeper_testkit::corpus::{corpus_dir, corpus_files};
 use mapkeeper_updater::UpdaterParams;
 use property::{Checked, Run};
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::Path;
 
 /// Runs the property on `text`, naming `what` if it fails.
 fn check(what: &str, text: &str, run: Run) -> Checked {
@@ -38,7 +38,7 @@ fn add(total: &mut Checked, c: &Checked) {
 
 #[test]
 fn the_seed_with_every_field_of_paper_gives_paper_over_any_preset() {
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/updater_params/paper.toml");
+    let file = corpus_dir("updater_params").join("paper.toml");
     let text = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
     for name in mapkeeper_updater::PRESET_NAMES {
         let base = UpdaterParams::preset(name).unwrap();
@@ -49,15 +49,8 @@ fn the_seed_with_every_field_of_paper_gives_paper_over_any_preset() {
 
 #[test]
 fn updater_params_corpus_holds_the_fuzz_property() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/updater_params");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("entry").path())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 15, "{} files in {}", files.len(), dir.display());
     let mut total = Checked::default();
-    for file in files {
+    for file in corpus_files("updater_params", 15) {
         let Ok(text) = std::fs::read_to_string(&file) else { continue };
         add(&mut total, &check(&file.display().to_string(), &text, Run::All));
     }

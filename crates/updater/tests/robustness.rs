@@ -3,9 +3,10 @@
 
 mod common;
 
-use common::{Lidar, fill_rect, room, room_in, s300_pair, scan360, synth_scan};
+use common::{Lidar, fill_rect, room, s300_pair, scan360, synth_scan};
 use mapkeeper_grid::{CellState, OccupancyGrid, Pose2};
 use mapkeeper_sensor::LaserScan;
+use mapkeeper_testkit::rooms::walled_in;
 use mapkeeper_updater::paper::pose_updating::PoseUpdater;
 use mapkeeper_updater::{
     GateReason, MapUpdater, PoseRecovery, PoseUpdatingParams, StepOutcome, UpdaterParams, Verdict,
@@ -163,7 +164,7 @@ fn deterministic_bit_for_bit() {
 #[test]
 fn state_bytes_independent_of_map_size() {
     let state_after = |cells_w: usize, cells_h: usize| {
-        let base = room_in(6.0, 4.0, 0.05, cells_w, cells_h);
+        let base = walled_in(6.0, 4.0, 0.05, cells_w, cells_h);
         let mut world = added_box_world(&base);
         fill_rect(&mut world, 2.8, 0.05, 3.2, 0.4, CellState::Free); // a removed piece of wall
         let mut up = MapUpdater::new(base, UpdaterParams::paper()).unwrap();

@@ -71,12 +71,14 @@ pub fn load_route(path: &Path, world: &mapkeeper_sim::World) -> anyhow::Result<m
 }
 
 /// W_1 of `--world` / `--route` (the default warehouse without them), with the recovery
-/// parameters' tour, exploration route and storage areas taken from it; and its name.
+/// parameters' tour, exploration route and storage areas taken from it; and its name. `site` is
+/// what the flags give (`WorldArgs::load`), taken loaded so that this file and
+/// `shared_args.rs` do not import each other.
 pub fn site_world(
-    site: &crate::cmd::shared_args::WorldArgs,
+    site: Option<(String, mapkeeper_closed_loop::Site)>,
     recovery: &mut mapkeeper_scenario::RecoveryParams,
 ) -> anyhow::Result<(mapkeeper_sim::World, String)> {
-    let Some((name, site)) = site.load()? else {
+    let Some((name, site)) = site else {
         return Ok((mapkeeper_sim::World::default_warehouse(), "warehouse".into()));
     };
     recovery.tour = site.route;

@@ -364,21 +364,14 @@ impl GlobalSearch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mapkeeper_grid::{CellCoord, GridGeometry};
+    use mapkeeper_grid::CellCoord;
+    use mapkeeper_testkit::rooms::{fill_cells, walled_cells};
 
+    /// A 10 m × 6 m walled room at 0.05 m with a post and a bar.
     fn room_with_posts() -> OccupancyGrid {
-        let g = GridGeometry::new(200, 120, 0.05, Pose2::new(0.0, 0.0, 0.0)).unwrap();
-        let mut m = OccupancyGrid::filled(g, CellState::Free);
-        for y in 0..120 {
-            for x in 0..200 {
-                let wall = x == 0 || y == 0 || x == 199 || y == 119;
-                let post = (40..48).contains(&x) && (30..38).contains(&y);
-                let bar = (120..170).contains(&x) && (80..84).contains(&y);
-                if wall || post || bar {
-                    m.set(CellCoord { ix: x, iy: y }, CellState::Occupied);
-                }
-            }
-        }
+        let mut m = walled_cells(200, 120, 0.05, Pose2::IDENTITY);
+        fill_cells(&mut m, 40..48, 30..38, CellState::Occupied);
+        fill_cells(&mut m, 120..170, 80..84, CellState::Occupied);
         m
     }
 

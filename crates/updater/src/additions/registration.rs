@@ -579,17 +579,13 @@ fn min_eigenvalue_sym3(m: &[[f64; 3]; 3]) -> f64 {
 mod tests {
     use super::*;
     use mapkeeper_grid::{CellCoord, cast_ray};
+    use mapkeeper_testkit::rooms::{fill_cells, walled_cells};
 
     /// A 10 m × 8 m room at 0.05 m with walls and a few boxes (no symmetry).
     fn room() -> OccupancyGrid {
-        let g = GridGeometry::new(200, 160, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::walled(g);
+        let mut m = walled_cells(200, 160, 0.05, Pose2::IDENTITY);
         for (x0, y0, w, h) in [(40, 30, 10, 6), (120, 100, 6, 14), (150, 30, 20, 4)] {
-            for x in x0..x0 + w {
-                for y in y0..y0 + h {
-                    m.set(CellCoord::new(x, y), CellState::Occupied);
-                }
-            }
+            fill_cells(&mut m, x0..x0 + w, y0..y0 + h, CellState::Occupied);
         }
         m
     }

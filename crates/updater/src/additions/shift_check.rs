@@ -218,17 +218,15 @@ pub fn combine(verdict: Verdict, r: &ShiftResult, p: &ShiftCheckParams) -> Verdi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
+    use mapkeeper_grid::CellState;
+    use mapkeeper_testkit::rooms::{fill_cells, walled_cells};
 
     /// A 6 m × 6 m room with walls, and a lidar at its centre with 360 beams.
     fn room() -> (DistanceField, impl Fn(Pose2) -> LaserScan) {
-        let g = GridGeometry::new(120, 120, 0.05, Pose2::new(-3.0, -3.0, 0.0)).unwrap();
-        let mut m = OccupancyGrid::walled(g);
+        let mut m = walled_cells(120, 120, 0.05, Pose2::new(-3.0, -3.0, 0.0));
         // An L-shaped item so that no shift is ambiguous.
-        for k in 20..50 {
-            m.set(CellCoord::new(k, 30), CellState::Occupied);
-            m.set(CellCoord::new(20, k), CellState::Occupied);
-        }
+        fill_cells(&mut m, 20..50, 30..31, CellState::Occupied);
+        fill_cells(&mut m, 20..21, 20..50, CellState::Occupied);
         let field = DistanceField::to_occupied(&m, 1.0);
         let caster = mapkeeper_grid::RayCaster::new(&m, true);
         let scan = move |truth: Pose2| {

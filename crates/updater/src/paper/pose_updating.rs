@@ -458,26 +458,14 @@ impl PoseUpdater {
 mod tests {
     use super::*;
     use mapkeeper_grid::{CellCoord, GridGeometry};
+    use mapkeeper_testkit::rooms::{fill_cells, walled_cells};
 
+    /// An 8 m × 5 m walled room at 0.05 m with asymmetric furniture.
     fn room() -> OccupancyGrid {
-        let g = GridGeometry::new(160, 100, 0.05, Pose2::IDENTITY).unwrap();
-        let mut m = OccupancyGrid::walled(g);
-        // Asymmetric furniture.
-        for x in 40..52 {
-            for y in 70..99 {
-                m.set(CellCoord::new(x, y), CellState::Occupied);
-            }
-        }
-        for x in 100..106 {
-            for y in 1..30 {
-                m.set(CellCoord::new(x, y), CellState::Occupied);
-            }
-        }
-        for x in 120..140 {
-            for y in 60..66 {
-                m.set(CellCoord::new(x, y), CellState::Occupied);
-            }
-        }
+        let mut m = walled_cells(160, 100, 0.05, Pose2::IDENTITY);
+        fill_cells(&mut m, 40..52, 70..99, CellState::Occupied);
+        fill_cells(&mut m, 100..106, 1..30, CellState::Occupied);
+        fill_cells(&mut m, 120..140, 60..66, CellState::Occupied);
         m
     }
 

@@ -5,43 +5,11 @@
 pub mod bench_scene;
 pub mod digest;
 
-use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2, RayStop, cast_ray};
+use mapkeeper_grid::{OccupancyGrid, Pose2, RayStop, cast_ray};
 use mapkeeper_sensor::LaserScan;
-
-/// A `w_m` × `h_m` room at `res` with one-cell walls on its border, interior free, placed at the
-/// lower-left of a grid of `cells_w` × `cells_h` cells (the rest free).
-pub fn room_in(w_m: f64, h_m: f64, res: f64, cells_w: usize, cells_h: usize) -> OccupancyGrid {
-    let g = GridGeometry::new(cells_w, cells_h, res, Pose2::IDENTITY).unwrap();
-    let mut m = OccupancyGrid::filled(g, CellState::Free);
-    let (nw, nh) = ((w_m / res).round() as i32, (h_m / res).round() as i32);
-    for k in 0..nw {
-        m.set(CellCoord::new(k, 0), CellState::Occupied);
-        m.set(CellCoord::new(k, nh - 1), CellState::Occupied);
-    }
-    for k in 0..nh {
-        m.set(CellCoord::new(0, k), CellState::Occupied);
-        m.set(CellCoord::new(nw - 1, k), CellState::Occupied);
-    }
-    m
-}
-
-/// A room filling its grid.
-pub fn room(w_m: f64, h_m: f64, res: f64) -> OccupancyGrid {
-    room_in(w_m, h_m, res, (w_m / res).round() as usize, (h_m / res).round() as usize)
-}
-
-/// Sets every cell whose centre lies in [x0, x1) × [y0, y1) to `state`.
-pub fn fill_rect(m: &mut OccupancyGrid, x0: f64, y0: f64, x1: f64, y1: f64, state: CellState) {
-    let g = *m.geometry();
-    for iy in 0..g.height() as i32 {
-        for ix in 0..g.width() as i32 {
-            let c = g.cell_center(CellCoord::new(ix, iy));
-            if c.x >= x0 && c.x < x1 && c.y >= y0 && c.y < y1 {
-                m.set(CellCoord::new(ix, iy), state);
-            }
-        }
-    }
-}
+/// The room of these tests, `room(w_m, h_m, res)`: one-cell walls on the border of the grid it
+/// fills (`mapkeeper_testkit::rooms::walled`); and furniture set by metre.
+pub use mapkeeper_testkit::rooms::{fill_rect, walled as room};
 
 /// A synthetic lidar: its mounting pose on the robot and its beams.
 #[derive(Clone, Copy, Debug)]

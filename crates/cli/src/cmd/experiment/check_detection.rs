@@ -65,7 +65,7 @@ pub(super) fn run(args: CheckDetectionArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --presets / --max-world")?;
     let (default, total) = (default_out("check-detection", args.seed, p.trials), p.trials * p.presets.len());
-    let (w1, world) = site_world(&args.common.site, &mut file.recovery)?;
+    let (w1, world) = site_world(args.common.site.load()?, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
         run_timed("check-detection", &args.common, &w1, default, total, "runs", |w1, progress| {
             Ok(run_check_detection(w1, &file.recovery, &file.own, args.seed, progress)?)

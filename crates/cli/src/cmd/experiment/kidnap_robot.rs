@@ -55,7 +55,7 @@ pub(super) fn run(args: KidnapRobotArgs) -> anyhow::Result<()> {
     }
     p.validate().context("--trials / --preset")?;
     let (default, total) = (default_out("kidnap-robot", args.seed, p.trials), p.trials);
-    let (w1, world) = site_world(&args.common.site, &mut file.recovery)?;
+    let (w1, world) = site_world(args.common.site.load()?, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) =
         run_timed("kidnap-robot", &args.common, &w1, default, total, "trials", |w1, progress| {
             Ok(run_kidnap_robot(w1, &file.recovery, &file.own, args.seed, progress)?)

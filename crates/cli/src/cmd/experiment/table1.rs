@@ -56,7 +56,7 @@ pub(super) fn run(args: Table1Args) -> anyhow::Result<()> {
     p.validate().context("--trials / --presets")?;
     let runs = p.trials * p.presets.len() * p.conditions().len() * VARIANTS.len();
     let default = default_out("table1", args.seed, p.trials);
-    let (w1, world) = site_world(&args.common.site, &mut file.recovery)?;
+    let (w1, world) = site_world(args.common.site.load()?, &mut file.recovery)?;
     let (mut r, wall_time_s, dir) = run_timed("table1", &args.common, &w1, default, runs, "runs", |w1, progress| {
         Ok(run_table1_hold(w1, &file.recovery, &file.own, args.seed, progress)?)
     })?;

@@ -69,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.no_best_case {
         params.kidnap.best_case = false;
     }
-    let (w1, _) = super::site::site_world(&args.site, &mut params)?;
+    let (w1, _) = super::site::site_world(args.site.load()?, &mut params)?;
     params.validate().context("--trials / --no-best-case / --world")?;
     let out = args.output.out.clone().unwrap_or_else(|| default_out(args.seed, args.trials));
     let dir = super::output_dir(&out, args.output.force)?;

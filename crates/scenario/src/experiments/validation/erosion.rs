@@ -1,6 +1,7 @@
 //! Metrics that see erosion in the validation: **structure retention** and **per-change-class
 //! scores** of M_i, M*_i and F_i, per world ([`Retention`], [`ChangeClasses`], scored by
-//! `ErosionJudge`) and over worlds and seeds ([`RetentionSummary`], [`ChangeClassSummary`]).
+//! `ErosionJudge`) and over worlds and seeds ([`RetentionSummary`], [`ChangeClassSummary`], computed by
+//! `summary.rs`).
 //!
 //! Both are taken against the **exact** G_i whatever `--ground-truth` says (the observed G_i is
 //! unknown wherever the exploration route does not look, which would hide exactly the faces an
@@ -10,8 +11,6 @@
 //! choices: `docs/metrics.md`, "Structure retention and change classes".
 
 use crate::experiments::ExperimentError;
-use crate::experiments::validation::SeedRecord;
-use crate::stats::mean;
 use mapkeeper_grid::metrics::MetricsError;
 use mapkeeper_grid::metrics::erosion::{
     CellShare, ChangeCells, ClassShares, EditFootprints, StructureMask, grow_by_one_cell,
@@ -252,71 +251,11 @@ pub struct ChangeClassSummary {
     pub initial_errors: ClassSummary,
 }
 
-/// The mean, `None` for no values.
-fn mean_of_some(v: impl Iterator<Item = f64>) -> Option<f64> {
-    let v: Vec<f64> = v.collect();
-    (!v.is_empty()).then(|| mean(v.into_iter()))
-}
-
-/// [`RetentionSummary`] of `runs` (in seed order); `None` when no row has the figures.
-pub fn retention_summary(runs: &[SeedRecord]) -> Option<RetentionSummary> {
-    let rows: Vec<&Retention> = runs.iter().flat_map(|r| &r.rows).filter_map(|w| w.retention.as_ref()).collect();
-    if rows.is_empty() {
-        return None;
-    }
-    let per_seed = |last: bool| -> Vec<f64> {
-        runs.iter()
-            .filter_map(|r| if last { r.rows.last() } else { r.rows.first() })
-            .filter_map(|w| w.retention.map(|x| x.updated_map))
-            .collect()
-    };
-    let last = per_seed(true);
-    let updated_last = mean(last.iter().copied());
-    Some(RetentionSummary {
-        rows: rows.len(),
-        structure_cells_mean: mean(rows.iter().map(|x| x.structure_cells as f64)),
-        updated_w2: mean(per_seed(false).into_iter()),
-        updated_last,
-        updated_last_min: last.iter().copied().reduce(f64::min).unwrap_or(updated_last),
-        updated_mean: mean(rows.iter().map(|x| x.updated_map)),
-        best_mean: mean(rows.iter().map(|x| x.best_map)),
-        fresh_mean: mean(rows.iter().map(|x| x.fresh_map)),
-        target_last: RETENTION_TARGET_PCT,
-        target_met: updated_last >= RETENTION_TARGET_PCT,
-    })
-}
-
-fn class_summary(runs: &[SeedRecord], pick: fn(&ChangeClasses) -> ClassScores) -> ClassSummary {
-    let rows: Vec<ClassScores> =
-        runs.iter().flat_map(|r| &r.rows).filter_map(|w| w.change_classes.as_ref()).map(pick).collect();
-    ClassSummary {
-        rows: rows.iter().filter(|c| c.cells > 0).count(),
-        cells_mean: mean(rows.iter().map(|c| c.cells as f64)),
-        updated_mean: mean_of_some(rows.iter().filter_map(|c| c.updated_map)),
-        best_mean: mean_of_some(rows.iter().filter_map(|c| c.best_map)),
-        fresh_mean: mean_of_some(rows.iter().filter_map(|c| c.fresh_map)),
-        updated_last: mean_of_some(
-            runs.iter().filter_map(|r| r.rows.last()?.change_classes.as_ref().map(pick)?.updated_map),
-        ),
-    }
-}
-
-/// [`ChangeClassSummary`] of `runs` (in seed order); `None` when no row has the figures.
-pub fn change_class_summary(runs: &[SeedRecord]) -> Option<ChangeClassSummary> {
-    let rows = runs.iter().flat_map(|r| &r.rows).filter(|w| w.change_classes.is_some()).count();
-    (rows > 0).then(|| ChangeClassSummary {
-        rows,
-        added: class_summary(runs, |c| c.added),
-        removed: class_summary(runs, |c| c.removed),
-        moved: class_summary(runs, |c| c.moved),
-        initial_errors: class_summary(runs, |c| c.initial_errors),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::experiments::validation::ValidationRecord;
+    use crate::experiments::validation::summary::{change_class_summary, retention_summary};
 
     const F: CellState = CellState::Free;
     const O: CellState = CellState::Occupied;
