@@ -50,7 +50,7 @@
 //!    with a `crates/*/Cargo.toml`. A count under a dated heading (one that names an issue, a
 //!    commit or a date, or starts with `Earlier`) is of its time: listed as not checked. Other
 //!    counts ("Six presets run the updater's algorithm", "2 presets × seed 11") count a subset
-//!    and are not read.
+//!    and are not read. `docs/ARCHITECTURE.md` names every crate's folder (`(crates/x)`).
 //! 5. **Rust names.** A backtick span that is a Rust path (`harness::run`,
 //!    `UpdaterParams::validate`) or a call (`change_state_bytes()`, `f(a, b)`: the callee): each
 //!    segment is an identifier of the repository's Rust code (comments left out; not this file)
@@ -860,6 +860,13 @@ fn check_doc(doc: &Doc, truth: &Truth, r: &mut Report) {
     check_commands(doc, &parsed, truth, r);
     if doc.name == "docs/commands.md" {
         check_command_table(doc, truth, r);
+    }
+    // The crate map names every crate (the count of crates alone would not say which is missing).
+    if doc.name == "docs/ARCHITECTURE.md" {
+        for dir in truth.packages.values() {
+            let named = doc.lines.iter().any(|l| l.contains(&format!("({dir})")) || l.contains(&format!("`{dir}`")));
+            r.check("crate named", named, (doc, 1), || format!("the crate map does not name `{dir}`"));
+        }
     }
     check_preset_names(doc, &parsed, r);
     check_counts(doc, &parsed, truth, r);
