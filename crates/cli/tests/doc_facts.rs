@@ -1015,21 +1015,32 @@ fn preset_names_are_the_codes() {
 
 #[test]
 fn a_wrong_count_is_caught() {
-    let doc = "The localiser has three\npresets; nine updater presets, all 9 presets, the two presets' worlds,\n\
-               the sixteen commands, a Cargo workspace of twelve crates. Six presets run it. Two presets\n\
-               (`--localiser`).\n\n\
-               ## Earlier: issue 11\n\nAll six updater presets.\n";
-    let (f, r) = failures("docs/x.md", doc);
+    // Written from today's counts, so that adding a preset or a command does not break it.
+    let (u, l) = (PRESET_NAMES.len(), LOCALISER_PRESETS.len());
+    let (c, k) = (truth().cli.top().len(), truth().packages.len());
+    let doc = format!(
+        "The localiser has {l} presets; {u} updater presets, all {u} presets, the {} presets' worlds,\n\
+         the {} commands, a Cargo workspace of {k} crates. Six presets run it. {} presets\n\
+         (`--localiser`).\n\n## Earlier: issue 11\n\nAll {} updater presets.\n",
+        u + 1,
+        c - 1,
+        l + 1,
+        u + 1
+    );
+    let (f, r) = failures("docs/x.md", &doc);
     assert_eq!(
         f,
         [
-            "docs/x.md:1: count: \"three localiser presets\": there are 4",
-            "docs/x.md:3: count: \"sixteen commands\": there are 17",
-            "docs/x.md:3: count: \"two localiser presets\": there are 4"
+            format!("docs/x.md:2: count: \"{} commands\": there are {c}", c - 1),
+            format!("docs/x.md:2: count: \"{} localiser presets\": there are {l}", l + 1),
         ]
     );
     assert_eq!(r.seen["count"], 6);
-    assert!(r.skipped.iter().any(|s| s.contains("\"six updater presets\": a count of its time")));
+    assert!(r.skipped.iter().any(|s| s.contains(&format!("\"{} updater presets\": a count of its time", u + 1))));
+    // Number words count too.
+    let wrong = NUMBERS.split_whitespace().nth(u + 1).unwrap();
+    let (f, _) = failures("docs/x.md", &format!("There are {wrong} updater presets.\n"));
+    assert_eq!(f, [format!("docs/x.md:1: count: \"{wrong} updater presets\": there are {u}")]);
 }
 
 #[test]
