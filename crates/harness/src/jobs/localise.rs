@@ -121,7 +121,7 @@ pub fn localise_log(
     if source.is_empty() {
         return Err(HarnessError::Invalid(format!("{}: the log has no scans", source.name())));
     }
-    let mut filter = Localiser::new(map, params, seed)?;
+    let mut filter = Localiser::new(map, params, super::chain_seed(seed))?;
     let init = match (init, source.first_stamp_ns().and_then(|t| interpolate(source.truth(), t))) {
         (Some(p), _) => InitFrom::Given(p),
         (None, Some(p)) => InitFrom::LoggedTruth(p),

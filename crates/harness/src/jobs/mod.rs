@@ -6,6 +6,17 @@ pub mod localise;
 pub mod map;
 pub mod update;
 
+/// The random stream of the chain localiser of a replay, named as the closed loop names its
+/// streams (`chain/<world>`): the filter of `localise` and of `update --localise` draws from
+/// `stream_seed(seed, "chain/replay")`, not from the raw seed, so that another stream added
+/// to a replay shifts none of the others.
+pub const CHAIN_STREAM: &str = "chain/replay";
+
+/// The seed of the replay's chain localiser for the run seed `seed` ([`CHAIN_STREAM`]).
+pub fn chain_seed(seed: u64) -> u64 {
+    mapkeeper_common::stream_seed(seed, CHAIN_STREAM)
+}
+
 /// `ns` as seconds with 9 decimals, exactly (the time column of the jobs' tables).
 pub fn seconds(ns: u64) -> String {
     format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)

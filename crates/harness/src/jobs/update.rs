@@ -191,7 +191,7 @@ pub fn update_log(
     let pose_source = match poses {
         PoseInput::Localise { params: filter_params, seed, init } => {
             let filter_params = *filter_params;
-            let mut filter = Localiser::new(&map, filter_params, seed)?;
+            let mut filter = Localiser::new(&map, filter_params, super::chain_seed(seed))?;
             let first_truth = source.first_stamp_ns().and_then(|t| mapkeeper_sensor::interpolate(source.truth(), t));
             if let Some(p) = init.or(first_truth) {
                 filter.init_pose(p, filter_params.initial_covariance())?;
