@@ -441,7 +441,7 @@ fn run_trial(
         d.tour_position_m,
         p.route_length_m,
     )?;
-    let (_map, g) = (drive.map, drive.truth);
+    let g = drive.truth;
     let mut rp = recovery.runner.clone();
     rp.updater = updater.clone();
     rp.max_sim_time_s = d.kidnap_s + p.recovery_window_s + c.hold_s;
