@@ -11,7 +11,8 @@ use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
-use mapkeeper_grid::mapper::MapperParams;
+use mapkeeper_common::ParamError;
+use mapkeeper_grid::mapper::{MapperError, MapperParams};
 use serde::{Deserialize, Serialize};
 
 /// Which algorithm turns `M_{i-1}` into `M_i`.
@@ -564,12 +565,12 @@ impl UpdaterParams {
         self.validate_classifier_and_check()?;
         self.validate_evaluators_and_cells()?;
         self.pose_updating.validate()?;
-        self.shift_check.validate().map_err(|e| bad("shift_check", e))?;
-        self.global_search.validate().map_err(|e| bad("global_search", e))?;
-        self.registration.validate().map_err(|(field, e)| bad(field, e))?;
-        self.memory.validate(self.buffer_size, self.change_threshold).map_err(|(field, e)| bad(field, e))?;
-        self.tolerance.validate().map_err(|(field, e)| bad(field, e))?;
-        self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
+        self.shift_check.validate()?;
+        self.global_search.validate()?;
+        self.registration.validate()?;
+        self.memory.validate(self.buffer_size, self.change_threshold)?;
+        self.tolerance.validate()?;
+        self.log_odds.validate().map_err(log_odds_refusal)?;
         Ok(())
     }
 
@@ -579,10 +580,7 @@ impl UpdaterParams {
         non_neg_finite("removal_hit_clearance_m", self.removal_hit_clearance_m)?;
         positive("removal_max_offset_cells", self.removal_max_offset_cells)?;
         if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.removal_min_incidence_rad) {
-            return Err(bad(
-                "removal_min_incidence_rad",
-                format!("must be within 0..=pi/2, got {}", self.removal_min_incidence_rad),
-            ));
+            return Err(bad("removal_min_incidence_rad", self.removal_min_incidence_rad, "must be within 0..=pi/2"));
         }
         non_neg_finite("gating_min_rotation_rad", self.gating_min_rotation_rad)?;
         non_neg_finite("gating_min_interval_s", self.gating_min_interval_s)?;
@@ -596,28 +594,26 @@ impl UpdaterParams {
     /// Beam classifier and localisation check.
     fn validate_classifier_and_check(&self) -> Result<(), UpdaterError> {
         if self.virtual_rays_each_side > 64 {
-            return Err(bad("virtual_rays_each_side", "must be at most 64"));
+            return Err(bad("virtual_rays_each_side", "", "must be at most 64"));
         }
         if !(self.virtual_ray_spacing_beams.is_finite() && self.virtual_ray_spacing_beams > 0.0) {
-            return Err(bad("virtual_ray_spacing_beams", "must be finite and > 0"));
+            return Err(bad("virtual_ray_spacing_beams", "", "must be finite and > 0"));
         }
         non_neg_finite("virtual_window_rad", self.virtual_window_rad)?;
         non_neg_finite("change_slope", self.change_slope)?;
         non_neg_finite("change_intercept_m", self.change_intercept_m)?;
         positive("change_max_m", self.change_max_m)?;
         if self.min_change_run == 0 {
-            return Err(bad("min_change_run", "must be >= 1 (1 = no outlier filter)"));
+            return Err(bad("min_change_run", "", "must be >= 1 (1 = no outlier filter)"));
         }
         for (field, v) in [("d_eps_min", self.d_eps_min), ("d_eps_max", self.d_eps_max)] {
             if !(0.0..=1.0).contains(&v) {
-                return Err(bad(field, format!("must lie in [0, 1], got {v}")));
+                return Err(bad(field, v, "must lie in [0, 1]"));
             }
         }
         if self.d_eps_min > self.d_eps_max {
-            return Err(bad(
-                "d_eps_min",
-                format!("must not exceed d_eps_max ({} > {})", self.d_eps_min, self.d_eps_max),
-            ));
+            let requirement = format!("must not exceed d_eps_max ({} > {})", self.d_eps_min, self.d_eps_max);
+            return Err(bad("d_eps_min", "", requirement));
         }
         Ok(())
     }
@@ -635,42 +631,49 @@ impl UpdaterParams {
             [("skip_changed_slope", self.skip_changed_slope), ("skip_unchanged_slope", self.skip_unchanged_slope)]
         {
             if v >= 1.0 {
-                return Err(bad(field, format!("must be < 1, got {v}")));
+                return Err(bad(field, v, "must be < 1"));
             }
         }
         if !(1..=32).contains(&self.buffer_size) {
-            return Err(bad("buffer_size", format!("must lie in 1..=32, got {}", self.buffer_size)));
+            return Err(bad("buffer_size", self.buffer_size, "must lie in 1..=32"));
         }
         if !(1..=self.buffer_size).contains(&self.change_threshold) {
-            return Err(bad("change_threshold", format!("must lie in 1..=buffer_size, got {}", self.change_threshold)));
+            return Err(bad("change_threshold", self.change_threshold, "must lie in 1..=buffer_size"));
         }
         if self.revert == RevertRule::UnchangedThreshold && 2 * self.change_threshold <= self.buffer_size {
-            return Err(bad(
-                "change_threshold",
-                format!(
-                    "with revert = \"unchanged-threshold\" it must exceed buffer_size / 2 ({} <= {} / 2): a buffer could then hold \
-                     enough flags to flip and to flip back at once",
-                    self.change_threshold, self.buffer_size
-                ),
-            ));
+            let requirement = format!(
+                "with revert = \"unchanged-threshold\" it must exceed buffer_size / 2 ({} <= {} / 2): a buffer could then hold \
+                 enough flags to flip and to flip back at once",
+                self.change_threshold, self.buffer_size
+            );
+            return Err(bad("change_threshold", "", requirement));
         }
         if self.min_valid_beams == 0 {
-            return Err(bad("min_valid_beams", "must be >= 1"));
+            return Err(bad("min_valid_beams", "", "must be >= 1"));
         }
         Ok(())
     }
 }
 
-fn bad(field: &'static str, reason: impl Into<String>) -> UpdaterError {
-    UpdaterError::InvalidParam { field, reason: reason.into() }
+/// The log-odds mapper's refusal of its parameters, named `log_odds.…`.
+pub(crate) fn log_odds_refusal(e: MapperError) -> ParamError {
+    match e {
+        MapperError::InvalidParam(p) => p.within("log_odds"),
+        other => ParamError::new("log_odds", "", other.to_string()),
+    }
 }
 
-fn non_neg_finite(field: &'static str, v: f64) -> Result<(), UpdaterError> {
-    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(field, format!("must be finite and >= 0, got {v}"))) }
+/// `field` holds `value` (`""`: the message gives none), which is not as `requirement` says.
+fn bad(field: &str, value: impl std::fmt::Display, requirement: impl Into<String>) -> UpdaterError {
+    ParamError::new(field, value, requirement).into()
 }
 
-fn positive(field: &'static str, v: f64) -> Result<(), UpdaterError> {
-    if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, format!("must be > 0, got {v}"))) }
+fn non_neg_finite(field: &str, v: f64) -> Result<(), UpdaterError> {
+    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(field, v, "must be finite and >= 0")) }
+}
+
+fn positive(field: &str, v: f64) -> Result<(), UpdaterError> {
+    if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, v, "must be > 0")) }
 }
 
 impl PoseUpdatingParams {
@@ -680,40 +683,39 @@ impl PoseUpdatingParams {
         let p = self;
         non_neg_finite("pose_updating.retry_interval_s", p.retry_interval_s)?;
         if p.source_beam_step == 0 {
-            return Err(bad("pose_updating.source_beam_step", "must be >= 1"));
+            return Err(bad("pose_updating.source_beam_step", "", "must be >= 1"));
         }
         positive("pose_updating.max_correspondence_m", p.max_correspondence_m)?;
         positive("pose_updating.min_correspondence_m", p.min_correspondence_m)?;
         if !p.max_correspondence_m.is_finite() || p.min_correspondence_m > p.max_correspondence_m {
-            return Err(bad("pose_updating.min_correspondence_m", "must be finite and <= max_correspondence_m"));
+            return Err(bad("pose_updating.min_correspondence_m", "", "must be finite and <= max_correspondence_m"));
         }
         if !(p.correspondence_decay > 0.0 && p.correspondence_decay <= 1.0) {
-            return Err(bad("pose_updating.correspondence_decay", "must lie in (0, 1]"));
+            return Err(bad("pose_updating.correspondence_decay", "", "must lie in (0, 1]"));
         }
         if p.max_iterations == 0 || p.max_iterations > 1000 {
-            return Err(bad("pose_updating.max_iterations", "must lie in 1..=1000"));
+            return Err(bad("pose_updating.max_iterations", "", "must lie in 1..=1000"));
         }
         non_neg_finite("pose_updating.convergence_translation_m", p.convergence_translation_m)?;
         non_neg_finite("pose_updating.convergence_rotation_rad", p.convergence_rotation_rad)?;
         if p.yaw_offsets_rad.is_empty() || p.yaw_offsets_rad.iter().any(|v| !v.is_finite()) {
-            return Err(bad("pose_updating.yaw_offsets_rad", "must be non-empty and finite"));
+            return Err(bad("pose_updating.yaw_offsets_rad", "", "must be non-empty and finite"));
         }
         if p.position_offsets_m.is_empty() || p.position_offsets_m.iter().any(|v| !v.is_finite()) {
-            return Err(bad("pose_updating.position_offsets_m", "must be non-empty and finite"));
+            return Err(bad("pose_updating.position_offsets_m", "", "must be non-empty and finite"));
         }
         let hypotheses = p.yaw_offsets_rad.len().saturating_mul(p.position_offsets_m.len().saturating_pow(2));
         if hypotheses > 4096 {
-            return Err(bad(
-                "pose_updating.yaw_offsets_rad",
-                format!("with position_offsets_m, {hypotheses} hypotheses (yaws × positions²): at most 4096"),
-            ));
+            let requirement =
+                format!("with position_offsets_m, {hypotheses} hypotheses (yaws × positions²): at most 4096");
+            return Err(bad("pose_updating.yaw_offsets_rad", "", requirement));
         }
         positive("pose_updating.inlier_distance_m", p.inlier_distance_m)?;
         if !p.inlier_distance_m.is_finite() {
-            return Err(bad("pose_updating.inlier_distance_m", "must be finite"));
+            return Err(bad("pose_updating.inlier_distance_m", "", "must be finite"));
         }
         if !(0.0..=1.0).contains(&p.min_inlier_ratio) {
-            return Err(bad("pose_updating.min_inlier_ratio", "must lie in [0, 1]"));
+            return Err(bad("pose_updating.min_inlier_ratio", "", "must lie in [0, 1]"));
         }
         positive("pose_updating.max_rmse_m", p.max_rmse_m)?;
         non_neg_finite("pose_updating.ambiguity_ratio_margin", p.ambiguity_ratio_margin)?;
@@ -726,16 +728,14 @@ impl PoseUpdatingParams {
         let steps = |range: f64, step: f64| 2.0 * (range / step).floor() + 1.0;
         let poses = steps(p.search_radius_m, p.search_step_m).powi(2) * steps(p.search_yaw_rad, p.search_yaw_step_rad);
         if poses > 2e6 {
-            return Err(bad(
-                "pose_updating.search_radius_m",
-                format!(
-                    "with search_step_m, search_yaw_rad and search_yaw_step_rad, the search has {poses:.3e} poses: at most \
-                     2,000,000"
-                ),
-            ));
+            let requirement = format!(
+                "with search_step_m, search_yaw_rad and search_yaw_step_rad, the search has {poses:.3e} poses: at most \
+                 2,000,000"
+            );
+            return Err(bad("pose_updating.search_radius_m", "", requirement));
         }
         if p.search_candidates == 0 || p.search_candidates > 64 {
-            return Err(bad("pose_updating.search_candidates", "must lie in 1..=64"));
+            return Err(bad("pose_updating.search_candidates", "", "must lie in 1..=64"));
         }
         Ok(())
     }
@@ -849,7 +849,7 @@ mod tests {
     fn validate_rejects_bad_fields() {
         let mut p = UpdaterParams::paper();
         p.change_threshold = 11;
-        assert!(matches!(p.validate(), Err(UpdaterError::InvalidParam { field: "change_threshold", .. })));
+        assert!(matches!(p.validate(), Err(UpdaterError::InvalidParam(e)) if e.name == "change_threshold"));
         // Flip and flip back would both hold with a threshold of at most N_b / 2.
         let mut p = UpdaterParams::mapkeeper();
         p.change_threshold = 5;
@@ -881,11 +881,38 @@ mod tests {
     fn a_skip_unchanged_slope_of_one_is_refused_under_its_own_name() {
         let p = UpdaterParams { skip_unchanged_slope: 1.0, ..UpdaterParams::paper() };
         let e = p.validate().unwrap_err();
-        assert!(matches!(e, UpdaterError::InvalidParam { field: "skip_unchanged_slope", .. }), "{e}");
+        assert!(matches!(&e, UpdaterError::InvalidParam(p) if p.name == "skip_unchanged_slope"), "{e}");
         let p = UpdaterParams { skip_changed_slope: 1.5, ..UpdaterParams::paper() };
         assert_eq!(
             p.validate().unwrap_err().to_string(),
             "invalid updater parameter 'skip_changed_slope': must be < 1, got 1.5"
+        );
+    }
+
+    /// A refusal names the field (a section's by its dotted path), the value and the
+    /// requirement.
+    #[test]
+    fn a_refusal_names_the_field_the_value_and_the_requirement() {
+        let e = UpdaterParams { buffer_size: 40, ..UpdaterParams::paper() }.validate().unwrap_err();
+        assert_eq!(e, UpdaterError::InvalidParam(ParamError::new("buffer_size", 40, "must lie in 1..=32")));
+        assert_eq!(e.to_string(), "invalid updater parameter 'buffer_size': must lie in 1..=32, got 40");
+        let mut p = UpdaterParams::paper();
+        p.log_odds.l_occ = -1.0;
+        assert_eq!(
+            p.validate().unwrap_err().to_string(),
+            "invalid updater parameter 'log_odds.l_occ': must be a finite number > 0, got -1"
+        );
+        let mut p = UpdaterParams::mapkeeper();
+        p.shift_check.step_xy_m = 0.0;
+        assert_eq!(
+            p.validate().unwrap_err().to_string(),
+            "invalid updater parameter 'shift_check.step_xy_m': must be finite and > 0, got 0"
+        );
+        let mut p = UpdaterParams::mapkeeper();
+        p.pose_updating.source_beam_step = 0;
+        assert_eq!(
+            p.validate().unwrap_err().to_string(),
+            "invalid updater parameter 'pose_updating.source_beam_step': must be >= 1"
         );
     }
 

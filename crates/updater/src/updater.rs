@@ -298,10 +298,7 @@ impl MapUpdater {
         let memory = if params.memory.enabled { memory } else { StructureMemory::default() };
         let registrar = params.registration.enabled.then(|| Registrar::new(&initial_map, &params.registration));
         let log_odds = if params.method == UpdateMethod::LogOdds {
-            Some(
-                LogOddsBaseline::from_grid(&initial_map, params.log_odds)
-                    .map_err(|e| UpdaterError::InvalidParam { field: "log_odds", reason: e.to_string() })?,
-            )
+            Some(LogOddsBaseline::from_grid(&initial_map, params.log_odds).map_err(crate::params::log_odds_refusal)?)
         } else {
             None
         };
