@@ -9,6 +9,7 @@ use crate::UpdaterError;
 use crate::additions::global_search::GlobalSearchParams;
 use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
+use crate::additions::removal_gates::RemovalParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
 use mapkeeper_common::ParamError;
@@ -168,8 +169,12 @@ impl Default for PoseUpdatingParams {
 /// assert_eq!(a.max_range_m, 18.0);
 /// assert!(UpdaterParams::preset("mapkeeper").unwrap().free_pass_votes);
 /// ```
+///
+/// Serde reads and writes it field by field (unknown keys are errors), and also reads the flat
+/// names the removal gates had before the `removal` section (`removal_hit_clearance_m`, …), so
+/// older parameter files and records still load; they are written as the section.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(remote = "Self", default, deny_unknown_fields)]
 pub struct UpdaterParams {
     /// Which algorithm runs. Default [`UpdateMethod::Stefanini`].
     pub method: UpdateMethod,
@@ -253,32 +258,15 @@ pub struct UpdaterParams {
     /// Beams within ±this many beams of a detected change are not evaluated as unchanged.
     /// Default 0 (`authors` 2).
     pub skip_near_changes_beams: u32,
-    /// Hit clearance of the removal vote (a `mapkeeper` addition): a cell crossed by a
-    /// detected-change ray gets no "changed" (removed) vote when a beam of the same step hit a
-    /// surface closer than this to the cell's centre, metres; 0 disables the rule. It stops rays
-    /// at grazing incidence from eroding the edge cells of walls when the pose is a fraction of
-    /// a cell off. Default 0 (`mapkeeper` 0.20).
-    pub removal_hit_clearance_m: f64,
+    /// The gates on the removal vote (`mapkeeper` additions; see the `removal_gates` module):
+    /// hit clearance, grazing gate, ray core, shadow. Default: all off (`mapkeeper`: hit
+    /// clearance 0.2 m, grazing gate 10°, shadow).
+    pub removal: RemovalParams,
     /// Free-pass votes (a `mapkeeper` addition): cells free in `M_{i-1}` that a detected-change
     /// beam crossed before its final chunk (never its own hit cell) get an "unchanged" vote, as
     /// the unchanged evaluator gives them for agreeing beams (see the `free_pass` module).
     /// Default `false` (`mapkeeper` `true`).
     pub free_pass_votes: bool,
-    /// Grazing gate of the removal vote (a `mapkeeper` addition): a cell on the boundary of a
-    /// wall of `M_{i-1}` gets no "changed" (removed) vote from a ray that meets the wall at less
-    /// than this angle (see the `grazing` module), radians; 0 disables the gate. Default 0
-    /// (`mapkeeper` 10°, 0.1745).
-    pub removal_min_incidence_rad: f64,
-    /// Core of the removal ray (an addition, off in every preset: it did not help on the tuning
-    /// seeds): a cell gets a "changed" (removed) vote
-    /// only if the ray passes within this many cells of its centre, so a ray that clips a corner
-    /// of the cell does not vote it; `inf` disables. Default `inf`.
-    #[serde(with = "inf_as_text")]
-    pub removal_max_offset_cells: f64,
-    /// Shadow of a withheld removal vote (a `mapkeeper` addition): after the hit clearance or
-    /// the grazing gate withheld a vote, the rest of that run of non-free cells gets none
-    /// either (see the `removal_gates` module). Default `false` (`mapkeeper` `true`).
-    pub removal_shadow: bool,
 
     // --- Cells update (§4.5) ---
     /// Run the map update at all; `false` is the `no-update` ablation (M_1 kept). Default `true`.
@@ -334,6 +322,19 @@ pub struct UpdaterParams {
 impl Default for UpdaterParams {
     fn default() -> Self {
         Self::paper()
+    }
+}
+
+impl Serialize for UpdaterParams {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        // The derived serialiser (`remote = "Self"` makes it an inherent function).
+        UpdaterParams::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for UpdaterParams {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        legacy::deserialize(d)
     }
 }
 
@@ -409,11 +410,8 @@ impl UpdaterParams {
             unchanged_hit: UnchangedHitRule::Adjacent8,
             unchanged_ray_free_only: false,
             skip_near_changes_beams: 0,
-            removal_hit_clearance_m: 0.0,
+            removal: RemovalParams::default(),
             free_pass_votes: false,
-            removal_min_incidence_rad: 0.0,
-            removal_max_offset_cells: f64::INFINITY,
-            removal_shadow: false,
             map_update: true,
             buffer_size: 10,
             change_threshold: 7,
@@ -459,10 +457,8 @@ impl UpdaterParams {
     /// the 0.15 m minimum final chunk did not help there and are off).
     pub fn mapkeeper_no_registration() -> Self {
         Self {
-            removal_hit_clearance_m: 0.20,
+            removal: RemovalParams::mapkeeper(),
             free_pass_votes: true,
-            removal_min_incidence_rad: 10f64.to_radians(),
-            removal_shadow: true,
             revert: RevertRule::UnchangedThreshold,
             border_interior_only: true,
             ..Self::paper_strict()
@@ -577,11 +573,7 @@ impl UpdaterParams {
     /// Update gating and the removal-vote additions.
     fn validate_gating_and_removal(&self) -> Result<(), UpdaterError> {
         non_neg_finite("gating_min_translation_m", self.gating_min_translation_m)?;
-        non_neg_finite("removal_hit_clearance_m", self.removal_hit_clearance_m)?;
-        positive("removal_max_offset_cells", self.removal_max_offset_cells)?;
-        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.removal_min_incidence_rad) {
-            return Err(bad("removal_min_incidence_rad", self.removal_min_incidence_rad, "must be within 0..=pi/2"));
-        }
+        self.removal.validate()?;
         non_neg_finite("gating_min_rotation_rad", self.gating_min_rotation_rad)?;
         non_neg_finite("gating_min_interval_s", self.gating_min_interval_s)?;
         positive("fast_rotation_rad_s", self.fast_rotation_rad_s)?;
@@ -774,170 +766,6 @@ pub mod inf_as_text {
     }
 }
 
+mod legacy;
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn presets_validate_and_differ_as_listed() {
-        for name in PRESET_NAMES {
-            UpdaterParams::preset(name).unwrap().validate().unwrap();
-        }
-        assert!(matches!(UpdaterParams::preset("nope"), Err(UpdaterError::UnknownPreset { .. })));
-        let r = UpdaterParams::authors();
-        // 0.013z + 0.15, uncapped.
-        assert!((r.tol_m(100.0) - 1.45).abs() < 1e-12);
-        let p = UpdaterParams::paper_strict();
-        assert!((p.tol_m(100.0) - 0.20).abs() < 1e-12);
-        assert!((p.tol_m(5.0) - 0.15).abs() < 1e-12);
-        // D_th saturates at 0.30.
-        assert!((p.change_distance_m(1.0) - 0.16057).abs() < 1e-12);
-        assert!((p.change_distance_m(30.0) - 0.30).abs() < 1e-12);
-        // Eq. 9: the final chunk is m·z in `paper-strict`; `paper` and `authors` floor it at 0.15 m.
-        assert!((p.skip_changed_m(2.0) - 0.04).abs() < 1e-12);
-        assert!((p.skip_changed_m(10.0) - 0.20).abs() < 1e-12);
-        assert!((r.skip_changed_m(2.0) - 0.15).abs() < 1e-12);
-        // `paper` differs from `paper-strict` at exactly the five open points.
-        let fair = UpdaterParams::paper();
-        assert!((fair.skip_changed_m(2.0) - 0.15).abs() < 1e-12 && (fair.skip_unchanged_m(2.0) - 0.15).abs() < 1e-12);
-        assert_eq!((fair.revert, fair.change_threshold), (RevertRule::BelowThreshold, 8));
-        assert_eq!((fair.virtual_rays_each_side, fair.virtual_ray_spacing_beams), (3, 0.25));
-        assert!(fair.border_interior_only);
-        let back = UpdaterParams {
-            revert: p.revert,
-            change_threshold: p.change_threshold,
-            skip_changed_min_m: 0.0,
-            skip_unchanged_min_m: 0.0,
-            virtual_rays_each_side: 1,
-            virtual_ray_spacing_beams: 0.5,
-            border_interior_only: false,
-            ..fair
-        };
-        assert_eq!(back, p);
-        // `paper-strict` has none of the additions; `mapkeeper` has them all.
-        let m = UpdaterParams::mapkeeper();
-        assert!(!p.free_pass_votes && !p.removal_shadow && !p.border_interior_only);
-        assert_eq!(
-            (p.revert, r.revert, UpdaterParams::mapkeeper().revert),
-            (RevertRule::Never, RevertRule::BelowThreshold, RevertRule::UnchangedThreshold)
-        );
-        assert!(p.removal_hit_clearance_m == 0.0 && p.removal_min_incidence_rad == 0.0);
-        assert!(p.removal_max_offset_cells.is_infinite() && m.removal_max_offset_cells.is_infinite());
-        assert!(m.free_pass_votes && m.removal_shadow && m.border_interior_only);
-        assert_eq!(UpdaterParams { skip_changed_min_m: 0.0, ..m.clone() }.removal_hit_clearance_m, 0.20);
-        assert!(m.registration.enabled && m.memory.enabled);
-        assert!(m.shift_check.enabled && m.shift_check.when == ShiftWhen::OnAlarm);
-        assert!(m.global_search.enabled && !p.global_search.enabled && !r.global_search.enabled);
-        let n = UpdaterParams::mapkeeper_no_registration();
-        let without = UpdaterParams {
-            registration: n.registration,
-            memory: n.memory,
-            shift_check: n.shift_check,
-            global_search: n.global_search,
-            ..m.clone()
-        };
-        assert_eq!(without, n);
-        // `mapkeeper-shift` is `mapkeeper` with the shift check on every step.
-        let s = UpdaterParams::mapkeeper_shift();
-        assert_eq!(s.shift_check.when, ShiftWhen::EveryStep);
-        assert_eq!(UpdaterParams { shift_check: m.shift_check, ..s }, m);
-        assert!(!UpdaterParams::always_update().localisation_check);
-        assert!(!UpdaterParams::no_update().map_update);
-    }
-
-    #[test]
-    fn validate_rejects_bad_fields() {
-        let mut p = UpdaterParams::paper();
-        p.change_threshold = 11;
-        assert!(matches!(p.validate(), Err(UpdaterError::InvalidParam(e)) if e.name == "change_threshold"));
-        // Flip and flip back would both hold with a threshold of at most N_b / 2.
-        let mut p = UpdaterParams::mapkeeper();
-        p.change_threshold = 5;
-        let err = p.validate().unwrap_err().to_string();
-        assert!(err.contains("change_threshold") && err.contains("unchanged-threshold"), "{err}");
-        p.change_threshold = 6;
-        assert!(p.validate().is_ok());
-        p.revert = RevertRule::BelowThreshold;
-        p.change_threshold = 3;
-        assert!(p.validate().is_ok());
-        let mut p = UpdaterParams::paper();
-        p.min_valid_beams = 0;
-        assert!(p.validate().is_err());
-        let mut p = UpdaterParams::paper();
-        p.d_eps_min = 0.95;
-        assert!(p.validate().is_err());
-        let mut p = UpdaterParams::paper();
-        p.buffer_size = 40;
-        assert!(p.validate().is_err());
-        let mut p = UpdaterParams::paper();
-        p.change_slope = f64::NAN;
-        assert!(p.validate().is_err());
-    }
-
-    /// `skip_unchanged_slope = 1` was refused as "skip_changed_slope: skip slopes must be < 1",
-    /// naming the other field (found by the edge-value sweep of the `updater_params` replay
-    /// test).
-    #[test]
-    fn a_skip_unchanged_slope_of_one_is_refused_under_its_own_name() {
-        let p = UpdaterParams { skip_unchanged_slope: 1.0, ..UpdaterParams::paper() };
-        let e = p.validate().unwrap_err();
-        assert!(matches!(&e, UpdaterError::InvalidParam(p) if p.name == "skip_unchanged_slope"), "{e}");
-        let p = UpdaterParams { skip_changed_slope: 1.5, ..UpdaterParams::paper() };
-        assert_eq!(
-            p.validate().unwrap_err().to_string(),
-            "invalid updater parameter 'skip_changed_slope': must be < 1, got 1.5"
-        );
-    }
-
-    /// A refusal names the field (a section's by its dotted path), the value and the
-    /// requirement.
-    #[test]
-    fn a_refusal_names_the_field_the_value_and_the_requirement() {
-        let e = UpdaterParams { buffer_size: 40, ..UpdaterParams::paper() }.validate().unwrap_err();
-        assert_eq!(e, UpdaterError::InvalidParam(ParamError::new("buffer_size", 40, "must lie in 1..=32")));
-        assert_eq!(e.to_string(), "invalid updater parameter 'buffer_size': must lie in 1..=32, got 40");
-        let mut p = UpdaterParams::paper();
-        p.log_odds.l_occ = -1.0;
-        assert_eq!(
-            p.validate().unwrap_err().to_string(),
-            "invalid updater parameter 'log_odds.l_occ': must be a finite number > 0, got -1"
-        );
-        let mut p = UpdaterParams::mapkeeper();
-        p.shift_check.step_xy_m = 0.0;
-        assert_eq!(
-            p.validate().unwrap_err().to_string(),
-            "invalid updater parameter 'shift_check.step_xy_m': must be finite and > 0, got 0"
-        );
-        let mut p = UpdaterParams::mapkeeper();
-        p.pose_updating.source_beam_step = 0;
-        assert_eq!(
-            p.validate().unwrap_err().to_string(),
-            "invalid updater parameter 'pose_updating.source_beam_step': must be >= 1"
-        );
-    }
-
-    #[test]
-    fn infinite_limits_survive_json() {
-        for name in PRESET_NAMES {
-            let p = UpdaterParams::preset(name).unwrap();
-            let json = serde_json::to_string(&p).unwrap();
-            assert_eq!(serde_json::from_str::<UpdaterParams>(&json).unwrap(), p, "{json}");
-        }
-        assert!(serde_json::to_string(&UpdaterParams::paper()).unwrap().contains(r#""max_range_m":"inf""#));
-        let p: UpdaterParams = serde_json::from_str(r#"{"tol_max_m": null, "max_range_m": 18.0}"#).unwrap();
-        assert_eq!((p.tol_max_m, p.max_range_m), (f64::INFINITY, 18.0));
-        let p: UpdaterParams = serde_json::from_str(r#"{"max_range_m": "Infinity"}"#).unwrap();
-        assert_eq!(p.max_range_m, f64::INFINITY);
-        assert!(serde_json::from_str::<UpdaterParams>(r#"{"tol_max_m": "far"}"#).is_err());
-    }
-
-    #[test]
-    fn serde_overrides_one_field_and_rejects_unknown() {
-        let p: UpdaterParams =
-            serde_json::from_str(r#"{"buffer_size": 12, "pose_updating": {"max_rmse_m": 0.1}}"#).unwrap();
-        assert_eq!(p.buffer_size, 12);
-        assert_eq!(p.change_threshold, 8);
-        assert_eq!(p.pose_updating.max_rmse_m, 0.1);
-        assert!(serde_json::from_str::<UpdaterParams>(r#"{"bufer_size": 12}"#).is_err());
-    }
-}
+mod tests;

@@ -660,9 +660,9 @@ impl MapUpdater {
             return;
         }
         let beams = &self.classifier.beams;
-        if self.params.removal_hit_clearance_m > 0.0 && beams.iter().any(|b| b.class == BeamClass::Changed) {
+        if self.params.removal.hit_clearance_m > 0.0 && beams.iter().any(|b| b.class == BeamClass::Changed) {
             let valid = beams.iter().filter(|b| b.class != BeamClass::Invalid).map(|b| b.hit);
-            self.hits.rebuild(self.params.removal_hit_clearance_m, valid);
+            self.hits.rebuild(self.params.removal.hit_clearance_m, valid);
         } else {
             self.hits.rebuild(0.0, std::iter::empty());
         }
