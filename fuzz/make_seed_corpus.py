@@ -217,11 +217,7 @@ skip_unchanged_min_m = 0.15
 unchanged_hit = "adjacent8"
 unchanged_ray_free_only = false
 skip_near_changes_beams = 0
-removal_hit_clearance_m = 0.0
 free_pass_votes = false
-removal_min_incidence_rad = 0.0
-removal_max_offset_cells = inf
-removal_shadow = false
 map_update = true
 buffer_size = 10
 change_threshold = 8
@@ -230,6 +226,12 @@ revert = "below-threshold"
 neighbour_support = false
 border_reconstruction = true
 border_interior_only = true
+
+[removal]
+hit_clearance_m = 0.0
+min_incidence_rad = 0.0
+max_offset_cells = inf
+shadow = false
 
 [pose_updating]
 enabled = true
@@ -334,12 +336,14 @@ flags = "step-each-kind"
 revert = "below-threshold"
 neighbour_support = true
 """, 2)
-seed("updater_params", "mapkeeper.toml", """removal_hit_clearance_m = 0.2
-free_pass_votes = true
-removal_min_incidence_rad = 0.17453292519943295
-removal_shadow = true
+seed("updater_params", "mapkeeper.toml", """free_pass_votes = true
 revert = "unchanged-threshold"
 border_interior_only = true
+
+[removal]
+hit_clearance_m = 0.2
+min_incidence_rad = 0.17453292519943295
+shadow = true
 """, 2)
 seed("updater_params", "log_odds.toml", 'method = "log-odds"\nlocalisation_check = false\n[log_odds]\nl_occ = 2.0\nl_free = -0.1\nprior_l = 0.0\n', 1)
 seed("updater_params", "pose_updating.toml", "[pose_updating]\nmax_iterations = 1000\nsearch_candidates = 64\nsource_beam_step = 1\nmin_points = 0\nmin_inlier_ratio = 0.0\nmax_rmse_m = inf\n", 2)
@@ -349,9 +353,13 @@ for name, text in {
     "widest_windows.toml": "virtual_rays_each_side = 64\nvirtual_window_rad = 1e300\nvirtual_ray_spacing_beams = 5e-324\nmin_change_run = 4294967295\nskip_near_changes_beams = 4294967295\n",
     "biggest_buffers.toml": 'buffer_size = 32\nchange_threshold = 32\nrevert = "unchanged-threshold"\nflags = "step-each-kind"\nneighbour_support = true\n',
     "smallest_buffers.toml": 'buffer_size = 1\nchange_threshold = 1\nrevert = "below-threshold"\nmin_valid_beams = 1\nd_eps_min = 0.0\nd_eps_max = 0.0\n',
-    "tiny_limits.toml": "max_range_m = 5e-324\nchange_max_m = 5e-324\ntol_max_m = 5e-324\nremoval_max_offset_cells = 5e-324\nfast_rotation_rad_s = 5e-324\n",
-    "huge_values.toml": "gating_min_interval_s = 1e300\nremoval_hit_clearance_m = 1e300\nskip_changed_min_m = 1e300\nskip_unchanged_min_m = 1e300\nchange_intercept_m = 1e300\n",
-    "inf_as_text.toml": 'max_range_m = "Infinity"\ntol_max_m = "INF"\nfast_rotation_rad_s = inf\nremoval_max_offset_cells = "inf"\n',
+    "tiny_limits.toml": "max_range_m = 5e-324\nchange_max_m = 5e-324\ntol_max_m = 5e-324\nfast_rotation_rad_s = 5e-324\n[removal]\nmax_offset_cells = 5e-324\n",
+    "huge_values.toml": "gating_min_interval_s = 1e300\nskip_changed_min_m = 1e300\nskip_unchanged_min_m = 1e300\nchange_intercept_m = 1e300\n[removal]\nhit_clearance_m = 1e300\n",
+    "inf_as_text.toml": 'max_range_m = "Infinity"\ntol_max_m = "INF"\nfast_rotation_rad_s = inf\n[removal]\nmax_offset_cells = "inf"\n',
+    # The flat names of the removal gates before the `removal` section: still read.
+    "flat_removal_names.toml": 'removal_hit_clearance_m = 0.2\nremoval_min_incidence_rad = 0.17453292519943295\nremoval_max_offset_cells = "inf"\nremoval_shadow = true\n',
+    "flat_and_section.toml": "removal_shadow = true\n[removal]\nshadow = false\nhit_clearance_m = -1.0\n",
+    "unknown_removal_key.toml": "[removal]\nhit_clearance = 0.2\n",
     "huge_search.toml": "[pose_updating]\nsearch_radius_m = 1e300\nsearch_step_m = 1e300\nsearch_yaw_rad = 3.2\nsearch_yaw_step_rad = 5e-324\n",
     "many_hypotheses.toml": "[pose_updating]\nyaw_offsets_rad = [" + ", ".join(f"{0.01 * k:.2f}" for k in range(64)) + "]\nposition_offsets_m = [0.0, 0.1, -0.1, 0.2, -0.2, 0.3, -0.3, 0.4]\n",
     "nan.toml": "tol_slope = nan\n",

@@ -421,13 +421,13 @@ fn preset_sweeps_shard_over_preset_and_seed_jobs() {
 fn updater_params_file_overrides_the_preset() {
     let dir = scratch();
     let good = dir.join("clearance.toml");
-    std::fs::write(&good, "removal_hit_clearance_m = 0.125\n").unwrap();
+    std::fs::write(&good, "[removal]\nhit_clearance_m = 0.125\n").unwrap();
     let out = validate(
         "updater-params",
         &["--preset", "mapkeeper", "--worlds", "2", "--updater-params", good.to_str().unwrap()],
     );
     let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
-    assert!(summary.contains("\"removal_hit_clearance_m\": 0.125"), "{summary}");
+    assert!(summary.contains("\"hit_clearance_m\": 0.125"), "{summary}");
     assert!(summary.contains("\"free_pass_votes\": true"), "the rest is mapkeeper's");
     let bad = dir.join("bad.toml");
     std::fs::write(&bad, "change_threshold = 5\n").unwrap();

@@ -1,11 +1,73 @@
 //! Parameter files, loaded one way for every component: start from a preset (or the
 //! defaults), lay the TOML file's tables over it key by key (unknown keys are errors), then
-//! validate once.
+//! validate once; and the one error of every `validate`, [`ParamError`].
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::fmt::Display;
 use std::path::Path;
+
+/// A parameter that holds an unusable value: which one, the value, and what it must be. Every
+/// `validate` of the libraries returns it, or an error of its crate that wraps it and puts the
+/// crate's words around it (`invalid updater parameter '…': …`). Nothing is reset silently: the
+/// first bad parameter found is refused.
+///
+/// Its message is `{name} {requirement}, got {value}` (`, got {value}` left out when `value` is
+/// empty), e.g. `rate_hz must be in [0.01, 1000], got 0`.
+///
+/// ```
+/// use mapkeeper_common::ParamError;
+/// let e = ParamError::new("sigma_m", -1.0, "must be finite and ≥ 0").within("noise");
+/// assert_eq!(e.name, "noise.sigma_m");
+/// assert_eq!(e.to_string(), "noise.sigma_m must be finite and ≥ 0, got -1");
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub struct ParamError {
+    /// The parameter as a parameter file writes it: the field's name, with the sections it
+    /// lies in before it, dot-separated (`registration.inlier_m`, `noise.sigma_m`;
+    /// [`ParamError::within`] adds a section). A rule that ties several fields is named by
+    /// the field it is reported on, or by what the message calls them (`range limits`).
+    pub name: String,
+    /// The offending value as printed (`-1`, `NaN`, `inf`); several values are joined with
+    /// `and`. Empty when the message gives none (the requirement may state it).
+    pub value: String,
+    /// What the value must satisfy, worded as the message puts it after the name: `must be
+    /// finite and > 0`, `must lie in [0, 1]`, `must satisfy 0 ≤ range_min_m < range_max_m`.
+    pub requirement: String,
+}
+
+impl ParamError {
+    /// `name` holds `value` (printed with `Display`; `""` for none), which does not satisfy
+    /// `requirement`.
+    pub fn new(name: impl Into<String>, value: impl Display, requirement: impl Into<String>) -> Self {
+        Self { name: name.into(), value: value.to_string(), requirement: requirement.into() }
+    }
+
+    /// The same error with `section.` before the name: for a field of a section (a nested
+    /// struct), reported by the section's own `validate`.
+    #[must_use]
+    pub fn within(mut self, section: &str) -> Self {
+        self.name = format!("{section}.{}", self.name);
+        self
+    }
+
+    /// The message without the name: `{requirement}, got {value}` (or the requirement alone),
+    /// for an error that names the parameter its own way (`invalid updater parameter
+    /// 'buffer_size': must lie in 1..=32, got 40`).
+    pub fn problem(&self) -> String {
+        if self.value.is_empty() {
+            self.requirement.clone()
+        } else {
+            format!("{}, got {}", self.requirement, self.value)
+        }
+    }
+}
+
+impl Display for ParamError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {}", self.name, self.problem())
+    }
+}
 
 /// Why parameters were refused.
 #[derive(Debug, thiserror::Error)]
@@ -104,8 +166,8 @@ mod tests {
             Self { b: 2, c: 3 }
         }
     }
-    fn check(p: &P) -> Result<(), String> {
-        if p.a >= 0.0 { Ok(()) } else { Err(format!("a must be ≥ 0, got {}", p.a)) }
+    fn check(p: &P) -> Result<(), ParamError> {
+        if p.a >= 0.0 { Ok(()) } else { Err(ParamError::new("a", p.a, "must be ≥ 0")) }
     }
 
     fn file(name: &str, text: &str) -> std::path::PathBuf {
@@ -135,5 +197,33 @@ mod tests {
         }
         let e = load_params(P::default(), Some(Path::new("/nonexistent/x.toml")), check).unwrap_err().to_string();
         assert!(e.contains("x.toml") && e.contains("cannot read"), "{e}");
+    }
+
+    #[test]
+    fn a_param_error_names_the_parameter_the_value_and_the_requirement() {
+        let e = ParamError::new("rate_hz", 0.0, "must be in [0.01, 1000]");
+        assert_eq!(e.to_string(), "rate_hz must be in [0.01, 1000], got 0");
+        assert_eq!(
+            (e.name.as_str(), e.value.as_str(), e.requirement.as_str()),
+            ("rate_hz", "0", "must be in [0.01, 1000]")
+        );
+        // Values are printed as `Display` prints them: no exponent, NaN and inf spelt out.
+        assert_eq!(ParamError::new("x", 1e-11, "must be > 0").value, "0.00000000001");
+        assert_eq!(ParamError::new("x", f64::NAN, "must be finite").to_string(), "x must be finite, got NaN");
+        // No value: the requirement says it all.
+        let e = ParamError::new("beams", "", "must span at most a full turn");
+        assert_eq!(e.to_string(), "beams must span at most a full turn");
+        assert_eq!(e.problem(), "must span at most a full turn");
+        assert_eq!(ParamError::new("x", 2, "must be < 1").problem(), "must be < 1, got 2");
+        // Sections go before the name, innermost last.
+        let e = ParamError::new("sigma_m", -1, "must be finite and ≥ 0").within("noise").within("lidar");
+        assert_eq!(e.to_string(), "lidar.noise.sigma_m must be finite and ≥ 0, got -1");
+        // It is an error (a `Box<dyn Error>`, a `?` into anyhow).
+        let boxed: Box<dyn std::error::Error> = Box::new(e.clone());
+        assert_eq!(boxed.to_string(), e.to_string());
+        // load_params puts its message after the file's name.
+        let f = file("bad.toml", "a = -2.0\n");
+        let m = load_params(P::default(), Some(&f), check).unwrap_err().to_string();
+        assert!(m.ends_with("bad.toml: a must be ≥ 0, got -2"), "{m}");
     }
 }

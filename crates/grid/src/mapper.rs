@@ -31,6 +31,7 @@
 use crate::grid::{CellCoord, CellState, GridGeometry, OccupancyGrid};
 use crate::pose::Point2;
 use crate::traversal::traverse_indexed;
+use mapkeeper_common::ParamError;
 use serde::{Deserialize, Serialize};
 use std::ops::ControlFlow;
 
@@ -39,15 +40,8 @@ use std::ops::ControlFlow;
 #[non_exhaustive]
 pub enum MapperError {
     /// A parameter is out of its range.
-    #[error("mapper parameter {name} = {value} is invalid: expected {expected}")]
-    InvalidParam {
-        /// The field.
-        name: &'static str,
-        /// The value given.
-        value: f64,
-        /// What is accepted.
-        expected: &'static str,
-    },
+    #[error("mapper parameter {} = {} is invalid: {}", .0.name, .0.value, .0.requirement)]
+    InvalidParam(#[from] ParamError),
 }
 
 /// Parameters of the log-odds mapper. Log-odds l = ln(p / (1 − p)) are dimensionless.
@@ -106,29 +100,28 @@ impl MapperParams {
     /// Checks every field's range (all finite; signs as documented; thresholds on either side
     /// of 0.5).
     pub fn validate(&self) -> Result<(), MapperError> {
-        let bad = |name, value, expected| Err(MapperError::InvalidParam { name, value, expected });
         let checks: [(&'static str, f64, bool, &'static str); 7] = [
-            ("l_occ", self.l_occ, self.l_occ > 0.0, "a finite number > 0"),
-            ("l_free", self.l_free, self.l_free < 0.0, "a finite number < 0"),
-            ("l_min", self.l_min, self.l_min < 0.0, "a finite number < 0"),
-            ("l_max", self.l_max, self.l_max > 0.0, "a finite number > 0"),
+            ("l_occ", self.l_occ, self.l_occ > 0.0, "must be a finite number > 0"),
+            ("l_free", self.l_free, self.l_free < 0.0, "must be a finite number < 0"),
+            ("l_min", self.l_min, self.l_min < 0.0, "must be a finite number < 0"),
+            ("l_max", self.l_max, self.l_max > 0.0, "must be a finite number > 0"),
             (
                 "occ_threshold",
                 self.occ_threshold,
                 self.occ_threshold > 0.5 && self.occ_threshold < 1.0,
-                "a probability in (0.5, 1)",
+                "must be a probability in (0.5, 1)",
             ),
             (
                 "free_threshold",
                 self.free_threshold,
                 self.free_threshold > 0.0 && self.free_threshold < 0.5,
-                "a probability in (0, 0.5)",
+                "must be a probability in (0, 0.5)",
             ),
-            ("prior_l", self.prior_l, self.prior_l >= 0.0, "a finite number >= 0"),
+            ("prior_l", self.prior_l, self.prior_l >= 0.0, "must be a finite number >= 0"),
         ];
-        for (name, value, ok, expected) in checks {
+        for (name, value, ok, requirement) in checks {
             if !(value.is_finite() && ok) {
-                return bad(name, value, expected);
+                return Err(ParamError::new(name, value, requirement).into());
             }
         }
         Ok(())
@@ -332,6 +325,13 @@ mod tests {
             assert!(matches!(LogOddsMapper::new(row_grid(2), p), Err(MapperError::InvalidParam { .. })), "{p:?}");
         }
         assert!(toml::from_str::<MapperParams>("l_hit = 1.0").is_err());
+        let e = MapperParams { free_threshold: 0.7, ..d }.validate().unwrap_err();
+        let MapperError::InvalidParam(p) = &e;
+        assert_eq!(p, &ParamError::new("free_threshold", 0.7, "must be a probability in (0, 0.5)"));
+        assert_eq!(
+            e.to_string(),
+            "mapper parameter free_threshold = 0.7 is invalid: must be a probability in (0, 0.5)"
+        );
     }
 
     /// A 4 m × 3 m room (walls one cell thick) centred in a 6 m × 5 m grid at 0.05 m; outside

@@ -39,6 +39,7 @@
 
 use crate::GridError;
 use crate::grid::{CellState, GridGeometry, OccupancyGrid};
+use mapkeeper_common::ParamError;
 use serde::{Deserialize, Serialize};
 
 pub mod erosion;
@@ -51,15 +52,8 @@ pub enum MetricsError {
     #[error(transparent)]
     Grid(#[from] GridError),
     /// A parameter is out of its range.
-    #[error("metric parameter {name} = {value} is invalid: expected {expected}")]
-    InvalidParam {
-        /// The field.
-        name: &'static str,
-        /// The value given.
-        value: f64,
-        /// What is accepted.
-        expected: &'static str,
-    },
+    #[error("metric parameter {} = {} is invalid: {}", .0.name, .0.value, .0.requirement)]
+    InvalidParam(#[from] ParamError),
 }
 
 /// Parameters of the map metrics: the choices the paper leaves open.
@@ -96,15 +90,11 @@ impl MetricParams {
     pub fn validate(&self) -> Result<(), MetricsError> {
         let u = self.unknown_value;
         if !(u.is_finite() && (0.0..=1.0).contains(&u)) {
-            return Err(MetricsError::InvalidParam { name: "unknown_value", value: u, expected: "a number in [0, 1]" });
+            return Err(ParamError::new("unknown_value", u, "must be a number in [0, 1]").into());
         }
         for (name, v) in [("opdf_window_m.0", self.opdf_window_m.0), ("opdf_window_m.1", self.opdf_window_m.1)] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(MetricsError::InvalidParam {
-                    name,
-                    value: v,
-                    expected: "a finite positive length, metres",
-                });
+                return Err(ParamError::new(name, v, "must be a finite positive length, metres").into());
             }
         }
         Ok(())

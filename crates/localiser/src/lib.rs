@@ -73,22 +73,17 @@ pub use params::{
 pub use resample::{multinomial_draw, systematic_resample};
 pub use scan_match::{COARSE_YAW_STEP_RAD, Match, ScanMatchParams, ScanMatcher, Window};
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::Pose2;
 
 /// Everything that can go wrong when building or (re-)initialising a [`Localiser`].
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum LocaliserError {
-    /// A parameter is out of its range (nothing is reset silently).
-    #[error("parameter {name} = {value} is invalid: must be {requirement}")]
-    InvalidParameter {
-        /// The field, e.g. `sigma_hit_m` or `motion.alpha1`.
-        name: &'static str,
-        /// The value given.
-        value: f64,
-        /// What it must satisfy.
-        requirement: &'static str,
-    },
+    /// A parameter is out of its range (nothing is reset silently); its name is the field,
+    /// e.g. `sigma_hit_m` or `motion.alpha1`.
+    #[error("parameter {} = {} is invalid: {}", .0.name, .0.value, .0.requirement)]
+    InvalidParameter(#[from] ParamError),
     /// `min_particles` exceeds `max_particles`.
     #[error("min_particles ({min}) must not exceed max_particles ({max})")]
     ParticleRange {

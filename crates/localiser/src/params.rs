@@ -6,6 +6,7 @@
 
 use crate::LocaliserError;
 use crate::scan_match::ScanMatchParams;
+use mapkeeper_common::ParamError;
 use serde::{Deserialize, Serialize};
 
 /// The largest particle count accepted (guards against absurd allocations from a bad file).
@@ -410,11 +411,7 @@ impl FilterParams {
     /// Checks every field; the first violation is returned, nothing is adjusted.
     pub fn validate(&self) -> Result<(), LocaliserError> {
         fn check(name: &'static str, value: f64, ok: bool, requirement: &'static str) -> Result<(), LocaliserError> {
-            if ok && value.is_finite() {
-                Ok(())
-            } else {
-                Err(LocaliserError::InvalidParameter { name, value, requirement })
-            }
+            if ok && value.is_finite() { Ok(()) } else { Err(ParamError::new(name, value, requirement).into()) }
         }
         let m = &self.motion;
         for (name, v) in [
@@ -424,54 +421,50 @@ impl FilterParams {
             ("motion.alpha4", m.alpha4),
             ("motion.alpha5", m.alpha5),
         ] {
-            check(name, v, v >= 0.0, "finite and >= 0")?;
+            check(name, v, v >= 0.0, "must be finite and >= 0")?;
         }
         let (min, max) = (self.min_particles, self.max_particles);
-        check("min_particles", min as f64, min >= 1, ">= 1")?;
-        check("max_particles", max as f64, max <= MAX_PARTICLES_LIMIT, "<= 1000000")?;
+        check("min_particles", min as f64, min >= 1, "must be >= 1")?;
+        check("max_particles", max as f64, max <= MAX_PARTICLES_LIMIT, "must be <= 1000000")?;
         if min > max {
             return Err(LocaliserError::ParticleRange { min, max });
         }
-        check("kld_err", self.kld_err, self.kld_err > 0.0 && self.kld_err < 1.0, "in (0, 1)")?;
-        check("kld_z", self.kld_z, self.kld_z > 0.0, "finite and > 0")?;
-        check("kld_bin_xy_m", self.kld_bin_xy_m, self.kld_bin_xy_m > 0.0, "finite and > 0")?;
+        check("kld_err", self.kld_err, self.kld_err > 0.0 && self.kld_err < 1.0, "must be in (0, 1)")?;
+        check("kld_z", self.kld_z, self.kld_z > 0.0, "must be finite and > 0")?;
+        check("kld_bin_xy_m", self.kld_bin_xy_m, self.kld_bin_xy_m > 0.0, "must be finite and > 0")?;
         let yaw_bin = self.kld_bin_yaw_rad;
-        check("kld_bin_yaw_rad", yaw_bin, yaw_bin > 0.0 && yaw_bin <= std::f64::consts::PI, "in (0, pi]")?;
+        check("kld_bin_yaw_rad", yaw_bin, yaw_bin > 0.0 && yaw_bin <= std::f64::consts::PI, "must be in (0, pi]")?;
         let beams = self.max_beams;
-        check("max_beams", beams as f64, (1..=mapkeeper_sensor::MAX_BEAMS).contains(&beams), "in 1..=65536")?;
-        check("z_hit", self.z_hit, self.z_hit >= 0.0, "finite and >= 0")?;
-        check("z_rand", self.z_rand, self.z_rand >= 0.0, "finite and >= 0")?;
+        check("max_beams", beams as f64, (1..=mapkeeper_sensor::MAX_BEAMS).contains(&beams), "must be in 1..=65536")?;
+        check("z_hit", self.z_hit, self.z_hit >= 0.0, "must be finite and >= 0")?;
+        check("z_rand", self.z_rand, self.z_rand >= 0.0, "must be finite and >= 0")?;
         let sum = self.z_hit + self.z_rand;
-        check("z_hit + z_rand", sum, sum > 0.0, "> 0")?;
-        check("sigma_hit_m", self.sigma_hit_m, self.sigma_hit_m > 0.0, "finite and > 0")?;
+        check("z_hit + z_rand", sum, sum > 0.0, "must be > 0")?;
+        check("sigma_hit_m", self.sigma_hit_m, self.sigma_hit_m > 0.0, "must be finite and > 0")?;
         let d = self.likelihood_max_dist_m;
-        check("likelihood_max_dist_m", d, d > 0.0, "finite and > 0")?;
-        check("laser_max_range_m", self.laser_max_range_m, self.laser_max_range_m > 0.0, "finite and > 0")?;
+        check("likelihood_max_dist_m", d, d > 0.0, "must be finite and > 0")?;
+        check("laser_max_range_m", self.laser_max_range_m, self.laser_max_range_m > 0.0, "must be finite and > 0")?;
         let e = self.likelihood_exponent;
-        check("likelihood_exponent", e, e > 0.0 && e <= 1.0, "in (0, 1]")?;
-        check("update_min_d_m", self.update_min_d_m, self.update_min_d_m >= 0.0, "finite and >= 0")?;
-        check("update_min_a_rad", self.update_min_a_rad, self.update_min_a_rad >= 0.0, "finite and >= 0")?;
+        check("likelihood_exponent", e, e > 0.0 && e <= 1.0, "must be in (0, 1]")?;
+        check("update_min_d_m", self.update_min_d_m, self.update_min_d_m >= 0.0, "must be finite and >= 0")?;
+        check("update_min_a_rad", self.update_min_a_rad, self.update_min_a_rad >= 0.0, "must be finite and >= 0")?;
         let ri = self.resample_interval;
-        check("resample_interval", ri as f64, ri >= 1, ">= 1")?;
+        check("resample_interval", ri as f64, ri >= 1, "must be >= 1")?;
         let (slow, fast) = (self.recovery_alpha_slow, self.recovery_alpha_fast);
-        check("recovery_alpha_slow", slow, (0.0..=1.0).contains(&slow), "in [0, 1]")?;
-        check("recovery_alpha_fast", fast, (0.0..=1.0).contains(&fast), "in [0, 1]")?;
+        check("recovery_alpha_slow", slow, (0.0..=1.0).contains(&slow), "must be in [0, 1]")?;
+        check("recovery_alpha_fast", fast, (0.0..=1.0).contains(&fast), "must be in [0, 1]")?;
         for (name, v) in [
             ("initial_cov_xx_m2", self.initial_cov_xx_m2),
             ("initial_cov_yy_m2", self.initial_cov_yy_m2),
             ("initial_cov_aa_rad2", self.initial_cov_aa_rad2),
         ] {
-            check(name, v, v >= 0.0, "finite and >= 0")?;
+            check(name, v, v >= 0.0, "must be finite and >= 0")?;
         }
         let both_off = slow == 0.0 && fast == 0.0;
         if !(both_off || (slow > 0.0 && slow < fast)) {
             return Err(LocaliserError::RecoveryAlphas { slow, fast });
         }
-        self.scan_match.validate().map_err(|(name, value, requirement)| LocaliserError::InvalidParameter {
-            name,
-            value,
-            requirement,
-        })
+        Ok(self.scan_match.validate()?)
     }
 }
 
@@ -554,7 +547,7 @@ mod tests {
         let e = FilterParams::preset("nope").unwrap_err();
         assert!(matches!(e, LocaliserError::UnknownPreset { .. }));
         let e = refused(|p| p.initial_cov_aa_rad2 = -1.0);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "initial_cov_aa_rad2", .. }), "{e}");
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "initial_cov_aa_rad2"), "{e}");
     }
 
     fn refused(f: impl FnOnce(&mut FilterParams)) -> LocaliserError {
@@ -566,26 +559,26 @@ mod tests {
     #[test]
     fn invalid_parameters_are_refused_not_reset() {
         let e = refused(|p| p.sigma_hit_m = 0.0);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "sigma_hit_m", .. }), "{e}");
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "sigma_hit_m"), "{e}");
         let e = refused(|p| p.motion.alpha3 = f64::NAN);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "motion.alpha3", .. }), "{e}");
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "motion.alpha3"), "{e}");
         let e = refused(|p| p.min_particles = 0);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "min_particles", .. }), "{e}");
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "min_particles"), "{e}");
         let e = refused(|p| p.min_particles = 6000);
         assert_eq!(e, LocaliserError::ParticleRange { min: 6000, max: 5000 });
         let e = refused(|p| p.kld_err = 0.0);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "kld_err", .. }));
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "kld_err"));
         let e = refused(|p| {
             p.z_hit = 0.0;
             p.z_rand = 0.0;
         });
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "z_hit + z_rand", .. }));
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "z_hit + z_rand"));
         let e = refused(|p| p.resample_interval = 0);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "resample_interval", .. }));
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "resample_interval"));
         let e = refused(|p| p.max_beams = 0);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "max_beams", .. }));
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "max_beams"));
         let e = refused(|p| p.update_min_a_rad = f64::INFINITY);
-        assert!(matches!(e, LocaliserError::InvalidParameter { name: "update_min_a_rad", .. }));
+        assert!(matches!(&e, LocaliserError::InvalidParameter(p) if p.name == "update_min_a_rad"));
         let e = refused(|p| {
             p.recovery_alpha_slow = 0.1;
             p.recovery_alpha_fast = 0.001;
@@ -595,5 +588,21 @@ mod tests {
         assert!(matches!(e, LocaliserError::RecoveryAlphas { .. }));
         let p = FilterParams { recovery_alpha_slow: 0.001, recovery_alpha_fast: 0.1, ..Default::default() };
         assert!(p.validate().is_ok() && p.recovery_enabled());
+    }
+
+    /// The refusal names the field, the value and the requirement; a scan-matching field is
+    /// named `scan_match.…`.
+    #[test]
+    fn a_refusal_names_the_field_the_value_and_the_requirement() {
+        let e = refused(|p| p.likelihood_exponent = 1.5);
+        assert_eq!(
+            e,
+            LocaliserError::InvalidParameter(ParamError::new("likelihood_exponent", 1.5, "must be in (0, 1]"))
+        );
+        assert_eq!(e.to_string(), "parameter likelihood_exponent = 1.5 is invalid: must be in (0, 1]");
+        let e = refused(|p| p.scan_match.window_xy_m = -1.0);
+        assert_eq!(e.to_string(), "parameter scan_match.window_xy_m = -1 is invalid: must be in [0, 5]");
+        let e = refused(|p| p.max_particles = 2_000_000);
+        assert_eq!(e.to_string(), "parameter max_particles = 2000000 is invalid: must be <= 1000000");
     }
 }

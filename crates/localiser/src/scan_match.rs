@@ -27,6 +27,7 @@
 //!
 //! Everything is deterministic (no randomness; ties broken by search order).
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{DistanceField, OccupancyGrid, Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
@@ -129,70 +130,80 @@ impl Default for ScanMatchParams {
 }
 
 impl ScanMatchParams {
-    /// Checks every field: the first violation as `(field, value, requirement)`.
-    pub fn validate(&self) -> Result<(), (&'static str, f64, &'static str)> {
+    /// Checks every field; the first violation is returned, its name `scan_match.…`.
+    pub fn validate(&self) -> Result<(), ParamError> {
         let noise = self.matched_noise_max_motion.unwrap_or(1.0);
         let checks: [(&'static str, f64, bool, &'static str); 16] = [
-            ("scan_match.max_beams", self.max_beams as f64, (1..=100_000).contains(&self.max_beams), "1 to 100000"),
-            ("scan_match.window_xy_m", self.window_xy_m, (0.0..=5.0).contains(&self.window_xy_m), "in [0, 5]"),
-            ("scan_match.window_yaw_rad", self.window_yaw_rad, (0.0..=1.0).contains(&self.window_yaw_rad), "in [0, 1]"),
-            ("scan_match.kernel_sigma_m", self.kernel_sigma_m, self.kernel_sigma_m > 0.0, "> 0"),
-            ("scan_match.inlier_m", self.inlier_m, self.inlier_m > 0.0, "> 0"),
+            (
+                "scan_match.max_beams",
+                self.max_beams as f64,
+                (1..=100_000).contains(&self.max_beams),
+                "must be 1 to 100000",
+            ),
+            ("scan_match.window_xy_m", self.window_xy_m, (0.0..=5.0).contains(&self.window_xy_m), "must be in [0, 5]"),
+            (
+                "scan_match.window_yaw_rad",
+                self.window_yaw_rad,
+                (0.0..=1.0).contains(&self.window_yaw_rad),
+                "must be in [0, 1]",
+            ),
+            ("scan_match.kernel_sigma_m", self.kernel_sigma_m, self.kernel_sigma_m > 0.0, "must be > 0"),
+            ("scan_match.inlier_m", self.inlier_m, self.inlier_m > 0.0, "must be > 0"),
             (
                 "scan_match.min_inlier_share",
                 self.min_inlier_share,
                 (0.0..=1.0).contains(&self.min_inlier_share),
-                "in [0, 1]",
+                "must be in [0, 1]",
             ),
-            ("scan_match.prior_weight", self.prior_weight, self.prior_weight >= 0.0, ">= 0"),
-            ("scan_match.max_position_sd_m", self.max_position_sd_m, self.max_position_sd_m > 0.0, "> 0"),
+            ("scan_match.prior_weight", self.prior_weight, self.prior_weight >= 0.0, "must be >= 0"),
+            ("scan_match.max_position_sd_m", self.max_position_sd_m, self.max_position_sd_m > 0.0, "must be > 0"),
             (
                 "scan_match.window_xy_per_m",
                 self.window_xy_per_m,
                 (0.0..=5.0).contains(&self.window_xy_per_m),
-                "in [0, 5]",
+                "must be in [0, 5]",
             ),
             (
                 "scan_match.window_yaw_per_motion",
                 self.window_yaw_per_motion,
                 (0.0..=1.0).contains(&self.window_yaw_per_motion),
-                "in [0, 1]",
+                "must be in [0, 1]",
             ),
             (
                 "scan_match.max_window_xy_m",
                 self.max_window_xy_m,
                 self.max_window_xy_m > 0.0 && self.max_window_xy_m <= 5.0,
-                "in (0, 5]",
+                "must be in (0, 5]",
             ),
             (
                 "scan_match.max_window_yaw_rad",
                 self.max_window_yaw_rad,
                 self.max_window_yaw_rad > 0.0 && self.max_window_yaw_rad <= 1.0,
-                "in (0, 1]",
+                "must be in (0, 1]",
             ),
-            ("scan_match.matched_noise_max_motion", noise, noise > 0.0, "> 0 (or absent: no bound)"),
+            ("scan_match.matched_noise_max_motion", noise, noise > 0.0, "must be > 0 (or absent: no bound)"),
             (
                 "scan_match.refused_window_xy_per_m",
                 self.refused_window_xy_per_m,
                 (0.0..=5.0).contains(&self.refused_window_xy_per_m),
-                "in [0, 5]",
+                "must be in [0, 5]",
             ),
             (
                 "scan_match.weak_inlier_share",
                 self.weak_inlier_share,
                 (0.0..=1.0).contains(&self.weak_inlier_share),
-                "in [0, 1]",
+                "must be in [0, 1]",
             ),
             (
                 "scan_match.refused_min_inlier_gain",
                 self.refused_min_inlier_gain,
                 (0.0..=1.0).contains(&self.refused_min_inlier_gain),
-                "in [0, 1]",
+                "must be in [0, 1]",
             ),
         ];
         for (name, value, ok, requirement) in checks {
             if !(ok && value.is_finite()) {
-                return Err((name, value, requirement));
+                return Err(ParamError::new(name, value, requirement));
             }
         }
         Ok(())
@@ -658,8 +669,8 @@ mod tests {
             ScanMatchParams { refused_window_xy_per_m: -0.5, ..on() },
             ScanMatchParams { refused_min_inlier_gain: f64::NAN, ..on() },
         ] {
-            let (name, _, _) = bad.validate().unwrap_err();
-            assert!(name.starts_with("scan_match."), "{name}");
+            let e = bad.validate().unwrap_err();
+            assert!(e.name.starts_with("scan_match.") && e.requirement.starts_with("must be "), "{e}");
         }
     }
 }

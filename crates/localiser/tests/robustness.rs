@@ -92,7 +92,7 @@ fn bad_initialisation_is_refused() {
     let blocked = OccupancyGrid::filled(g, CellState::Occupied);
     assert!(matches!(Localiser::new(&blocked, small(), 1), Err(LocaliserError::NoFreeSpace)));
     let bad = FilterParams { kld_z: f64::NAN, ..small() };
-    assert!(matches!(Localiser::new(&map, bad, 1), Err(LocaliserError::InvalidParameter { name: "kld_z", .. })));
+    assert!(matches!(Localiser::new(&map, bad, 1), Err(LocaliserError::InvalidParameter(p)) if p.name == "kld_z"));
 }
 
 /// The initial covariance is honoured: the particle cloud's sample covariance matches it.

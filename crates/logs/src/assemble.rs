@@ -689,7 +689,7 @@ fn to_scan(
         .filter(|t| match t.check(n) {
             Ok(()) => true,
             Err(why) => {
-                let e = untimed.entry(s.topic.clone()).or_insert((0, why));
+                let e = untimed.entry(s.topic.clone()).or_insert((0, why.to_string()));
                 e.0 += 1;
                 false
             }

@@ -1,5 +1,6 @@
 //! Laser scans, in the shape of ROS `sensor_msgs/LaserScan` plus the lidar's mounting pose.
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Point2, Pose2};
 use serde::{Deserialize, Serialize};
 
@@ -54,29 +55,15 @@ pub enum BeamValidity {
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum ScanError {
-    /// The angle increment must be finite and non-zero.
-    #[error("angle_increment_rad must be finite and non-zero, got {0}")]
-    BadAngleIncrement(f64),
-    /// The first angle must be finite.
-    #[error("angle_min_rad must be finite, got {0}")]
-    BadAngleMin(f64),
-    /// Range limits must be finite with 0 ≤ min < max.
-    #[error("range limits must satisfy 0 <= range_min_m < range_max_m (finite), got {min} and {max}")]
-    BadRangeLimits {
-        /// The minimum given.
-        min: f32,
-        /// The maximum given.
-        max: f32,
-    },
-    /// The mounting pose must be finite.
-    #[error("lidar_in_robot must be finite, got {0:?}")]
-    BadMount(Pose2),
+    /// A field of the header holds an unusable value: `angle_min_rad` (finite),
+    /// `angle_increment_rad` (finite and non-zero), the `range limits` (finite, 0 ≤ min < max),
+    /// `lidar_in_robot` (finite) or the `sweep timing` (finite, every beam within
+    /// [`crate::MAX_SWEEP_S`] of the stamp).
+    #[error(transparent)]
+    BadHeader(#[from] ParamError),
     /// Too many beams.
     #[error("scan has {0} beams, more than the limit of {MAX_BEAMS}")]
     TooManyBeams(usize),
-    /// The sweep timing is not finite or spans more than [`crate::MAX_SWEEP_S`].
-    #[error("{0}")]
-    BadSweep(String),
     /// The beams span more than a full turn.
     #[error("{beams} beams at {increment} rad span more than a full turn")]
     SpanTooLarge {
@@ -92,17 +79,21 @@ impl LaserScan {
     /// error: bad ones are invalid beams.
     pub fn validate(&self) -> Result<(), ScanError> {
         if !self.angle_min_rad.is_finite() {
-            return Err(ScanError::BadAngleMin(self.angle_min_rad));
+            return Err(ParamError::new("angle_min_rad", self.angle_min_rad, "must be finite").into());
         }
         if !(self.angle_increment_rad.is_finite() && self.angle_increment_rad != 0.0) {
-            return Err(ScanError::BadAngleIncrement(self.angle_increment_rad));
+            let inc = self.angle_increment_rad;
+            return Err(ParamError::new("angle_increment_rad", inc, "must be finite and non-zero").into());
         }
         let (min, max) = (self.range_min_m, self.range_max_m);
         if !(min.is_finite() && max.is_finite() && min >= 0.0 && min < max) {
-            return Err(ScanError::BadRangeLimits { min, max });
+            let requirement = "must satisfy 0 <= range_min_m < range_max_m (finite)";
+            return Err(ParamError::new("range limits", format!("{min} and {max}"), requirement).into());
         }
         if !self.lidar_in_robot.is_finite() {
-            return Err(ScanError::BadMount(self.lidar_in_robot));
+            return Err(
+                ParamError::new("lidar_in_robot", format!("{:?}", self.lidar_in_robot), "must be finite").into()
+            );
         }
         if self.ranges_m.len() > MAX_BEAMS {
             return Err(ScanError::TooManyBeams(self.ranges_m.len()));
@@ -112,7 +103,7 @@ impl LaserScan {
             return Err(ScanError::SpanTooLarge { beams: self.ranges_m.len(), increment: self.angle_increment_rad });
         }
         if let Some(t) = &self.sweep {
-            t.check(self.ranges_m.len()).map_err(ScanError::BadSweep)?;
+            t.check(self.ranges_m.len())?;
         }
         Ok(())
     }
@@ -213,19 +204,18 @@ impl SweepTiming {
     }
 
     /// Whether the timing is usable for a scan of `beams` beams: finite, and every beam within
-    /// [`MAX_SWEEP_S`] of the stamp. The reason otherwise.
-    pub fn check(&self, beams: usize) -> Result<(), String> {
+    /// [`MAX_SWEEP_S`] of the stamp. What is wrong otherwise (named `sweep timing`).
+    pub fn check(&self, beams: usize) -> Result<(), ParamError> {
         let last = self.beam_offset_s(beams.saturating_sub(1));
         if !(self.first_beam_s.is_finite() && self.time_increment_s.is_finite()) {
-            return Err(format!(
-                "sweep timing must be finite, got first_beam_s {} and time_increment_s {}",
-                self.first_beam_s, self.time_increment_s
-            ));
+            let value = format!("first_beam_s {} and time_increment_s {}", self.first_beam_s, self.time_increment_s);
+            return Err(ParamError::new("sweep timing", value, "must be finite"));
         }
         if self.first_beam_s.abs() > MAX_SWEEP_S || last.abs() > MAX_SWEEP_S {
-            return Err(format!(
-                "sweep timing puts beams {:.3} s to {last:.3} s from the stamp (at most {MAX_SWEEP_S} s)",
-                self.first_beam_s
+            return Err(ParamError::new(
+                "sweep timing",
+                format!("beams at {:.3} s to {last:.3} s", self.first_beam_s),
+                format!("must put every beam within {MAX_SWEEP_S} s of the stamp"),
             ));
         }
         Ok(())
@@ -277,15 +267,30 @@ mod tests {
     fn header_errors() {
         let mut s = scan(vec![1.0]);
         s.angle_increment_rad = 0.0;
-        assert!(matches!(s.validate(), Err(ScanError::BadAngleIncrement(_))));
+        let e = s.validate().unwrap_err();
+        assert_eq!(e, ScanError::BadHeader(ParamError::new("angle_increment_rad", 0, "must be finite and non-zero")));
+        assert_eq!(e.to_string(), "angle_increment_rad must be finite and non-zero, got 0");
         let mut s = scan(vec![1.0]);
         s.range_max_m = s.range_min_m;
-        assert!(matches!(s.validate(), Err(ScanError::BadRangeLimits { .. })));
+        assert_eq!(
+            s.validate().unwrap_err().to_string(),
+            "range limits must satisfy 0 <= range_min_m < range_max_m (finite), got 0.1 and 0.1"
+        );
         let mut s = scan(vec![1.0; 100]);
         s.angle_increment_rad = 0.1;
         assert!(matches!(s.validate(), Err(ScanError::SpanTooLarge { .. })));
         let mut s = scan(vec![]);
         s.lidar_in_robot.x = f64::NAN;
-        assert!(matches!(s.validate(), Err(ScanError::BadMount(_))));
+        assert!(matches!(s.validate(), Err(ScanError::BadHeader(p)) if p.name == "lidar_in_robot"));
+        let mut s = scan(vec![1.0; 3]);
+        s.sweep = Some(SweepTiming { first_beam_s: 0.0, time_increment_s: 0.75 });
+        assert_eq!(
+            s.validate().unwrap_err().to_string(),
+            "sweep timing must put every beam within 1 s of the stamp, got beams at 0.000 s to 1.500 s"
+        );
+        s.sweep = Some(SweepTiming { first_beam_s: f64::NAN, time_increment_s: 0.0 });
+        assert!(
+            matches!(s.validate(), Err(ScanError::BadHeader(p)) if p.name == "sweep timing" && p.requirement == "must be finite")
+        );
     }
 }

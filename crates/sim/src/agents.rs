@@ -4,6 +4,7 @@
 
 use crate::seeds::SimRng;
 use crate::world::{Agent, Motion};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Point2, Pose2};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
@@ -35,12 +36,12 @@ impl Default for AgentParams {
 
 impl AgentParams {
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (name, v) in
             [("lookahead_m", self.lookahead_m), ("clearance_m", self.clearance_m), ("give_way_s", self.give_way_s)]
         {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{name} must be finite and ≥ 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and ≥ 0"));
             }
         }
         Ok(())

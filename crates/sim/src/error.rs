@@ -34,12 +34,13 @@ pub enum SimError {
         problem: String,
     },
     /// A parameter struct holds an unusable value.
-    #[error("{component}: {problem}")]
+    #[error("{component}: {error}")]
     Params {
-        /// The parameter struct, e.g. `LidarParams[1]`.
+        /// The parameter struct, e.g. `RobotParams` or `lidars[1]`.
         component: String,
-        /// What is wrong.
-        problem: String,
+        /// The parameter, its value and what it must be.
+        #[source]
+        error: mapkeeper_common::ParamError,
     },
     /// A grid could not be built.
     #[error(transparent)]
@@ -49,6 +50,6 @@ pub enum SimError {
     Build(String),
 }
 
-pub(crate) fn params_err(component: impl Into<String>, problem: impl Into<String>) -> SimError {
-    SimError::Params { component: component.into(), problem: problem.into() }
+pub(crate) fn params_err(component: impl Into<String>, error: mapkeeper_common::ParamError) -> SimError {
+    SimError::Params { component: component.into(), error }
 }

@@ -7,6 +7,7 @@ use crate::raycast::{StaticCaster, cast_shape};
 use crate::realism::{PoseHistory, SensorRealism};
 use crate::seeds::{SimRng, stream_rng};
 use crate::shape::Shape;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::Point2;
 use mapkeeper_grid::Pose2;
 use mapkeeper_sensor::{LaserScan, SweepTiming};
@@ -68,9 +69,9 @@ impl LidarNoise {
     }
 
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         let nonneg = |name: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be finite and ≥ 0, got {v}")) }
+            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(ParamError::new(name, v, "must be finite and ≥ 0")) }
         };
         nonneg("sigma_m", self.sigma_m)?;
         nonneg("quantisation_m", self.quantisation_m)?;
@@ -79,7 +80,7 @@ impl LidarNoise {
             [("dropout_probability", self.dropout_probability), ("spurious_probability", self.spurious_probability)]
         {
             if !(0.0..=1.0).contains(&p) {
-                return Err(format!("{name} must be in [0, 1], got {p}"));
+                return Err(ParamError::new(name, p, "must be in [0, 1]"));
             }
         }
         Ok(())
@@ -229,40 +230,48 @@ impl LidarParams {
         }
     }
 
-    /// Checks every field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every field; the noise's are named `noise.…`.
+    pub fn validate(&self) -> Result<(), ParamError> {
         if !self.lidar_in_robot.is_finite() {
-            return Err(format!("lidar_in_robot must be finite, got {:?}", self.lidar_in_robot));
+            return Err(ParamError::new("lidar_in_robot", format!("{:?}", self.lidar_in_robot), "must be finite"));
         }
         if !self.angle_min_rad.is_finite() {
-            return Err(format!("angle_min_rad must be finite, got {}", self.angle_min_rad));
+            return Err(ParamError::new("angle_min_rad", self.angle_min_rad, "must be finite"));
         }
         if !(self.angle_increment_rad.is_finite() && self.angle_increment_rad != 0.0) {
-            return Err(format!("angle_increment_rad must be finite and non-zero, got {}", self.angle_increment_rad));
+            return Err(ParamError::new(
+                "angle_increment_rad",
+                self.angle_increment_rad,
+                "must be finite and non-zero",
+            ));
         }
         if self.beams == 0 || self.beams > mapkeeper_sensor::MAX_BEAMS {
-            return Err(format!("beams must be in 1..={}, got {}", mapkeeper_sensor::MAX_BEAMS, self.beams));
+            return Err(ParamError::new(
+                "beams",
+                self.beams,
+                format!("must be in 1..={}", mapkeeper_sensor::MAX_BEAMS),
+            ));
         }
         if self.angle_increment_rad.abs() * (self.beams - 1) as f64 > 2.0 * PI + 1e-6 {
-            return Err("the beams span more than a full turn".into());
+            let value = format!("{} beams at {} rad", self.beams, self.angle_increment_rad);
+            return Err(ParamError::new("beams", value, "must span at most a full turn"));
         }
         if !(self.range_min_m.is_finite()
             && self.range_max_m.is_finite()
             && self.range_min_m >= 0.0
             && self.range_min_m < self.range_max_m)
         {
-            return Err(format!(
-                "range limits must satisfy 0 ≤ range_min_m < range_max_m, got {} and {}",
-                self.range_min_m, self.range_max_m
-            ));
+            let value = format!("{} and {}", self.range_min_m, self.range_max_m);
+            return Err(ParamError::new("range limits", value, "must satisfy 0 ≤ range_min_m < range_max_m"));
         }
         if !(self.rate_hz.is_finite() && (0.01..=1000.0).contains(&self.rate_hz)) {
-            return Err(format!("rate_hz must be in [0.01, 1000], got {}", self.rate_hz));
+            return Err(ParamError::new("rate_hz", self.rate_hz, "must be in [0.01, 1000]"));
         }
         if !(self.phase_offset_s.is_finite() && (0.0..=MAX_PHASE_OFFSET_S).contains(&self.phase_offset_s)) {
-            return Err(format!("phase_offset_s must be in [0, {MAX_PHASE_OFFSET_S}] s, got {}", self.phase_offset_s));
+            let requirement = format!("must be in [0, {MAX_PHASE_OFFSET_S}] s");
+            return Err(ParamError::new("phase_offset_s", self.phase_offset_s, requirement));
         }
-        self.noise.validate().map_err(|e| format!("noise: {e}"))
+        self.noise.validate().map_err(|e| e.within("noise"))
     }
 
     /// The scan period, nanoseconds (rounded).
@@ -630,7 +639,15 @@ mod tests {
         assert!(bad.validate().is_err());
         bad = LidarParams::sick_s300_front();
         bad.noise.dropout_probability = 1.5;
-        assert!(bad.validate().unwrap_err().contains("dropout_probability"));
+        let e = bad.validate().unwrap_err();
+        assert_eq!(e, ParamError::new("noise.dropout_probability", 1.5, "must be in [0, 1]"));
+        assert_eq!(e.to_string(), "noise.dropout_probability must be in [0, 1], got 1.5");
+        bad = LidarParams::sick_s300_front();
+        bad.angle_increment_rad = 0.1;
+        assert_eq!(
+            bad.validate().unwrap_err().to_string(),
+            "beams must span at most a full turn, got 541 beams at 0.1 rad"
+        );
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! integrated in the odometry frame (which starts at the identity).
 
 use crate::seeds::SimRng;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::Pose2;
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
@@ -69,7 +70,7 @@ impl OdometryParams {
     }
 
     /// Checks every field (finite, ≥ 0; scale bias < 0.5).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (name, v) in [
             ("alpha1_rad_per_sqrt_rad", self.alpha1_rad_per_sqrt_rad),
             ("alpha2_rad_per_sqrt_m", self.alpha2_rad_per_sqrt_m),
@@ -79,11 +80,11 @@ impl OdometryParams {
             ("heading_bias_rad_per_m", self.heading_bias_rad_per_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{name} must be finite and ≥ 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and ≥ 0"));
             }
         }
         if self.scale_bias_frac >= 0.5 {
-            return Err(format!("scale_bias_frac must be < 0.5, got {}", self.scale_bias_frac));
+            return Err(ParamError::new("scale_bias_frac", self.scale_bias_frac, "must be < 0.5"));
         }
         Ok(())
     }

@@ -6,6 +6,7 @@
 //! ([`SensorRealism::default`], the `ideal` profile) is the simulator as it was before them,
 //! bit for bit.
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Point2, Pose2, angle_diff};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -220,9 +221,9 @@ impl SensorRealism {
     }
 
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         if !(0.0..=1.0).contains(&self.mixed_pixel_probability) {
-            return Err(format!("mixed_pixel_probability must be in [0, 1], got {}", self.mixed_pixel_probability));
+            return Err(ParamError::new("mixed_pixel_probability", self.mixed_pixel_probability, "must be in [0, 1]"));
         }
         for (name, v, hi) in [
             ("mixed_pixel_min_jump_m", self.mixed_pixel_min_jump_m, 100.0),
@@ -233,7 +234,7 @@ impl SensorRealism {
             ("jitter_s", self.jitter_s, 1.0),
         ] {
             if !(v.is_finite() && (0.0..=hi).contains(&v)) {
-                return Err(format!("{name} must be in [0, {hi}], got {v}"));
+                return Err(ParamError::new(name, v, format!("must be in [0, {hi}]")));
             }
         }
         for (name, v) in [
@@ -242,7 +243,7 @@ impl SensorRealism {
             ("stride_m", self.stride_m),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= 10.0) {
-                return Err(format!("{name} must be in (0, 10], got {v}"));
+                return Err(ParamError::new(name, v, "must be in (0, 10]"));
             }
         }
         Ok(())
@@ -328,13 +329,13 @@ mod tests {
     fn validation_names_the_field() {
         let mut r = SensorRealism::realistic();
         r.jitter_s = f64::NAN;
-        assert!(r.validate().unwrap_err().contains("jitter_s"));
+        assert_eq!(r.validate().unwrap_err(), ParamError::new("jitter_s", "NaN", "must be in [0, 1]"));
         let mut r = SensorRealism::realistic();
         r.mixed_pixel_probability = 2.0;
-        assert!(r.validate().unwrap_err().contains("mixed_pixel_probability"));
+        assert_eq!(r.validate().unwrap_err().name, "mixed_pixel_probability");
         let mut r = SensorRealism::realistic();
         r.stride_m = 0.0;
-        assert!(r.validate().unwrap_err().contains("stride_m"));
+        assert_eq!(r.validate().unwrap_err().to_string(), "stride_m must be in (0, 10], got 0");
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The Summit-XL Steel: footprint, drive limits, and the path follower that turns a route into
 //! velocity commands.
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Point2, Pose2, angle_diff};
 use serde::{Deserialize, Serialize};
 
@@ -62,8 +63,8 @@ impl Default for RobotParams {
 }
 
 impl RobotParams {
-    /// Checks every field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every field; the follower's are named `follower.…`.
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (name, v) in [
             ("length_m", self.length_m),
             ("width_m", self.width_m),
@@ -74,10 +75,10 @@ impl RobotParams {
             ("max_yaw_accel_radps2", self.max_yaw_accel_radps2),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} must be finite and > 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and > 0"));
             }
         }
-        self.follower.validate().map_err(|e| format!("follower: {e}"))
+        self.follower.validate().map_err(|e| e.within("follower"))
     }
 
     /// Half the footprint's extent across and along a direction of travel at `angle` from the
@@ -138,7 +139,7 @@ impl Default for FollowerParams {
 
 impl FollowerParams {
     /// Checks every field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (name, v) in [
             ("lookahead_m", self.lookahead_m),
             ("waypoint_tolerance_m", self.waypoint_tolerance_m),
@@ -146,7 +147,7 @@ impl FollowerParams {
             ("yaw_gain", self.yaw_gain),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{name} must be finite and > 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and > 0"));
             }
         }
         for (name, v) in [
@@ -157,7 +158,7 @@ impl FollowerParams {
             ("creep_speed_mps", self.creep_speed_mps),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{name} must be finite and ≥ 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and ≥ 0"));
             }
         }
         Ok(())

@@ -145,7 +145,7 @@ impl RobotFile {
         if raw.version != 1 {
             return Err(bad("version".into(), format!("version {} is not supported (expected 1)", raw.version)));
         }
-        raw.body.validate().map_err(|e| bad("body".into(), e))?;
+        raw.body.validate().map_err(|e| bad("body".into(), e.to_string()))?;
         if raw.lidars.is_empty() {
             return Err(bad("lidars".into(), "a robot needs at least one [[lidars]] entry".into()));
         }
@@ -223,7 +223,7 @@ fn lidar_of(l: &RawLidar) -> Result<LidarParams, (&'static str, String)> {
     if let Some(n) = &l.noise {
         lidar.noise = n.clone();
     }
-    lidar.validate().map_err(|e| ("", e))?;
+    lidar.validate().map_err(|e| ("", e.to_string()))?;
     Ok(lidar)
 }
 

@@ -10,6 +10,7 @@ use crate::realism::{PoseHistory, SensorRealism};
 use crate::robot::{DriveKind, Follower, Obstruction, RobotParams};
 use crate::shape::Shape;
 use crate::world::{AgentKind, ObstacleRef, World};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Point2, Pose2, angle_diff};
 use mapkeeper_sensor::{LaserScan, OdometryReading, TruePose};
 use rapier2d::prelude::*;
@@ -60,7 +61,7 @@ impl SimParams {
     /// Checks every component.
     pub fn validate(&self) -> Result<(), SimError> {
         if !(1_000_000..=1_000_000_000).contains(&self.tick_ns) {
-            return Err(params_err("SimParams", format!("tick_ns must be in 1 ms..1 s, got {}", self.tick_ns)));
+            return Err(params_err("SimParams", ParamError::new("tick_ns", self.tick_ns, "must be in 1 ms..1 s")));
         }
         self.robot.validate().map_err(|e| params_err("RobotParams", e))?;
         for (i, l) in self.lidars.iter().enumerate() {
@@ -607,6 +608,30 @@ mod tests {
     use super::*;
     use crate::lidar::LidarNoise;
     use crate::route::Route;
+
+    /// A bad value is refused with the component, the field (its section's name before it),
+    /// the value and what it must be.
+    #[test]
+    fn a_bad_parameter_is_named_with_its_component_value_and_requirement() {
+        let mut p = SimParams::default();
+        p.robot.follower.lookahead_m = -0.5;
+        let e = p.validate().unwrap_err();
+        let SimError::Params { component, error } = &e else { panic!("{e:?}") };
+        assert_eq!(component, "RobotParams");
+        assert_eq!(error, &ParamError::new("follower.lookahead_m", -0.5, "must be finite and > 0"));
+        assert_eq!(e.to_string(), "RobotParams: follower.lookahead_m must be finite and > 0, got -0.5");
+        let mut p = SimParams::default();
+        p.lidars[1].rate_hz = 0.0;
+        assert_eq!(p.validate().unwrap_err().to_string(), "lidars[1]: rate_hz must be in [0.01, 1000], got 0");
+        let p = SimParams { tick_ns: 5, ..SimParams::default() };
+        assert_eq!(p.validate().unwrap_err().to_string(), "SimParams: tick_ns must be in 1 ms..1 s, got 5");
+        let mut p = SimParams::default();
+        p.odometry.scale_bias_frac = 0.5;
+        assert_eq!(p.validate().unwrap_err().to_string(), "OdometryParams: scale_bias_frac must be < 0.5, got 0.5");
+        let mut p = SimParams::default();
+        p.agents.give_way_s = f64::INFINITY;
+        assert_eq!(p.validate().unwrap_err().to_string(), "AgentParams: give_way_s must be finite and ≥ 0, got inf");
+    }
 
     #[test]
     fn fast_caster_matches_rapier_beam_for_beam() {

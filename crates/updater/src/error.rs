@@ -5,14 +5,10 @@
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum UpdaterError {
-    /// A parameter is out of range.
-    #[error("invalid updater parameter '{field}': {reason}")]
-    InvalidParam {
-        /// The field (dotted path for nested structs).
-        field: &'static str,
-        /// What is wrong with it.
-        reason: String,
-    },
+    /// A parameter is out of range; its name is the field's dotted path for a section's
+    /// (`pose_updating.max_rmse_m`).
+    #[error("invalid updater parameter '{}': {}", .0.name, .0.problem())]
+    InvalidParam(#[from] mapkeeper_common::ParamError),
     /// [`crate::UpdaterParams::preset`] got a name it does not know.
     #[error("unknown updater preset '{name}' (known: {known})")]
     UnknownPreset {

@@ -9,7 +9,7 @@
 //! | file | paper section, or why it exists |
 //! |---|---|
 //! | `updater.rs` | Fig. 4-6: the pipeline of one step ([`MapUpdater`]); memory accounting |
-//! | `params.rs` | the parameter table, App. A.1 (D_th), tol(z) of §4.3.2; presets ([`UpdaterParams`]) |
+//! | `params.rs` | the parameter table, App. A.1 (D_th), tol(z) of §4.3.2; presets ([`UpdaterParams`]); `params/legacy.rs` reads the removal gates' names of older files |
 //! | `error.rs` | the crate's error type ([`UpdaterError`]) |
 //! | `paper/gating.rs` | §4.5 ("update rate that depends on both linear and angular speed") and the parameter table (0.05 m, 20°) |
 //! | `paper/beam_classifier.rs` | §4.1, eq. 2-5, Fig. 7-8, App. A.1 |
@@ -37,8 +37,9 @@
 //! All parameters are in [`UpdaterParams`]: presets `paper` (§4 read fairly, nothing added),
 //! `paper-strict` (§4 at its strictest), `authors` (the behaviour of the authors' ROS code),
 //! `mapkeeper` (the project's additions, each switchable), `mapkeeper-no-registration`, and the
-//! ablations `always-update`, `no-update`, `log-odds`. The updater depends only on the grid crate and plain sensor types,
-//! so any localiser, a log file or a real robot can feed it.
+//! ablations `always-update`, `no-update`, `log-odds`. The updater depends only on the grid
+//! crate, plain sensor types and the common leaf (`ParamError`), so any localiser, a log file
+//! or a real robot can feed it.
 //!
 //! ```
 //! use mapkeeper_grid::{CellCoord, CellState, GridGeometry, OccupancyGrid, Pose2};
@@ -119,6 +120,7 @@ mod updater;
 pub use additions::global_search::{GlobalSearchParams, GlobalSearchReport};
 pub use additions::pose_tolerance::{PoseSigma, StepTolerance, ToleranceParams};
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
+pub use additions::removal_gates::RemovalParams;
 pub use additions::shift_check::ShiftResult;
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
 pub use error::UpdaterError;

@@ -9,9 +9,11 @@ use crate::UpdaterError;
 use crate::additions::global_search::GlobalSearchParams;
 use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
+use crate::additions::removal_gates::RemovalParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
-use mapkeeper_grid::mapper::MapperParams;
+use mapkeeper_common::ParamError;
+use mapkeeper_grid::mapper::{MapperError, MapperParams};
 use serde::{Deserialize, Serialize};
 
 /// Which algorithm turns `M_{i-1}` into `M_i`.
@@ -167,8 +169,12 @@ impl Default for PoseUpdatingParams {
 /// assert_eq!(a.max_range_m, 18.0);
 /// assert!(UpdaterParams::preset("mapkeeper").unwrap().free_pass_votes);
 /// ```
+///
+/// Serde reads and writes it field by field (unknown keys are errors), and also reads the flat
+/// names the removal gates had before the `removal` section (`removal_hit_clearance_m`, …), so
+/// older parameter files and records still load; they are written as the section.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(remote = "Self", default, deny_unknown_fields)]
 pub struct UpdaterParams {
     /// Which algorithm runs. Default [`UpdateMethod::Stefanini`].
     pub method: UpdateMethod,
@@ -252,32 +258,15 @@ pub struct UpdaterParams {
     /// Beams within ±this many beams of a detected change are not evaluated as unchanged.
     /// Default 0 (`authors` 2).
     pub skip_near_changes_beams: u32,
-    /// Hit clearance of the removal vote (a `mapkeeper` addition): a cell crossed by a
-    /// detected-change ray gets no "changed" (removed) vote when a beam of the same step hit a
-    /// surface closer than this to the cell's centre, metres; 0 disables the rule. It stops rays
-    /// at grazing incidence from eroding the edge cells of walls when the pose is a fraction of
-    /// a cell off. Default 0 (`mapkeeper` 0.20).
-    pub removal_hit_clearance_m: f64,
+    /// The gates on the removal vote (`mapkeeper` additions; see the `removal_gates` module):
+    /// hit clearance, grazing gate, ray core, shadow. Default: all off (`mapkeeper`: hit
+    /// clearance 0.2 m, grazing gate 10°, shadow).
+    pub removal: RemovalParams,
     /// Free-pass votes (a `mapkeeper` addition): cells free in `M_{i-1}` that a detected-change
     /// beam crossed before its final chunk (never its own hit cell) get an "unchanged" vote, as
     /// the unchanged evaluator gives them for agreeing beams (see the `free_pass` module).
     /// Default `false` (`mapkeeper` `true`).
     pub free_pass_votes: bool,
-    /// Grazing gate of the removal vote (a `mapkeeper` addition): a cell on the boundary of a
-    /// wall of `M_{i-1}` gets no "changed" (removed) vote from a ray that meets the wall at less
-    /// than this angle (see the `grazing` module), radians; 0 disables the gate. Default 0
-    /// (`mapkeeper` 10°, 0.1745).
-    pub removal_min_incidence_rad: f64,
-    /// Core of the removal ray (an addition, off in every preset: it did not help on the tuning
-    /// seeds): a cell gets a "changed" (removed) vote
-    /// only if the ray passes within this many cells of its centre, so a ray that clips a corner
-    /// of the cell does not vote it; `inf` disables. Default `inf`.
-    #[serde(with = "inf_as_text")]
-    pub removal_max_offset_cells: f64,
-    /// Shadow of a withheld removal vote (a `mapkeeper` addition): after the hit clearance or
-    /// the grazing gate withheld a vote, the rest of that run of non-free cells gets none
-    /// either (see the `removal_gates` module). Default `false` (`mapkeeper` `true`).
-    pub removal_shadow: bool,
 
     // --- Cells update (§4.5) ---
     /// Run the map update at all; `false` is the `no-update` ablation (M_1 kept). Default `true`.
@@ -333,6 +322,19 @@ pub struct UpdaterParams {
 impl Default for UpdaterParams {
     fn default() -> Self {
         Self::paper()
+    }
+}
+
+impl Serialize for UpdaterParams {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        // The derived serialiser (`remote = "Self"` makes it an inherent function).
+        UpdaterParams::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for UpdaterParams {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        legacy::deserialize(d)
     }
 }
 
@@ -408,11 +410,8 @@ impl UpdaterParams {
             unchanged_hit: UnchangedHitRule::Adjacent8,
             unchanged_ray_free_only: false,
             skip_near_changes_beams: 0,
-            removal_hit_clearance_m: 0.0,
+            removal: RemovalParams::default(),
             free_pass_votes: false,
-            removal_min_incidence_rad: 0.0,
-            removal_max_offset_cells: f64::INFINITY,
-            removal_shadow: false,
             map_update: true,
             buffer_size: 10,
             change_threshold: 7,
@@ -458,10 +457,8 @@ impl UpdaterParams {
     /// the 0.15 m minimum final chunk did not help there and are off).
     pub fn mapkeeper_no_registration() -> Self {
         Self {
-            removal_hit_clearance_m: 0.20,
+            removal: RemovalParams::mapkeeper(),
             free_pass_votes: true,
-            removal_min_incidence_rad: 10f64.to_radians(),
-            removal_shadow: true,
             revert: RevertRule::UnchangedThreshold,
             border_interior_only: true,
             ..Self::paper_strict()
@@ -564,26 +561,19 @@ impl UpdaterParams {
         self.validate_classifier_and_check()?;
         self.validate_evaluators_and_cells()?;
         self.pose_updating.validate()?;
-        self.shift_check.validate().map_err(|e| bad("shift_check", e))?;
-        self.global_search.validate().map_err(|e| bad("global_search", e))?;
-        self.registration.validate().map_err(|(field, e)| bad(field, e))?;
-        self.memory.validate(self.buffer_size, self.change_threshold).map_err(|(field, e)| bad(field, e))?;
-        self.tolerance.validate().map_err(|(field, e)| bad(field, e))?;
-        self.log_odds.validate().map_err(|e| bad("log_odds", e.to_string()))?;
+        self.shift_check.validate()?;
+        self.global_search.validate()?;
+        self.registration.validate()?;
+        self.memory.validate(self.buffer_size, self.change_threshold)?;
+        self.tolerance.validate()?;
+        self.log_odds.validate().map_err(log_odds_refusal)?;
         Ok(())
     }
 
     /// Update gating and the removal-vote additions.
     fn validate_gating_and_removal(&self) -> Result<(), UpdaterError> {
         non_neg_finite("gating_min_translation_m", self.gating_min_translation_m)?;
-        non_neg_finite("removal_hit_clearance_m", self.removal_hit_clearance_m)?;
-        positive("removal_max_offset_cells", self.removal_max_offset_cells)?;
-        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.removal_min_incidence_rad) {
-            return Err(bad(
-                "removal_min_incidence_rad",
-                format!("must be within 0..=pi/2, got {}", self.removal_min_incidence_rad),
-            ));
-        }
+        self.removal.validate()?;
         non_neg_finite("gating_min_rotation_rad", self.gating_min_rotation_rad)?;
         non_neg_finite("gating_min_interval_s", self.gating_min_interval_s)?;
         positive("fast_rotation_rad_s", self.fast_rotation_rad_s)?;
@@ -596,28 +586,26 @@ impl UpdaterParams {
     /// Beam classifier and localisation check.
     fn validate_classifier_and_check(&self) -> Result<(), UpdaterError> {
         if self.virtual_rays_each_side > 64 {
-            return Err(bad("virtual_rays_each_side", "must be at most 64"));
+            return Err(bad("virtual_rays_each_side", "", "must be at most 64"));
         }
         if !(self.virtual_ray_spacing_beams.is_finite() && self.virtual_ray_spacing_beams > 0.0) {
-            return Err(bad("virtual_ray_spacing_beams", "must be finite and > 0"));
+            return Err(bad("virtual_ray_spacing_beams", "", "must be finite and > 0"));
         }
         non_neg_finite("virtual_window_rad", self.virtual_window_rad)?;
         non_neg_finite("change_slope", self.change_slope)?;
         non_neg_finite("change_intercept_m", self.change_intercept_m)?;
         positive("change_max_m", self.change_max_m)?;
         if self.min_change_run == 0 {
-            return Err(bad("min_change_run", "must be >= 1 (1 = no outlier filter)"));
+            return Err(bad("min_change_run", "", "must be >= 1 (1 = no outlier filter)"));
         }
         for (field, v) in [("d_eps_min", self.d_eps_min), ("d_eps_max", self.d_eps_max)] {
             if !(0.0..=1.0).contains(&v) {
-                return Err(bad(field, format!("must lie in [0, 1], got {v}")));
+                return Err(bad(field, v, "must lie in [0, 1]"));
             }
         }
         if self.d_eps_min > self.d_eps_max {
-            return Err(bad(
-                "d_eps_min",
-                format!("must not exceed d_eps_max ({} > {})", self.d_eps_min, self.d_eps_max),
-            ));
+            let requirement = format!("must not exceed d_eps_max ({} > {})", self.d_eps_min, self.d_eps_max);
+            return Err(bad("d_eps_min", "", requirement));
         }
         Ok(())
     }
@@ -635,42 +623,49 @@ impl UpdaterParams {
             [("skip_changed_slope", self.skip_changed_slope), ("skip_unchanged_slope", self.skip_unchanged_slope)]
         {
             if v >= 1.0 {
-                return Err(bad(field, format!("must be < 1, got {v}")));
+                return Err(bad(field, v, "must be < 1"));
             }
         }
         if !(1..=32).contains(&self.buffer_size) {
-            return Err(bad("buffer_size", format!("must lie in 1..=32, got {}", self.buffer_size)));
+            return Err(bad("buffer_size", self.buffer_size, "must lie in 1..=32"));
         }
         if !(1..=self.buffer_size).contains(&self.change_threshold) {
-            return Err(bad("change_threshold", format!("must lie in 1..=buffer_size, got {}", self.change_threshold)));
+            return Err(bad("change_threshold", self.change_threshold, "must lie in 1..=buffer_size"));
         }
         if self.revert == RevertRule::UnchangedThreshold && 2 * self.change_threshold <= self.buffer_size {
-            return Err(bad(
-                "change_threshold",
-                format!(
-                    "with revert = \"unchanged-threshold\" it must exceed buffer_size / 2 ({} <= {} / 2): a buffer could then hold \
-                     enough flags to flip and to flip back at once",
-                    self.change_threshold, self.buffer_size
-                ),
-            ));
+            let requirement = format!(
+                "with revert = \"unchanged-threshold\" it must exceed buffer_size / 2 ({} <= {} / 2): a buffer could then hold \
+                 enough flags to flip and to flip back at once",
+                self.change_threshold, self.buffer_size
+            );
+            return Err(bad("change_threshold", "", requirement));
         }
         if self.min_valid_beams == 0 {
-            return Err(bad("min_valid_beams", "must be >= 1"));
+            return Err(bad("min_valid_beams", "", "must be >= 1"));
         }
         Ok(())
     }
 }
 
-fn bad(field: &'static str, reason: impl Into<String>) -> UpdaterError {
-    UpdaterError::InvalidParam { field, reason: reason.into() }
+/// The log-odds mapper's refusal of its parameters, named `log_odds.…`.
+pub(crate) fn log_odds_refusal(e: MapperError) -> ParamError {
+    match e {
+        MapperError::InvalidParam(p) => p.within("log_odds"),
+        other => ParamError::new("log_odds", "", other.to_string()),
+    }
 }
 
-fn non_neg_finite(field: &'static str, v: f64) -> Result<(), UpdaterError> {
-    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(field, format!("must be finite and >= 0, got {v}"))) }
+/// `field` holds `value` (`""`: the message gives none), which is not as `requirement` says.
+fn bad(field: &str, value: impl std::fmt::Display, requirement: impl Into<String>) -> UpdaterError {
+    ParamError::new(field, value, requirement).into()
 }
 
-fn positive(field: &'static str, v: f64) -> Result<(), UpdaterError> {
-    if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, format!("must be > 0, got {v}"))) }
+fn non_neg_finite(field: &str, v: f64) -> Result<(), UpdaterError> {
+    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(field, v, "must be finite and >= 0")) }
+}
+
+fn positive(field: &str, v: f64) -> Result<(), UpdaterError> {
+    if v > 0.0 && !v.is_nan() { Ok(()) } else { Err(bad(field, v, "must be > 0")) }
 }
 
 impl PoseUpdatingParams {
@@ -680,40 +675,39 @@ impl PoseUpdatingParams {
         let p = self;
         non_neg_finite("pose_updating.retry_interval_s", p.retry_interval_s)?;
         if p.source_beam_step == 0 {
-            return Err(bad("pose_updating.source_beam_step", "must be >= 1"));
+            return Err(bad("pose_updating.source_beam_step", "", "must be >= 1"));
         }
         positive("pose_updating.max_correspondence_m", p.max_correspondence_m)?;
         positive("pose_updating.min_correspondence_m", p.min_correspondence_m)?;
         if !p.max_correspondence_m.is_finite() || p.min_correspondence_m > p.max_correspondence_m {
-            return Err(bad("pose_updating.min_correspondence_m", "must be finite and <= max_correspondence_m"));
+            return Err(bad("pose_updating.min_correspondence_m", "", "must be finite and <= max_correspondence_m"));
         }
         if !(p.correspondence_decay > 0.0 && p.correspondence_decay <= 1.0) {
-            return Err(bad("pose_updating.correspondence_decay", "must lie in (0, 1]"));
+            return Err(bad("pose_updating.correspondence_decay", "", "must lie in (0, 1]"));
         }
         if p.max_iterations == 0 || p.max_iterations > 1000 {
-            return Err(bad("pose_updating.max_iterations", "must lie in 1..=1000"));
+            return Err(bad("pose_updating.max_iterations", "", "must lie in 1..=1000"));
         }
         non_neg_finite("pose_updating.convergence_translation_m", p.convergence_translation_m)?;
         non_neg_finite("pose_updating.convergence_rotation_rad", p.convergence_rotation_rad)?;
         if p.yaw_offsets_rad.is_empty() || p.yaw_offsets_rad.iter().any(|v| !v.is_finite()) {
-            return Err(bad("pose_updating.yaw_offsets_rad", "must be non-empty and finite"));
+            return Err(bad("pose_updating.yaw_offsets_rad", "", "must be non-empty and finite"));
         }
         if p.position_offsets_m.is_empty() || p.position_offsets_m.iter().any(|v| !v.is_finite()) {
-            return Err(bad("pose_updating.position_offsets_m", "must be non-empty and finite"));
+            return Err(bad("pose_updating.position_offsets_m", "", "must be non-empty and finite"));
         }
         let hypotheses = p.yaw_offsets_rad.len().saturating_mul(p.position_offsets_m.len().saturating_pow(2));
         if hypotheses > 4096 {
-            return Err(bad(
-                "pose_updating.yaw_offsets_rad",
-                format!("with position_offsets_m, {hypotheses} hypotheses (yaws × positions²): at most 4096"),
-            ));
+            let requirement =
+                format!("with position_offsets_m, {hypotheses} hypotheses (yaws × positions²): at most 4096");
+            return Err(bad("pose_updating.yaw_offsets_rad", "", requirement));
         }
         positive("pose_updating.inlier_distance_m", p.inlier_distance_m)?;
         if !p.inlier_distance_m.is_finite() {
-            return Err(bad("pose_updating.inlier_distance_m", "must be finite"));
+            return Err(bad("pose_updating.inlier_distance_m", "", "must be finite"));
         }
         if !(0.0..=1.0).contains(&p.min_inlier_ratio) {
-            return Err(bad("pose_updating.min_inlier_ratio", "must lie in [0, 1]"));
+            return Err(bad("pose_updating.min_inlier_ratio", "", "must lie in [0, 1]"));
         }
         positive("pose_updating.max_rmse_m", p.max_rmse_m)?;
         non_neg_finite("pose_updating.ambiguity_ratio_margin", p.ambiguity_ratio_margin)?;
@@ -726,16 +720,14 @@ impl PoseUpdatingParams {
         let steps = |range: f64, step: f64| 2.0 * (range / step).floor() + 1.0;
         let poses = steps(p.search_radius_m, p.search_step_m).powi(2) * steps(p.search_yaw_rad, p.search_yaw_step_rad);
         if poses > 2e6 {
-            return Err(bad(
-                "pose_updating.search_radius_m",
-                format!(
-                    "with search_step_m, search_yaw_rad and search_yaw_step_rad, the search has {poses:.3e} poses: at most \
-                     2,000,000"
-                ),
-            ));
+            let requirement = format!(
+                "with search_step_m, search_yaw_rad and search_yaw_step_rad, the search has {poses:.3e} poses: at most \
+                 2,000,000"
+            );
+            return Err(bad("pose_updating.search_radius_m", "", requirement));
         }
         if p.search_candidates == 0 || p.search_candidates > 64 {
-            return Err(bad("pose_updating.search_candidates", "must lie in 1..=64"));
+            return Err(bad("pose_updating.search_candidates", "", "must lie in 1..=64"));
         }
         Ok(())
     }
@@ -774,143 +766,6 @@ pub mod inf_as_text {
     }
 }
 
+mod legacy;
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn presets_validate_and_differ_as_listed() {
-        for name in PRESET_NAMES {
-            UpdaterParams::preset(name).unwrap().validate().unwrap();
-        }
-        assert!(matches!(UpdaterParams::preset("nope"), Err(UpdaterError::UnknownPreset { .. })));
-        let r = UpdaterParams::authors();
-        // 0.013z + 0.15, uncapped.
-        assert!((r.tol_m(100.0) - 1.45).abs() < 1e-12);
-        let p = UpdaterParams::paper_strict();
-        assert!((p.tol_m(100.0) - 0.20).abs() < 1e-12);
-        assert!((p.tol_m(5.0) - 0.15).abs() < 1e-12);
-        // D_th saturates at 0.30.
-        assert!((p.change_distance_m(1.0) - 0.16057).abs() < 1e-12);
-        assert!((p.change_distance_m(30.0) - 0.30).abs() < 1e-12);
-        // Eq. 9: the final chunk is m·z in `paper-strict`; `paper` and `authors` floor it at 0.15 m.
-        assert!((p.skip_changed_m(2.0) - 0.04).abs() < 1e-12);
-        assert!((p.skip_changed_m(10.0) - 0.20).abs() < 1e-12);
-        assert!((r.skip_changed_m(2.0) - 0.15).abs() < 1e-12);
-        // `paper` differs from `paper-strict` at exactly the five open points.
-        let fair = UpdaterParams::paper();
-        assert!((fair.skip_changed_m(2.0) - 0.15).abs() < 1e-12 && (fair.skip_unchanged_m(2.0) - 0.15).abs() < 1e-12);
-        assert_eq!((fair.revert, fair.change_threshold), (RevertRule::BelowThreshold, 8));
-        assert_eq!((fair.virtual_rays_each_side, fair.virtual_ray_spacing_beams), (3, 0.25));
-        assert!(fair.border_interior_only);
-        let back = UpdaterParams {
-            revert: p.revert,
-            change_threshold: p.change_threshold,
-            skip_changed_min_m: 0.0,
-            skip_unchanged_min_m: 0.0,
-            virtual_rays_each_side: 1,
-            virtual_ray_spacing_beams: 0.5,
-            border_interior_only: false,
-            ..fair
-        };
-        assert_eq!(back, p);
-        // `paper-strict` has none of the additions; `mapkeeper` has them all.
-        let m = UpdaterParams::mapkeeper();
-        assert!(!p.free_pass_votes && !p.removal_shadow && !p.border_interior_only);
-        assert_eq!(
-            (p.revert, r.revert, UpdaterParams::mapkeeper().revert),
-            (RevertRule::Never, RevertRule::BelowThreshold, RevertRule::UnchangedThreshold)
-        );
-        assert!(p.removal_hit_clearance_m == 0.0 && p.removal_min_incidence_rad == 0.0);
-        assert!(p.removal_max_offset_cells.is_infinite() && m.removal_max_offset_cells.is_infinite());
-        assert!(m.free_pass_votes && m.removal_shadow && m.border_interior_only);
-        assert_eq!(UpdaterParams { skip_changed_min_m: 0.0, ..m.clone() }.removal_hit_clearance_m, 0.20);
-        assert!(m.registration.enabled && m.memory.enabled);
-        assert!(m.shift_check.enabled && m.shift_check.when == ShiftWhen::OnAlarm);
-        assert!(m.global_search.enabled && !p.global_search.enabled && !r.global_search.enabled);
-        let n = UpdaterParams::mapkeeper_no_registration();
-        let without = UpdaterParams {
-            registration: n.registration,
-            memory: n.memory,
-            shift_check: n.shift_check,
-            global_search: n.global_search,
-            ..m.clone()
-        };
-        assert_eq!(without, n);
-        // `mapkeeper-shift` is `mapkeeper` with the shift check on every step.
-        let s = UpdaterParams::mapkeeper_shift();
-        assert_eq!(s.shift_check.when, ShiftWhen::EveryStep);
-        assert_eq!(UpdaterParams { shift_check: m.shift_check, ..s }, m);
-        assert!(!UpdaterParams::always_update().localisation_check);
-        assert!(!UpdaterParams::no_update().map_update);
-    }
-
-    #[test]
-    fn validate_rejects_bad_fields() {
-        let mut p = UpdaterParams::paper();
-        p.change_threshold = 11;
-        assert!(matches!(p.validate(), Err(UpdaterError::InvalidParam { field: "change_threshold", .. })));
-        // Flip and flip back would both hold with a threshold of at most N_b / 2.
-        let mut p = UpdaterParams::mapkeeper();
-        p.change_threshold = 5;
-        let err = p.validate().unwrap_err().to_string();
-        assert!(err.contains("change_threshold") && err.contains("unchanged-threshold"), "{err}");
-        p.change_threshold = 6;
-        assert!(p.validate().is_ok());
-        p.revert = RevertRule::BelowThreshold;
-        p.change_threshold = 3;
-        assert!(p.validate().is_ok());
-        let mut p = UpdaterParams::paper();
-        p.min_valid_beams = 0;
-        assert!(p.validate().is_err());
-        let mut p = UpdaterParams::paper();
-        p.d_eps_min = 0.95;
-        assert!(p.validate().is_err());
-        let mut p = UpdaterParams::paper();
-        p.buffer_size = 40;
-        assert!(p.validate().is_err());
-        let mut p = UpdaterParams::paper();
-        p.change_slope = f64::NAN;
-        assert!(p.validate().is_err());
-    }
-
-    /// `skip_unchanged_slope = 1` was refused as "skip_changed_slope: skip slopes must be < 1",
-    /// naming the other field (found by the edge-value sweep of the `updater_params` replay
-    /// test).
-    #[test]
-    fn a_skip_unchanged_slope_of_one_is_refused_under_its_own_name() {
-        let p = UpdaterParams { skip_unchanged_slope: 1.0, ..UpdaterParams::paper() };
-        let e = p.validate().unwrap_err();
-        assert!(matches!(e, UpdaterError::InvalidParam { field: "skip_unchanged_slope", .. }), "{e}");
-        let p = UpdaterParams { skip_changed_slope: 1.5, ..UpdaterParams::paper() };
-        assert_eq!(
-            p.validate().unwrap_err().to_string(),
-            "invalid updater parameter 'skip_changed_slope': must be < 1, got 1.5"
-        );
-    }
-
-    #[test]
-    fn infinite_limits_survive_json() {
-        for name in PRESET_NAMES {
-            let p = UpdaterParams::preset(name).unwrap();
-            let json = serde_json::to_string(&p).unwrap();
-            assert_eq!(serde_json::from_str::<UpdaterParams>(&json).unwrap(), p, "{json}");
-        }
-        assert!(serde_json::to_string(&UpdaterParams::paper()).unwrap().contains(r#""max_range_m":"inf""#));
-        let p: UpdaterParams = serde_json::from_str(r#"{"tol_max_m": null, "max_range_m": 18.0}"#).unwrap();
-        assert_eq!((p.tol_max_m, p.max_range_m), (f64::INFINITY, 18.0));
-        let p: UpdaterParams = serde_json::from_str(r#"{"max_range_m": "Infinity"}"#).unwrap();
-        assert_eq!(p.max_range_m, f64::INFINITY);
-        assert!(serde_json::from_str::<UpdaterParams>(r#"{"tol_max_m": "far"}"#).is_err());
-    }
-
-    #[test]
-    fn serde_overrides_one_field_and_rejects_unknown() {
-        let p: UpdaterParams =
-            serde_json::from_str(r#"{"buffer_size": 12, "pose_updating": {"max_rmse_m": 0.1}}"#).unwrap();
-        assert_eq!(p.buffer_size, 12);
-        assert_eq!(p.change_threshold, 8);
-        assert_eq!(p.pose_updating.max_rmse_m, 0.1);
-        assert!(serde_json::from_str::<UpdaterParams>(r#"{"bufer_size": 12}"#).is_err());
-    }
-}
+mod tests;

@@ -298,10 +298,7 @@ impl MapUpdater {
         let memory = if params.memory.enabled { memory } else { StructureMemory::default() };
         let registrar = params.registration.enabled.then(|| Registrar::new(&initial_map, &params.registration));
         let log_odds = if params.method == UpdateMethod::LogOdds {
-            Some(
-                LogOddsBaseline::from_grid(&initial_map, params.log_odds)
-                    .map_err(|e| UpdaterError::InvalidParam { field: "log_odds", reason: e.to_string() })?,
-            )
+            Some(LogOddsBaseline::from_grid(&initial_map, params.log_odds).map_err(crate::params::log_odds_refusal)?)
         } else {
             None
         };
@@ -663,9 +660,9 @@ impl MapUpdater {
             return;
         }
         let beams = &self.classifier.beams;
-        if self.params.removal_hit_clearance_m > 0.0 && beams.iter().any(|b| b.class == BeamClass::Changed) {
+        if self.params.removal.hit_clearance_m > 0.0 && beams.iter().any(|b| b.class == BeamClass::Changed) {
             let valid = beams.iter().filter(|b| b.class != BeamClass::Invalid).map(|b| b.hit);
-            self.hits.rebuild(self.params.removal_hit_clearance_m, valid);
+            self.hits.rebuild(self.params.removal.hit_clearance_m, valid);
         } else {
             self.hits.rebuild(0.0, std::iter::empty());
         }

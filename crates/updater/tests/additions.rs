@@ -169,11 +169,13 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
         // Without the shadow, box B is voted across a one-cell gap too (the grazing gate alone
         // withholds box A's right face).
         votes.clear();
+        let mut unshadowed = mapkeeper();
+        unshadowed.removal.shadow = false;
         evaluate_changed_beam(
             &base,
             &BeamGeometry::new(origin, hit, z),
-            (&UpdaterParams { removal_shadow: false, ..mapkeeper() }, &StepTolerance::NONE),
-            |b| RemovalGates::new(&base, &UpdaterParams { removal_shadow: false, ..mapkeeper() }, &hits, b),
+            (&unshadowed, &StepTolerance::NONE),
+            |b| RemovalGates::new(&base, &unshadowed, &hits, b),
             &mut votes,
         );
         assert!(votes.iter().any(|v| (b0..=b0 + 15).contains(&g.coord((v >> 1) as usize).iy)), "gap {gap}");

@@ -35,8 +35,10 @@ fn wall_drive(params: UpdaterParams, yaw: f64) -> usize {
 #[test]
 fn grazing_gate_works_in_a_map_with_a_turned_origin() {
     // The grazing gate alone (the hit clearance would hide the defect).
-    let gate_only = UpdaterParams { removal_hit_clearance_m: 0.0, ..UpdaterParams::mapkeeper_no_registration() };
-    let without = UpdaterParams { removal_min_incidence_rad: 0.0, ..gate_only.clone() };
+    let mut gate_only = UpdaterParams::mapkeeper_no_registration();
+    gate_only.removal.hit_clearance_m = 0.0;
+    let mut without = gate_only.clone();
+    without.removal.min_incidence_rad = 0.0;
     for yaw in [0.0, 0.9, -1.1, 2.5] {
         assert!(wall_drive(without.clone(), yaw) >= 5, "yaw {yaw}: the scene needs the gate");
         assert_eq!(wall_drive(gate_only.clone(), yaw), 0, "yaw {yaw}");

@@ -220,6 +220,13 @@ fn geometry_mismatch_and_bad_params() {
         assert!(matches!(map_metrics(&a, &a, &p), Err(MetricsError::InvalidParam { .. })), "{p:?}");
     }
     assert!(toml::from_str::<MetricParams>("bogus = 1").is_err());
+    let e = MetricParams { unknown_value: 1.5, ..MetricParams::default() }.validate().unwrap_err();
+    assert!(
+        matches!(&e, MetricsError::InvalidParam(p) if p.name == "unknown_value" && p.value == "1.5"
+            && p.requirement == "must be a number in [0, 1]"),
+        "{e:?}"
+    );
+    assert_eq!(e.to_string(), "metric parameter unknown_value = 1.5 is invalid: must be a number in [0, 1]");
 }
 
 #[test]

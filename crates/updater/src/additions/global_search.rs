@@ -23,6 +23,7 @@
 //! then are returned, and the report says the budget ran out).
 
 use crate::support::chessboard::chessboard_distance;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, angle_diff, wrap_angle};
 use serde::{Deserialize, Serialize};
@@ -91,45 +92,35 @@ impl GlobalSearchParams {
         *self == Self::default()
     }
 
-    /// Checks every field; the problem names the field.
-    pub fn validate(&self) -> Result<(), String> {
-        if !(self.tolerance_m.is_finite() && self.tolerance_m > 0.0 && self.tolerance_m <= 5.0) {
-            return Err(format!("global_search.tolerance_m must lie in (0, 5], got {}", self.tolerance_m));
+    /// Checks every field; the first bad one is named `global_search.…`.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.check_fields().map_err(|e| e.within("global_search"))
+    }
+
+    fn check_fields(&self) -> Result<(), ParamError> {
+        fn check(name: &str, v: impl std::fmt::Display, ok: bool, requirement: &str) -> Result<(), ParamError> {
+            if ok { Ok(()) } else { Err(ParamError::new(name, v, requirement)) }
         }
-        if !(self.yaw_step_rad.is_finite() && self.yaw_step_rad >= 1e-3 && self.yaw_step_rad <= 1.0) {
-            return Err(format!("global_search.yaw_step_rad must lie in [0.001, 1], got {}", self.yaw_step_rad));
-        }
-        if !(10..=2_000).contains(&self.max_points) {
-            return Err(format!("global_search.max_points must lie in 10..=2000, got {}", self.max_points));
-        }
-        if self.levels > 10 {
-            return Err(format!("global_search.levels must lie in 0..=10, got {}", self.levels));
-        }
-        if !(1..=64).contains(&self.candidates) {
-            return Err(format!("global_search.candidates must lie in 1..=64, got {}", self.candidates));
-        }
-        if !(self.confident_inlier_ratio.is_finite() && (0.0..=1.0).contains(&self.confident_inlier_ratio)) {
-            return Err(format!(
-                "global_search.confident_inlier_ratio must lie in [0, 1], got {}",
-                self.confident_inlier_ratio
-            ));
-        }
-        if !(self.min_score.is_finite() && (0.0..=1.0).contains(&self.min_score)) {
-            return Err(format!("global_search.min_score must lie in [0, 1], got {}", self.min_score));
-        }
-        if !(1_000..=100_000_000).contains(&self.max_nodes) {
-            return Err(format!("global_search.max_nodes must lie in 1000..=100000000, got {}", self.max_nodes));
-        }
-        if !(self.min_inlier_ratio.is_finite() && (0.0..=1.0).contains(&self.min_inlier_ratio)) {
-            return Err(format!("global_search.min_inlier_ratio must lie in [0, 1], got {}", self.min_inlier_ratio));
-        }
-        if !(self.ambiguity_ratio_margin.is_finite() && (0.0..=1.0).contains(&self.ambiguity_ratio_margin)) {
-            return Err(format!(
-                "global_search.ambiguity_ratio_margin must lie in [0, 1], got {}",
-                self.ambiguity_ratio_margin
-            ));
-        }
-        Ok(())
+        let unit = |v: f64| v.is_finite() && (0.0..=1.0).contains(&v);
+        let (t, yaw_step) = (self.tolerance_m, self.yaw_step_rad);
+        check("tolerance_m", t, t.is_finite() && t > 0.0 && t <= 5.0, "must lie in (0, 5]")?;
+        check(
+            "yaw_step_rad",
+            yaw_step,
+            yaw_step.is_finite() && (1e-3..=1.0).contains(&yaw_step),
+            "must lie in [0.001, 1]",
+        )?;
+        check("max_points", self.max_points, (10..=2_000).contains(&self.max_points), "must lie in 10..=2000")?;
+        check("levels", self.levels, self.levels <= 10, "must lie in 0..=10")?;
+        check("candidates", self.candidates, (1..=64).contains(&self.candidates), "must lie in 1..=64")?;
+        let confident = self.confident_inlier_ratio;
+        check("confident_inlier_ratio", confident, unit(confident), "must lie in [0, 1]")?;
+        check("min_score", self.min_score, unit(self.min_score), "must lie in [0, 1]")?;
+        let nodes = self.max_nodes;
+        check("max_nodes", nodes, (1_000..=100_000_000).contains(&nodes), "must lie in 1000..=100000000")?;
+        check("min_inlier_ratio", self.min_inlier_ratio, unit(self.min_inlier_ratio), "must lie in [0, 1]")?;
+        let margin = self.ambiguity_ratio_margin;
+        check("ambiguity_ratio_margin", margin, unit(margin), "must lie in [0, 1]")
     }
 }
 
@@ -452,9 +443,10 @@ mod tests {
     #[test]
     fn validation_names_the_field() {
         let bad = GlobalSearchParams { yaw_step_rad: 0.0, ..GlobalSearchParams::default() };
-        assert!(bad.validate().unwrap_err().contains("global_search.yaw_step_rad"));
+        let e = bad.validate().unwrap_err();
+        assert_eq!(e, ParamError::new("global_search.yaw_step_rad", 0, "must lie in [0.001, 1]"));
         let bad = GlobalSearchParams { candidates: 0, ..GlobalSearchParams::default() };
-        assert!(bad.validate().unwrap_err().contains("global_search.candidates"));
+        assert_eq!(bad.validate().unwrap_err().to_string(), "global_search.candidates must lie in 1..=64, got 0");
         assert!(GlobalSearchParams::default().validate().is_ok());
     }
 }

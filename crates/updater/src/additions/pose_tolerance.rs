@@ -32,6 +32,7 @@
 //! a huge covariance cannot make every beam agree with the map.
 
 pub use crate::support::step_tolerance::StepTolerance;
+use mapkeeper_common::ParamError;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the uncertainty-following tolerances (`UpdaterParams::tolerance`).
@@ -66,8 +67,8 @@ impl Default for ToleranceParams {
 }
 
 impl ToleranceParams {
-    /// Checks every field: `Err((field, problem))` with the field's dotted name.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+    /// Checks every field; the first bad one is named with its dotted name (`tolerance.…`).
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (name, v, hi) in [
             ("tolerance.k_sigma", self.k_sigma, 10.0),
             ("tolerance.min_xy_sigma_m", self.min_xy_sigma_m, 1.0),
@@ -76,7 +77,7 @@ impl ToleranceParams {
             ("tolerance.max_margin_m", self.max_margin_m, 1.0),
         ] {
             if !(v.is_finite() && (0.0..=hi).contains(&v)) {
-                return Err((name, format!("must lie in [0, {hi}], got {v}")));
+                return Err(ParamError::new(name, v, format!("must lie in [0, {hi}]")));
             }
         }
         Ok(())

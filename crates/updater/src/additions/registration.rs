@@ -28,6 +28,7 @@
 //! When refused, the step writes nothing (the localisation check still runs at the given pose).
 //! The refined pose is the updater's own: it never reaches the localiser.
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::geometry::floor_exact;
 use mapkeeper_grid::{CellState, DistanceField, GridGeometry, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
@@ -88,8 +89,9 @@ impl Default for RegistrationParams {
 }
 
 impl RegistrationParams {
-    /// Checks every field: `Err((field, problem))` with the field's dotted name.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+    /// Checks every field; the first bad one is named with its dotted name
+    /// (`registration.…`).
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (name, v) in [
             ("registration.yaw_search_rad", self.yaw_search_rad),
             ("registration.max_shift_m", self.max_shift_m),
@@ -97,7 +99,7 @@ impl RegistrationParams {
             ("registration.min_constraint", self.min_constraint),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err((name, format!("must be finite and >= 0, got {v}")));
+                return Err(ParamError::new(name, v, "must be finite and >= 0"));
             }
         }
         for (name, v) in [
@@ -107,32 +109,28 @@ impl RegistrationParams {
             ("registration.max_inlier_rmse_m", self.max_inlier_rmse_m),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err((name, format!("must be finite and > 0, got {v}")));
+                return Err(ParamError::new(name, v, "must be finite and > 0"));
             }
         }
         if self.yaw_search_rad > 0.5 || self.yaw_search_rad / self.yaw_step_rad > 200.0 {
-            return Err((
+            return Err(ParamError::new(
                 "registration.yaw_search_rad",
-                format!(
-                    "at most 0.5 rad and 200 steps of yaw_step_rad each side, got {} and {}",
-                    self.yaw_search_rad, self.yaw_step_rad
-                ),
+                format!("{} and {}", self.yaw_search_rad, self.yaw_step_rad),
+                "must be at most 0.5 rad and 200 steps of yaw_step_rad each side",
             ));
         }
         if !(0.0..=1.0).contains(&self.min_inlier_share) {
-            return Err((
-                "registration.min_inlier_share",
-                format!("must lie in [0, 1], got {}", self.min_inlier_share),
-            ));
+            return Err(ParamError::new("registration.min_inlier_share", self.min_inlier_share, "must lie in [0, 1]"));
         }
         if !(1..=100_000).contains(&self.max_points) || self.min_points > self.max_points {
-            return Err((
+            return Err(ParamError::new(
                 "registration.max_points",
-                format!("must lie in 1..=100000 and be >= min_points, got {} and {}", self.max_points, self.min_points),
+                format!("{} and {}", self.max_points, self.min_points),
+                "must lie in 1..=100000 and be >= min_points",
             ));
         }
         if !(1..=200).contains(&self.iterations) {
-            return Err(("registration.iterations", format!("must lie in 1..=200, got {}", self.iterations)));
+            return Err(ParamError::new("registration.iterations", self.iterations, "must lie in 1..=200"));
         }
         Ok(())
     }
@@ -718,9 +716,9 @@ mod tests {
     #[test]
     fn validate_names_the_field() {
         let p = RegistrationParams { inlier_m: -1.0, ..on() };
-        assert_eq!(p.validate().unwrap_err().0, "registration.inlier_m");
+        assert_eq!(p.validate().unwrap_err(), ParamError::new("registration.inlier_m", -1, "must be finite and > 0"));
         let p = RegistrationParams { min_points: 500, ..on() };
-        assert_eq!(p.validate().unwrap_err().0, "registration.max_points");
+        assert_eq!(p.validate().unwrap_err().name, "registration.max_points");
         assert!(on().validate().is_ok());
     }
 }

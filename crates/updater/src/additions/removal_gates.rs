@@ -7,25 +7,86 @@
 //! it, and a robot driving along a wall erodes it. The gates (each off in `paper` and `authors`,
 //! which leaves §4.3.1 as written; on in `mapkeeper`):
 //!
-//! - **hit clearance** (`removal_hit_clearance_m`, [`crate::support::hit_index`]): no vote for
+//! - **hit clearance** (`removal.hit_clearance_m`, [`crate::support::hit_index`]): no vote for
 //!   a cell whose centre lies within the clearance of a hit of the same step;
-//! - **grazing incidence** (`removal_min_incidence_rad`, [`crate::additions::grazing`]): no vote
+//! - **grazing incidence** (`removal.min_incidence_rad`, [`crate::additions::grazing`]): no vote
 //!   when the ray meets the cell's wall, or a free face of the cell, flatter than the minimum;
-//! - **ray core** (`removal_max_offset_cells`): no vote for a cell the ray passes further than
+//! - **ray core** (`removal.max_offset_cells`): no vote for a cell the ray passes further than
 //!   this from the centre of (it only clips a corner);
-//! - **shadow**: after a vote withheld by the first two, the rest of that run of non-free cells
-//!   gets no vote either (the ray is not trusted to have passed the surface), until the ray has
-//!   crossed [`SHADOW_CLEAR_CELLS`] free cells in a row (a one-cell gap between two stacked
-//!   boxes does not clear it).
+//! - **shadow** (`removal.shadow`): after a vote withheld by the first two, the rest of that run
+//!   of non-free cells gets no vote either (the ray is not trusted to have passed the surface),
+//!   until the ray has crossed [`SHADOW_CLEAR_CELLS`] free cells in a row (a one-cell gap
+//!   between two stacked boxes does not clear it).
 //!
+//! Their parameters are the `removal` section of [`UpdaterParams`] ([`RemovalParams`]).
 //! `tests/additions.rs` shows the failure each gate prevents.
 
 use crate::UpdaterParams;
 use crate::additions::grazing;
+use crate::params::inf_as_text;
 use crate::support::beam_walk::BeamGeometry;
 use crate::support::hit_index::HitIndex;
 use crate::support::removal_filter::RemovalFilter;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellCoord, OccupancyGrid, Point2};
+use serde::{Deserialize, Serialize};
+
+/// The gates on the removal vote (`UpdaterParams::removal`): all off by default (`paper`,
+/// `paper-strict`, `authors`); `mapkeeper` sets the hit clearance, the grazing gate and the
+/// shadow. Parameter files and records written before the section existed name these fields
+/// `removal_hit_clearance_m`, `removal_min_incidence_rad`, `removal_max_offset_cells` and
+/// `removal_shadow` at the top level; those names are still read (see [`UpdaterParams`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RemovalParams {
+    /// Hit clearance: a cell crossed by a detected-change ray gets no "changed" (removed) vote
+    /// when a beam of the same step hit a surface closer than this to the cell's centre,
+    /// metres; 0 disables the rule. It stops rays at grazing incidence from eroding the edge
+    /// cells of walls when the pose is a fraction of a cell off. Default 0 (`mapkeeper` 0.20).
+    pub hit_clearance_m: f64,
+    /// Grazing gate: a cell on the boundary of a wall of `M_{i-1}` gets no "changed" (removed)
+    /// vote from a ray that meets the wall at less than this angle (see the `grazing` module),
+    /// radians, at most π/2; 0 disables the gate. Default 0 (`mapkeeper` 10°, 0.1745).
+    pub min_incidence_rad: f64,
+    /// Ray core (off in every preset: it did not help on the tuning seeds): a cell gets a
+    /// "changed" (removed) vote only if the ray passes within this many cells of its centre, so
+    /// a ray that clips a corner of the cell does not vote it; `inf` disables. Default `inf`.
+    #[serde(with = "inf_as_text")]
+    pub max_offset_cells: f64,
+    /// Shadow of a withheld vote: after the hit clearance or the grazing gate withheld a vote,
+    /// the rest of that run of non-free cells gets none either. Default `false` (`mapkeeper`
+    /// `true`).
+    pub shadow: bool,
+}
+
+impl Default for RemovalParams {
+    fn default() -> Self {
+        Self { hit_clearance_m: 0.0, min_incidence_rad: 0.0, max_offset_cells: f64::INFINITY, shadow: false }
+    }
+}
+
+impl RemovalParams {
+    /// The gates of the `mapkeeper` presets: hit clearance 0.2 m, grazing gate 10°, shadow;
+    /// the ray core off.
+    pub fn mapkeeper() -> Self {
+        Self { hit_clearance_m: 0.20, min_incidence_rad: 10f64.to_radians(), shadow: true, ..Self::default() }
+    }
+
+    /// Checks every field; the first bad one is named `removal.…`.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let bad = |name: &str, v: f64, requirement: &str| Err(ParamError::new(name, v, requirement).within("removal"));
+        if !(self.hit_clearance_m.is_finite() && self.hit_clearance_m >= 0.0) {
+            return bad("hit_clearance_m", self.hit_clearance_m, "must be finite and >= 0");
+        }
+        if self.max_offset_cells.is_nan() || self.max_offset_cells <= 0.0 {
+            return bad("max_offset_cells", self.max_offset_cells, "must be > 0");
+        }
+        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.min_incidence_rad) {
+            return bad("min_incidence_rad", self.min_incidence_rad, "must be within 0..=pi/2");
+        }
+        Ok(())
+    }
+}
 
 /// Free cells in a row a ray must cross after a withheld vote before it votes again.
 pub const SHADOW_CLEAR_CELLS: i32 = 3;
@@ -80,9 +141,9 @@ impl<'a> RemovalGates<'a> {
             gy,
             sin_x: gx.abs() * inv_len,
             sin_y: gy.abs() * inv_len,
-            min_sin: params.removal_min_incidence_rad.sin(),
-            max_off_m: params.removal_max_offset_cells * base.geometry().resolution_m(),
-            shadow: params.removal_shadow,
+            min_sin: params.removal.min_incidence_rad.sin(),
+            max_off_m: params.removal.max_offset_cells * base.geometry().resolution_m(),
+            shadow: params.removal.shadow,
             shadowed: false,
             prev: None,
         }
@@ -144,6 +205,15 @@ mod tests {
     use crate::support::step_tolerance::StepTolerance;
     use mapkeeper_grid::{CellState, GridGeometry, Pose2, RayCaster};
 
+    #[test]
+    fn validate_names_the_field_its_value_and_the_requirement() {
+        assert!(RemovalParams::default().validate().is_ok() && RemovalParams::mapkeeper().validate().is_ok());
+        let e = RemovalParams { max_offset_cells: 0.0, ..RemovalParams::default() }.validate().unwrap_err();
+        assert_eq!(e, ParamError::new("removal.max_offset_cells", 0, "must be > 0"));
+        let e = RemovalParams { hit_clearance_m: f64::NAN, ..RemovalParams::mapkeeper() }.validate().unwrap_err();
+        assert_eq!(e.to_string(), "removal.hit_clearance_m must be finite and >= 0, got NaN");
+    }
+
     /// The changed evaluator's two walks (the plain one and the caster's, which skips open
     /// stretches) give the same votes through the gates.
     #[test]
@@ -172,7 +242,7 @@ mod tests {
         // A hit index holding some of the rays' end points: the gates run on both paths.
         let mut hits = HitIndex::new();
         hits.rebuild(
-            params.removal_hit_clearance_m,
+            params.removal.hit_clearance_m,
             (0..720).step_by(3).map(|k| {
                 let origin = g.grid_to_world(20.0 + (k % 7) as f64 * 25.3, 10.0 + (k % 5) as f64 * 31.7);
                 let a = k as f64 * 0.5f64.to_radians() + 0.001;

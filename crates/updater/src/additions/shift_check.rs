@@ -27,6 +27,7 @@
 //! almost none of a validation's, where `M_{i-1}` is kept current.
 
 use crate::paper::localisation_check::Verdict;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{DistanceField, Point2, Pose2};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 use serde::{Deserialize, Serialize};
@@ -103,8 +104,12 @@ impl ShiftCheckParams {
         *self == Self::default()
     }
 
-    /// Checks every field; the problem names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every field; the first bad one is named `shift_check.…`.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.check_fields().map_err(|e| e.within("shift_check"))
+    }
+
+    fn check_fields(&self) -> Result<(), ParamError> {
         for (name, v) in [
             ("search_xy_m", self.search_xy_m),
             ("search_yaw_rad", self.search_yaw_rad),
@@ -112,21 +117,26 @@ impl ShiftCheckParams {
             ("fit_ok_m", self.fit_ok_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("shift_check.{name} must be finite and ≥ 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and ≥ 0"));
             }
         }
         for (name, v) in
             [("step_xy_m", self.step_xy_m), ("step_yaw_rad", self.step_yaw_rad), ("truncate_m", self.truncate_m)]
         {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("shift_check.{name} must be finite and > 0, got {v}"));
+                return Err(ParamError::new(name, v, "must be finite and > 0"));
             }
         }
-        if self.search_xy_m / self.step_xy_m > 50.0 || self.search_yaw_rad / self.step_yaw_rad > 50.0 {
-            return Err("shift_check: more than 50 search steps each side".into());
+        for (name, search, step, step_name) in [
+            ("search_xy_m", self.search_xy_m, self.step_xy_m, "step_xy_m"),
+            ("search_yaw_rad", self.search_yaw_rad, self.step_yaw_rad, "step_yaw_rad"),
+        ] {
+            if search / step > 50.0 {
+                return Err(ParamError::new(name, search, format!("must be at most 50 steps of {step_name}")));
+            }
         }
         if !(1..=10_000).contains(&self.max_beams) {
-            return Err(format!("shift_check.max_beams must lie in 1..=10000, got {}", self.max_beams));
+            return Err(ParamError::new("max_beams", self.max_beams, "must lie in 1..=10000"));
         }
         Ok(())
     }
@@ -266,7 +276,10 @@ mod tests {
         assert!(wrong.best_pose.distance(&truth) < 0.11, "{wrong:?}");
         assert_eq!(combine(Verdict::Update, &wrong, &p), Verdict::Suspend, "a missed error is caught");
         assert_eq!(combine(Verdict::Lost, &wrong, &p), Verdict::Lost);
-        assert!(ShiftCheckParams { step_xy_m: 0.0, ..p }.validate().unwrap_err().contains("step_xy_m"));
+        let e = ShiftCheckParams { step_xy_m: 0.0, ..p }.validate().unwrap_err();
+        assert_eq!(e, ParamError::new("shift_check.step_xy_m", 0, "must be finite and > 0"));
+        let e = ShiftCheckParams { search_yaw_rad: 1.0, step_yaw_rad: 0.01, ..p }.validate().unwrap_err();
+        assert_eq!(e.to_string(), "shift_check.search_yaw_rad must be at most 50 steps of step_yaw_rad, got 1");
     }
 
     #[test]

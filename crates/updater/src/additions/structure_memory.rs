@@ -21,6 +21,7 @@
 //! scar; nothing for the cells that never changed. Records are kept sorted by cell index, so the
 //! memory is deterministic and serialisable.
 
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
 
@@ -48,27 +49,25 @@ impl Default for MemoryParams {
 }
 
 impl MemoryParams {
-    /// Checks the fields (against the buffer's size and threshold when enabled):
-    /// `Err((field, problem))` with the field's dotted name.
-    pub fn validate(&self, buffer_size: u32, change_threshold: u32) -> Result<(), (&'static str, String)> {
+    /// Checks the fields (against the buffer's size and threshold when enabled); the first bad
+    /// one is named with its dotted name (`memory.…`).
+    pub fn validate(&self, buffer_size: u32, change_threshold: u32) -> Result<(), ParamError> {
         if !(1..=255).contains(&self.established_after_worlds) {
-            return Err((
-                "memory.established_after_worlds",
-                format!("must lie in 1..=255, got {}", self.established_after_worlds),
-            ));
+            let worlds = self.established_after_worlds;
+            return Err(ParamError::new("memory.established_after_worlds", worlds, "must lie in 1..=255"));
         }
         if !(1..=255).contains(&self.scar_worlds) {
-            return Err(("memory.scar_worlds", format!("must lie in 1..=255, got {}", self.scar_worlds)));
+            return Err(ParamError::new("memory.scar_worlds", self.scar_worlds, "must lie in 1..=255"));
         }
         if !(1..=32).contains(&self.established_removal_threshold)
             || (self.enabled && !(change_threshold..=buffer_size).contains(&self.established_removal_threshold))
         {
-            return Err((
+            return Err(ParamError::new(
                 "memory.established_removal_threshold",
+                self.established_removal_threshold,
                 format!(
                     "must lie in 1..=32 and, with the memory enabled, in change_threshold..=buffer_size \
-                     ({change_threshold}..={buffer_size}), got {}",
-                    self.established_removal_threshold
+                     ({change_threshold}..={buffer_size})"
                 ),
             ));
         }
@@ -251,11 +250,11 @@ mod tests {
     #[test]
     fn validate_names_the_field() {
         let p = MemoryParams { enabled: true, established_removal_threshold: 11, ..MemoryParams::default() };
-        assert_eq!(p.validate(10, 7).unwrap_err().0, "memory.established_removal_threshold");
+        assert_eq!(p.validate(10, 7).unwrap_err().name, "memory.established_removal_threshold");
         // Off, the relation to the buffer is not checked (a preset with N_b = 7 stays valid).
         assert!(MemoryParams { enabled: false, ..p }.validate(7, 7).is_ok());
         let p = MemoryParams { scar_worlds: 0, ..p };
-        assert_eq!(p.validate(10, 7).unwrap_err().0, "memory.scar_worlds");
+        assert_eq!(p.validate(10, 7).unwrap_err(), ParamError::new("memory.scar_worlds", 0, "must lie in 1..=255"));
         assert!(MemoryParams::default().validate(10, 7).is_ok());
     }
 }

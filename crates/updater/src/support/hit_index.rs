@@ -2,7 +2,7 @@
 //! queries.
 //!
 //! Serves only the hit clearance of the removal vote (`additions::removal_gates`, a
-//! project addition, see `UpdaterParams::removal_hit_clearance_m`): a cell that a
+//! project addition, see `RemovalParams::hit_clearance_m`): a cell that a
 //! detected-change ray crosses is not
 //! voted "removed" when some beam of the same step hit a surface within the clearance of the
 //! cell's centre. The evidence of an occupied surface there is stronger than that of a ray

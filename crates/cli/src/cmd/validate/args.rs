@@ -49,7 +49,7 @@ pub struct Args {
     #[arg(long)]
     pub preset: Option<String>,
     /// TOML file overriding any field of the updater preset(s) (unknown keys are errors), e.g.
-    /// `removal_hit_clearance_m = 0.1`; recorded in summary.json with the preset's name.
+    /// `removal.hit_clearance_m = 0.1`; recorded in summary.json with the preset's name.
     #[arg(long, value_name = "FILE")]
     pub updater_params: Option<PathBuf>,
     /// A sweep over several presets (comma-separated, e.g. paper,always-update): jobs are

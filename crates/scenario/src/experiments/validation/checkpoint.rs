@@ -20,8 +20,10 @@ use std::path::{Path, PathBuf};
 /// retention and change classes; a version-1 checkpoint would resume without them, and the
 /// resumed outputs would differ from an uninterrupted run's. 3: the fingerprint's parameters no
 /// longer hold `runner.parallel_baseline` (a [`crate::RunOptions`]); a version-2 checkpoint
-/// would be refused as another run's instead of as an older one.
-const FORMAT: u32 = 3;
+/// would be refused as another run's instead of as an older one. 4: the updater's removal
+/// gates are the `removal` section of the fingerprint's parameters (they were flat fields);
+/// a version-3 checkpoint would likewise be refused as another run's.
+const FORMAT: u32 = 4;
 
 /// What computed a job: compared field for field before a checkpoint is used.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
