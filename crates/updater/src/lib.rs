@@ -120,7 +120,6 @@ mod updater;
 pub use additions::global_search::{GlobalSearchParams, GlobalSearchReport};
 pub use additions::pose_tolerance::{PoseSigma, StepTolerance, ToleranceParams};
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
-pub use additions::removal_gates::RemovalParams;
 pub use additions::shift_check::ShiftResult;
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
 pub use error::UpdaterError;
@@ -129,6 +128,7 @@ pub use paper::gating::GateReason;
 pub use paper::icp::Fitness;
 pub use paper::localisation_check::Verdict;
 pub use paper::pose_updating::{PoseRecovery, RecoveryFailure};
+pub use params::RemovalParams;
 pub use params::{
     FlagRule, PRESET_NAMES, PoseUpdatingParams, RevertRule, UnchangedHitRule, UpdateMethod, UpdaterParams,
 };

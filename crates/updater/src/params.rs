@@ -9,7 +9,6 @@ use crate::UpdaterError;
 use crate::additions::global_search::GlobalSearchParams;
 use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
-use crate::additions::removal_gates::RemovalParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
 use mapkeeper_common::ParamError;
@@ -767,5 +766,7 @@ pub mod inf_as_text {
 }
 
 mod legacy;
+mod removal;
+pub use removal::RemovalParams;
 #[cfg(test)]
 mod tests;

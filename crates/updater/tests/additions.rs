@@ -159,7 +159,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
             &base,
             &BeamGeometry::new(origin, hit, z),
             (&mapkeeper(), &StepTolerance::NONE),
-            |b| RemovalGates::new(&base, &mapkeeper(), &hits, b),
+            |b| RemovalGates::new(&base, &mapkeeper().removal, &hits, b),
             &mut votes,
         );
         let voted: Vec<CellCoord> = votes.iter().map(|v| g.coord((v >> 1) as usize)).collect();
@@ -175,7 +175,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
             &base,
             &BeamGeometry::new(origin, hit, z),
             (&unshadowed, &StepTolerance::NONE),
-            |b| RemovalGates::new(&base, &unshadowed, &hits, b),
+            |b| RemovalGates::new(&base, &unshadowed.removal, &hits, b),
             &mut votes,
         );
         assert!(votes.iter().any(|v| (b0..=b0 + 15).contains(&g.coord((v >> 1) as usize).iy)), "gap {gap}");
@@ -185,7 +185,7 @@ fn a_withheld_vote_shadows_the_obstacle_behind_it() {
             &base,
             &BeamGeometry::new(origin, hit, z),
             (&without_additions(), &StepTolerance::NONE),
-            |b| RemovalGates::new(&base, &without_additions(), &hits, b),
+            |b| RemovalGates::new(&base, &without_additions().removal, &hits, b),
             &mut votes,
         );
         assert!(votes.iter().any(|v| (20..=35).contains(&g.coord((v >> 1) as usize).iy)));

@@ -18,75 +18,16 @@
 //!   until the ray has crossed [`SHADOW_CLEAR_CELLS`] free cells in a row (a one-cell gap
 //!   between two stacked boxes does not clear it).
 //!
-//! Their parameters are the `removal` section of [`UpdaterParams`] ([`RemovalParams`]).
+//! Their parameters are the `removal` section of the updater's parameters
+//! ([`RemovalParams`], `crate::params::removal`).
 //! `tests/additions.rs` shows the failure each gate prevents.
 
-use crate::UpdaterParams;
 use crate::additions::grazing;
-use crate::params::inf_as_text;
+use crate::params::RemovalParams;
 use crate::support::beam_walk::BeamGeometry;
 use crate::support::hit_index::HitIndex;
 use crate::support::removal_filter::RemovalFilter;
-use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellCoord, OccupancyGrid, Point2};
-use serde::{Deserialize, Serialize};
-
-/// The gates on the removal vote (`UpdaterParams::removal`): all off by default (`paper`,
-/// `paper-strict`, `authors`); `mapkeeper` sets the hit clearance, the grazing gate and the
-/// shadow. Parameter files and records written before the section existed name these fields
-/// `removal_hit_clearance_m`, `removal_min_incidence_rad`, `removal_max_offset_cells` and
-/// `removal_shadow` at the top level; those names are still read (see [`UpdaterParams`]).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RemovalParams {
-    /// Hit clearance: a cell crossed by a detected-change ray gets no "changed" (removed) vote
-    /// when a beam of the same step hit a surface closer than this to the cell's centre,
-    /// metres; 0 disables the rule. It stops rays at grazing incidence from eroding the edge
-    /// cells of walls when the pose is a fraction of a cell off. Default 0 (`mapkeeper` 0.20).
-    pub hit_clearance_m: f64,
-    /// Grazing gate: a cell on the boundary of a wall of `M_{i-1}` gets no "changed" (removed)
-    /// vote from a ray that meets the wall at less than this angle (see the `grazing` module),
-    /// radians, at most π/2; 0 disables the gate. Default 0 (`mapkeeper` 10°, 0.1745).
-    pub min_incidence_rad: f64,
-    /// Ray core (off in every preset: it did not help on the tuning seeds): a cell gets a
-    /// "changed" (removed) vote only if the ray passes within this many cells of its centre, so
-    /// a ray that clips a corner of the cell does not vote it; `inf` disables. Default `inf`.
-    #[serde(with = "inf_as_text")]
-    pub max_offset_cells: f64,
-    /// Shadow of a withheld vote: after the hit clearance or the grazing gate withheld a vote,
-    /// the rest of that run of non-free cells gets none either. Default `false` (`mapkeeper`
-    /// `true`).
-    pub shadow: bool,
-}
-
-impl Default for RemovalParams {
-    fn default() -> Self {
-        Self { hit_clearance_m: 0.0, min_incidence_rad: 0.0, max_offset_cells: f64::INFINITY, shadow: false }
-    }
-}
-
-impl RemovalParams {
-    /// The gates of the `mapkeeper` presets: hit clearance 0.2 m, grazing gate 10°, shadow;
-    /// the ray core off.
-    pub fn mapkeeper() -> Self {
-        Self { hit_clearance_m: 0.20, min_incidence_rad: 10f64.to_radians(), shadow: true, ..Self::default() }
-    }
-
-    /// Checks every field; the first bad one is named `removal.…`.
-    pub fn validate(&self) -> Result<(), ParamError> {
-        let bad = |name: &str, v: f64, requirement: &str| Err(ParamError::new(name, v, requirement).within("removal"));
-        if !(self.hit_clearance_m.is_finite() && self.hit_clearance_m >= 0.0) {
-            return bad("hit_clearance_m", self.hit_clearance_m, "must be finite and >= 0");
-        }
-        if self.max_offset_cells.is_nan() || self.max_offset_cells <= 0.0 {
-            return bad("max_offset_cells", self.max_offset_cells, "must be > 0");
-        }
-        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&self.min_incidence_rad) {
-            return bad("min_incidence_rad", self.min_incidence_rad, "must be within 0..=pi/2");
-        }
-        Ok(())
-    }
-}
 
 /// Free cells in a row a ray must cross after a withheld vote before it votes again.
 pub const SHADOW_CLEAR_CELLS: i32 = 3;
@@ -121,9 +62,10 @@ pub struct RemovalGates<'a> {
 }
 
 impl<'a> RemovalGates<'a> {
-    /// The gates of `params` for `beam` over `base` = `M_{i-1}`; `hits` holds the step's
-    /// measured hit points (an empty index disables the hit clearance).
-    pub fn new(base: &'a OccupancyGrid, params: &UpdaterParams, hits: &'a HitIndex, beam: &BeamGeometry) -> Self {
+    /// The gates of `removal` (the `removal` section of the updater's parameters) for `beam`
+    /// over `base` = `M_{i-1}`; `hits` holds the step's measured hit points (an empty index
+    /// disables the hit clearance).
+    pub fn new(base: &'a OccupancyGrid, removal: &RemovalParams, hits: &'a HitIndex, beam: &BeamGeometry) -> Self {
         let (origin, hit) = (beam.origin, beam.hit);
         let (dx, dy) = (hit.x - origin.x, hit.y - origin.y);
         let inv_len = 1.0 / dx.hypot(dy).max(1e-12);
@@ -141,9 +83,9 @@ impl<'a> RemovalGates<'a> {
             gy,
             sin_x: gx.abs() * inv_len,
             sin_y: gy.abs() * inv_len,
-            min_sin: params.removal.min_incidence_rad.sin(),
-            max_off_m: params.removal.max_offset_cells * base.geometry().resolution_m(),
-            shadow: params.removal.shadow,
+            min_sin: removal.min_incidence_rad.sin(),
+            max_off_m: removal.max_offset_cells * base.geometry().resolution_m(),
+            shadow: removal.shadow,
             shadowed: false,
             prev: None,
         }
@@ -201,8 +143,10 @@ impl RemovalFilter for RemovalGates<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::UpdaterParams;
     use crate::paper::changed_cells::{evaluate_changed_beam, evaluate_changed_beam_cast};
     use crate::support::step_tolerance::StepTolerance;
+    use mapkeeper_common::ParamError;
     use mapkeeper_grid::{CellState, GridGeometry, Pose2, RayCaster};
 
     #[test]
@@ -258,12 +202,18 @@ mod tests {
             let (mut want, mut got) = (Vec::new(), Vec::new());
             let beam = BeamGeometry::new(origin, hit, z);
             let tol = StepTolerance::NONE;
-            evaluate_changed_beam(&m, &beam, (&params, &tol), |b| RemovalGates::new(&m, &params, &hits, b), &mut want);
+            evaluate_changed_beam(
+                &m,
+                &beam,
+                (&params, &tol),
+                |b| RemovalGates::new(&m, &params.removal, &hits, b),
+                &mut want,
+            );
             evaluate_changed_beam_cast(
                 &caster,
                 &beam,
                 (&params, &tol),
-                |b| RemovalGates::new(&m, &params, &hits, b),
+                |b| RemovalGates::new(&m, &params.removal, &hits, b),
                 &mut got,
             );
             assert_eq!(got, want, "ray {k}");

@@ -8,8 +8,8 @@
 //! wrong types and their messages (with the TOML key or the JSON line and column) are as they
 //! were.
 
+use super::RemovalParams;
 use super::{UpdaterParams, inf_as_text};
-use crate::additions::removal_gates::RemovalParams;
 use serde::de::value::MapAccessDeserializer;
 use serde::de::{DeserializeSeed, Deserializer, Error, IntoDeserializer, MapAccess, Visitor};
 use std::fmt;
