@@ -5,6 +5,7 @@
 //! experiments, `docs/recovery.md`). Each is a control or an observer of the harness loop.
 
 use crate::ExperimentError;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
 pub use mapkeeper_harness::lost::{LostCounts, LostEnd, LostEpisode, LostPolicy};
 use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, SessionStep, Step};
@@ -37,10 +38,10 @@ impl Kidnap {
         let finite = [self.at_s, self.dx_m, self.dy_m, self.dyaw_rad, self.sigma_xy_m, self.sigma_yaw_rad];
         if finite.iter().any(|v| !v.is_finite()) || self.at_s < 0.0 || self.sigma_xy_m < 0.0 || self.sigma_yaw_rad < 0.0
         {
-            return Err(ExperimentError::InvalidParam {
-                name: "kidnap",
-                problem: format!("needs finite values, at_s and sigmas ≥ 0, got {self:?}"),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::rule(
+                "kidnap",
+                format!("needs finite values, at_s and sigmas ≥ 0, got {self:?}"),
+            )));
         }
         Ok(())
     }
@@ -64,10 +65,10 @@ impl RobotKidnap {
             && self.at_s >= 0.0
             && [self.to.x, self.to.y, self.to.yaw].iter().all(|v| v.is_finite());
         if !ok {
-            return Err(ExperimentError::InvalidParam {
-                name: "robot_kidnap",
-                problem: format!("needs a finite at_s ≥ 0 and a finite pose, got {self:?}"),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::rule(
+                "robot_kidnap",
+                format!("needs a finite at_s ≥ 0 and a finite pose, got {self:?}"),
+            )));
         }
         Ok(())
     }
@@ -278,10 +279,10 @@ impl PoseErrorHold {
             && self.hold_s >= 0.0
             && [self.dx_m, self.dy_m, self.dyaw_rad].iter().all(|v| v.is_finite());
         if !ok {
-            return Err(ExperimentError::InvalidParam {
-                name: "pose_error",
-                problem: format!("needs finite offsets, at_s ≥ 0 and hold_s ≥ 0, got {self:?}"),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::rule(
+                "pose_error",
+                format!("needs finite offsets, at_s ≥ 0 and hold_s ≥ 0, got {self:?}"),
+            )));
         }
         Ok(())
     }

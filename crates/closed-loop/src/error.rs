@@ -2,19 +2,15 @@
 //! experiment ([`ExperimentError`]), and the checks the experiments' parameters share.
 
 use crate::worlds::WorldsError;
+use mapkeeper_common::ParamError;
 
 /// What can go wrong while running an experiment.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ExperimentError {
-    /// A parameter is out of range (checked once, at construction).
-    #[error("parameter {name} is invalid: {problem}")]
-    InvalidParam {
-        /// The field.
-        name: &'static str,
-        /// What is wrong.
-        problem: String,
-    },
+    /// A parameter is out of range (checked once, where a run starts).
+    #[error("parameter {} is invalid: {}", .0.name, .0.problem())]
+    InvalidParam(#[from] ParamError),
     /// The worlds or M_1 could not be made.
     #[error(transparent)]
     Worlds(#[from] WorldsError),
@@ -46,17 +42,15 @@ pub enum ExperimentError {
     },
 }
 
-/// The error for a parameter out of range: `name` is the field, `problem` what is wrong.
-pub fn invalid(name: &'static str, problem: String) -> ExperimentError {
-    ExperimentError::InvalidParam { name, problem }
-}
-
 /// Checks the largest turn an experiment draws (`name`: the parameter): at most a full turn.
 /// Angles wrap, so anything up to 2π is harmless; beyond, a draw's range of ±`v` could be of
 /// infinite width (rand panics).
 pub fn check_turn(name: &'static str, v: f64) -> Result<(), ExperimentError> {
     if v > std::f64::consts::TAU {
-        return Err(invalid(name, format!("must be at most 2π (a full turn), got {v:e}")));
+        return Err(ExperimentError::from(ParamError::rule(
+            name,
+            format!("must be at most 2π (a full turn), got {v:e}"),
+        )));
     }
     Ok(())
 }
@@ -68,14 +62,20 @@ pub fn check_turn(name: &'static str, v: f64) -> Result<(), ExperimentError> {
 /// the random draws along the route.
 pub fn check_route(name: &'static str, route: &mapkeeper_sim::Route, min_points: usize) -> Result<(), ExperimentError> {
     if let Some((entry, problem)) = route.problem() {
-        return Err(invalid(name, format!("{entry}: {problem}")));
+        return Err(ExperimentError::from(ParamError::rule(name, format!("{entry}: {problem}"))));
     }
     if route.waypoints.len() < min_points {
-        return Err(invalid(name, format!("needs at least {min_points} waypoints, got {}", route.waypoints.len())));
+        return Err(ExperimentError::from(ParamError::rule(
+            name,
+            format!("needs at least {min_points} waypoints, got {}", route.waypoints.len()),
+        )));
     }
     let length = route.length_m();
     if !length.is_finite() {
-        return Err(invalid(name, format!("its length must be finite, got {length} m")));
+        return Err(ExperimentError::from(ParamError::rule(
+            name,
+            format!("its length must be finite, got {length} m"),
+        )));
     }
     Ok(())
 }

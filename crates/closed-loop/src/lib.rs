@@ -38,7 +38,7 @@ pub use controls::{
     Kidnap, KidnapControl, KidnapRecord, LostCounts, LostEnd, LostEpisode, LostPolicy, TimelineRecorder,
     TimelineSample, TrackSample,
 };
-pub use error::{ExperimentError, check_route, check_turn, invalid};
+pub use error::{ExperimentError, check_route, check_turn};
 pub use pose_oracle::{PoseNoise, UpdaterPoses};
 pub use runner::{
     Checked, Clock, ErrorSample, Execution, LocStats, NoClock, RunInputs, RunOptions, RunnerParams, Trajectories,

@@ -26,6 +26,7 @@
 //! ```
 
 use crate::ExperimentError;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
 use mapkeeper_harness::{Control, HarnessError, Observer, RobotControl, Session, SessionStep, Step};
 use mapkeeper_sim::seeds::stream_rng;
@@ -156,18 +157,16 @@ impl PoseNoise {
             ("updater_poses.yaw_bias_sigma_rad", self.yaw_bias_sigma_rad),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(ExperimentError::InvalidParam {
-                    name,
-                    problem: format!("must be finite and ≥ 0, got {v}"),
-                });
+                return Err(ExperimentError::InvalidParam(ParamError::new(name, v, "must be finite and ≥ 0")));
             }
         }
         let tau = self.yaw_bias_tau_s;
         if !(tau.is_finite() && tau > 0.0) {
-            return Err(ExperimentError::InvalidParam {
-                name: "updater_poses.yaw_bias_tau_s",
-                problem: format!("must be finite and > 0 s, got {tau}"),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::new(
+                "updater_poses.yaw_bias_tau_s",
+                tau,
+                "must be finite and > 0 s",
+            )));
         }
         Ok(())
     }
@@ -399,7 +398,7 @@ mod tests {
             let mut n = PoseNoise::default();
             f(&mut n);
             match UpdaterPoses::TrueNoise(n).validate() {
-                Err(ExperimentError::InvalidParam { name, .. }) => name,
+                Err(ExperimentError::InvalidParam(e)) => e.name,
                 other => panic!("{n:?} accepted: {other:?}"),
             }
         };

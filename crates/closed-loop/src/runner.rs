@@ -19,6 +19,7 @@ use crate::controls::{
 };
 use crate::pose_oracle::{GivenPoseError, GivenPoseStats, PoseOracle, UpdaterPoses};
 use crate::sim_source::{SimSource, Simulated};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_harness::jobs::map::{EstimateMapper, ThreadedEstimateMapper};
 use mapkeeper_harness::{Baseline, Control, LocScore, Observer, PoseSource, Session, UpdaterWork};
@@ -228,33 +229,27 @@ impl RunnerParams {
     /// Checks every field (and the components' own parameters).
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if !mapkeeper_localiser::LOCALISER_PRESETS.contains(&self.localiser.as_str()) {
-            return Err(ExperimentError::InvalidParam {
-                name: "localiser",
-                problem: format!(
+            return Err(ExperimentError::InvalidParam(ParamError::rule(
+                "localiser",
+                format!(
                     "unknown localiser preset '{}' (known: {})",
                     self.localiser,
                     mapkeeper_localiser::LOCALISER_PRESETS.join(", ")
                 ),
-            });
+            )));
         }
         self.sim.validate()?;
         self.filter.validate()?;
         self.updater.validate()?;
         if let Some(f) = &self.fresh_map {
             if f.scan_stride == 0 {
-                return Err(ExperimentError::InvalidParam {
-                    name: "fresh_map.scan_stride",
-                    problem: "must be ≥ 1".into(),
-                });
+                return Err(ExperimentError::InvalidParam(ParamError::rule("fresh_map.scan_stride", "must be ≥ 1")));
             }
             f.mapper
                 .validate()
-                .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map.mapper", problem: e.to_string() })?;
+                .map_err(|e| ExperimentError::InvalidParam(ParamError::rule("fresh_map.mapper", e.to_string())))?;
         }
-        let bad = |name, v: f64| ExperimentError::InvalidParam {
-            name,
-            problem: format!("must be finite and ≥ 0, got {v}"),
-        };
+        let bad = |name, v: f64| ExperimentError::InvalidParam(ParamError::new(name, v, "must be finite and ≥ 0"));
         for (name, v) in [
             ("start_error_m", self.start_error_m),
             ("start_error_yaw_rad", self.start_error_yaw_rad),
@@ -277,10 +272,10 @@ impl RunnerParams {
         }
         if let Some(r) = &self.robot_kidnap {
             if self.kidnap.is_some() {
-                return Err(ExperimentError::InvalidParam {
-                    name: "robot_kidnap",
-                    problem: "a run has one kidnap: of the estimate (kidnap) or of the robot (robot_kidnap)".into(),
-                });
+                return Err(ExperimentError::InvalidParam(ParamError::rule(
+                    "robot_kidnap",
+                    "a run has one kidnap: of the estimate (kidnap) or of the robot (robot_kidnap)",
+                )));
             }
             r.validate()?;
         }
@@ -480,7 +475,7 @@ fn fresh_mapper(
 ) -> Result<Option<FreshMapper>, ExperimentError> {
     let Some(f) = params.fresh_map else { return Ok(None) };
     let m = EstimateMapper::new(*prev_map.geometry(), f.mapper, u64::from(f.scan_stride))
-        .map_err(|e| ExperimentError::InvalidParam { name: "fresh_map", problem: e.to_string() })?;
+        .map_err(|e| ExperimentError::InvalidParam(ParamError::rule("fresh_map", e.to_string())))?;
     Ok(Some(if threaded { FreshMapper::Threaded(ThreadedEstimateMapper::spawn(m)) } else { FreshMapper::Inline(m) }))
 }
 

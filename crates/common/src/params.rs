@@ -43,6 +43,13 @@ impl ParamError {
         Self { name: name.into(), value: value.to_string(), requirement: requirement.into() }
     }
 
+    /// `name` breaks `requirement`, a rule the requirement states whole: one between fields
+    /// (`must not exceed max_error_m`), or one whose value the requirement already shows
+    /// (`needs finite values, got Kidnap { … }`), with no single value to name apart.
+    pub fn rule(name: impl Into<String>, requirement: impl Into<String>) -> Self {
+        Self { name: name.into(), value: String::new(), requirement: requirement.into() }
+    }
+
     /// The same error with `section.` before the name: for a field of a section (a nested
     /// struct), reported by the section's own `validate`.
     #[must_use]

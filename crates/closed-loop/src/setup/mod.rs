@@ -12,6 +12,7 @@ use crate::controls::TrackSample;
 use crate::runner::{NoClock, RunInputs, RunnerParams, WorldRun, run_world};
 use crate::worlds::generator::{WorldChain, generate_worlds};
 use crate::worlds::mapping::build_initial_map;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sim::{Route, StartPose, World, ground_truth_map};
 use params::{InitialMapKind, RecoveryParams, SuccessCriterion};
@@ -34,10 +35,10 @@ impl Setup {
     pub fn world(&self, i: usize) -> Result<(&World, &OccupancyGrid), ExperimentError> {
         match (self.chain.worlds.get(i.wrapping_sub(1)), self.ground_truth.get(i.wrapping_sub(1))) {
             (Some(w), Some(g)) => Ok((w, g)),
-            _ => Err(ExperimentError::InvalidParam {
-                name: "world",
-                problem: format!("W_{i} was not generated ({} worlds)", self.chain.worlds.len()),
-            }),
+            _ => Err(ExperimentError::InvalidParam(ParamError::rule(
+                "world",
+                format!("W_{i} was not generated ({} worlds)", self.chain.worlds.len()),
+            ))),
         }
     }
 

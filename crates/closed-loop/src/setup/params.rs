@@ -4,7 +4,8 @@ use crate::ExperimentError;
 use crate::runner::RunnerParams;
 use crate::worlds::generator::GeneratorParams;
 use crate::worlds::mapping::MappingParams;
-use crate::{check_route, check_turn, invalid};
+use crate::{check_route, check_turn};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::metrics::MetricParams;
 use mapkeeper_sim::Route;
 use serde::{Deserialize, Serialize};
@@ -281,11 +282,19 @@ impl Default for RecoveryParams {
 }
 
 fn check_pos(name: &'static str, v: f64) -> Result<(), ExperimentError> {
-    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(invalid(name, format!("must be finite and > 0, got {v}"))) }
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ExperimentError::from(ParamError::new(name, v, "must be finite and > 0")))
+    }
 }
 
 fn check_non_neg(name: &'static str, v: f64) -> Result<(), ExperimentError> {
-    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(invalid(name, format!("must be finite and ≥ 0, got {v}"))) }
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(ExperimentError::from(ParamError::new(name, v, "must be finite and ≥ 0")))
+    }
 }
 
 impl RecoveryParams {
@@ -308,7 +317,7 @@ impl RecoveryParams {
         check_route("exploration_route", &self.exploration_route, 1)?;
         check_route("tour", &self.tour, 2)?;
         if self.tour.length_m() <= 0.0 {
-            return Err(invalid("tour", "the tour has zero length".into()));
+            return Err(ExperimentError::from(ParamError::rule("tour", "the tour has zero length")));
         }
         self.runner.validate()?;
         self.generator.validate()?;
@@ -325,7 +334,7 @@ impl RecoveryParams {
             ("kidnap.stale_max_world", self.kidnap.stale_max_world),
         ] {
             if !(2..=1000).contains(&w) {
-                return Err(invalid(name, format!("must lie in 2..=1000, got {w}")));
+                return Err(ExperimentError::from(ParamError::new(name, w, "must lie in 2..=1000")));
             }
         }
         let d = &self.demo;
@@ -335,7 +344,7 @@ impl RecoveryParams {
             ("lost.tour_position_m", self.lost.tour_position_m),
         ] {
             if !v.is_finite() {
-                return Err(invalid(name, format!("must be finite, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite")));
             }
         }
         check_non_neg("demo.start_error_m", d.start_error_m)?;
@@ -357,14 +366,17 @@ impl RecoveryParams {
         check_non_neg("kidnap.min_displacement_m", k.min_displacement_m)?;
         check_non_neg("kidnap.max_displacement_m", k.max_displacement_m)?;
         if k.min_displacement_m > k.max_displacement_m {
-            return Err(invalid("kidnap.min_displacement_m", "must not exceed max_displacement_m".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "kidnap.min_displacement_m",
+                "must not exceed max_displacement_m",
+            )));
         }
         check_non_neg("kidnap.max_yaw_rad", k.max_yaw_rad)?;
         check_turn("kidnap.max_yaw_rad", k.max_yaw_rad)?;
         check_non_neg("kidnap.kidnap_min_s", k.kidnap_min_s)?;
         check_non_neg("kidnap.kidnap_max_s", k.kidnap_max_s)?;
         if k.kidnap_min_s > k.kidnap_max_s {
-            return Err(invalid("kidnap.kidnap_min_s", "must not exceed kidnap_max_s".into()));
+            return Err(ExperimentError::from(ParamError::rule("kidnap.kidnap_min_s", "must not exceed kidnap_max_s")));
         }
         check_pos("kidnap.recovery_window_s", k.recovery_window_s)?;
         check_non_neg("kidnap.sigma_xy_m", k.sigma_xy_m)?;
@@ -374,7 +386,10 @@ impl RecoveryParams {
             || k.bin_edges_m.iter().any(|v| !v.is_finite())
             || k.bin_edges_m.windows(2).any(|w| w[0] >= w[1])
         {
-            return Err(invalid("kidnap.bin_edges_m", "needs at least two finite, increasing edges".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "kidnap.bin_edges_m",
+                "needs at least two finite, increasing edges",
+            )));
         }
         Ok(())
     }

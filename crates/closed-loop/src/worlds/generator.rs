@@ -12,6 +12,7 @@
 
 use crate::worlds::WorldsError;
 use crate::worlds::outline::Outline;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::Point2;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_sim::{MovableItem, MovableKind, Route, Shape, World};
@@ -164,7 +165,7 @@ impl Default for GeneratorParams {
 impl GeneratorParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), WorldsError> {
-        let bad = |name, problem: String| Err(WorldsError::InvalidParam { name, problem });
+        let bad = |name, problem: String| Err(WorldsError::InvalidParam(ParamError::rule(name, problem)));
         if self.min_edits_per_world < 1 || self.max_edits_per_world < self.min_edits_per_world {
             return bad(
                 "min_edits_per_world",
@@ -493,7 +494,7 @@ pub fn generate_worlds(
 ) -> Result<WorldChain, WorldsError> {
     params.validate()?;
     if count == 0 {
-        return Err(WorldsError::InvalidParam { name: "worlds", problem: "need at least one world".into() });
+        return Err(WorldsError::InvalidParam(ParamError::rule("worlds", "need at least one world")));
     }
     let ctx = Context::new(base, route);
     let mut rng = stream_rng(seed, "generator");

@@ -4,6 +4,7 @@
 
 use crate::sim_source::SimSource;
 use crate::worlds::WorldsError;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::{GridGeometry, OccupancyGrid};
 use mapkeeper_harness::jobs::map::TruthMapper;
@@ -49,13 +50,14 @@ impl MappingParams {
     pub fn validate(&self) -> Result<(), WorldsError> {
         self.mapper.validate()?;
         if self.scan_stride == 0 {
-            return Err(WorldsError::InvalidParam { name: "scan_stride", problem: "must be ≥ 1".into() });
+            return Err(WorldsError::InvalidParam(ParamError::rule("scan_stride", "must be ≥ 1")));
         }
         if !(self.max_sim_time_s.is_finite() && self.max_sim_time_s > 0.0) {
-            return Err(WorldsError::InvalidParam {
-                name: "max_sim_time_s",
-                problem: format!("must be a finite time > 0 s, got {}", self.max_sim_time_s),
-            });
+            return Err(WorldsError::InvalidParam(ParamError::new(
+                "max_sim_time_s",
+                self.max_sim_time_s,
+                "must be a finite time > 0 s",
+            )));
         }
         Ok(())
     }

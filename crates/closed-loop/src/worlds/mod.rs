@@ -12,14 +12,9 @@ pub mod site;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum WorldsError {
-    /// A parameter is out of range (checked once, at construction).
-    #[error("parameter {name} is invalid: {problem}")]
-    InvalidParam {
-        /// The field.
-        name: &'static str,
-        /// What is wrong.
-        problem: String,
-    },
+    /// A parameter is out of range (checked once, where a run starts).
+    #[error("parameter {} is invalid: {}", .0.name, .0.problem())]
+    InvalidParam(#[from] mapkeeper_common::ParamError),
     /// The simulator refused a world or its parameters.
     #[error(transparent)]
     Sim(#[from] mapkeeper_sim::SimError),

@@ -10,10 +10,10 @@
 //! Never so within the run (ended by `max_sim_time_s` or the route's end): not converged.
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::stats::median;
 use mapkeeper_closed_loop::runner::{RunInputs, RunnerParams, run_world};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::OccupancyGrid;
 use mapkeeper_harness::NoClock;
 use mapkeeper_localiser::FilterParams;
@@ -65,23 +65,26 @@ impl ConvergenceParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.localisers.is_empty() || self.seeds.is_empty() || self.errors_m.is_empty() {
-            return Err(invalid("localisers/seeds/errors", "each needs at least one entry".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "localisers/seeds/errors",
+                "each needs at least one entry",
+            )));
         }
         for l in &self.localisers {
             RunnerParams::default().set_localiser(l)?;
         }
         if !(self.filters.is_empty() || self.filters.len() == self.localisers.len()) {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::rule(
                 "filters",
                 format!("{} given for {} localisers", self.filters.len(), self.localisers.len()),
-            ));
+            )));
         }
         for f in &self.filters {
             f.validate()?;
         }
         crate::experiments::check_route("route", &self.route, 1)?;
         if let Some(e) = self.errors_m.iter().find(|e| !(e.is_finite() && **e >= 0.0)) {
-            return Err(invalid("errors", format!("must be finite distances ≥ 0 m, got {e}")));
+            return Err(ExperimentError::from(ParamError::new("errors", e, "must be finite distances ≥ 0 m")));
         }
         for (name, v) in [
             ("threshold_m", self.threshold_m),
@@ -89,11 +92,11 @@ impl ConvergenceParams {
             ("resolution_m", self.resolution_m),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(name, format!("must be finite and > 0, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite and > 0")));
             }
         }
         if !(self.hold_s.is_finite() && self.hold_s >= 0.0) {
-            return Err(invalid("hold_s", format!("must be finite and ≥ 0, got {}", self.hold_s)));
+            return Err(ExperimentError::from(ParamError::new("hold_s", self.hold_s, "must be finite and ≥ 0")));
         }
         Ok(())
     }

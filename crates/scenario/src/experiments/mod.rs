@@ -18,4 +18,4 @@ pub mod table1_hold;
 pub mod validation;
 
 pub use mapkeeper_closed_loop::ExperimentError;
-pub(crate) use mapkeeper_closed_loop::{check_route, check_turn, invalid};
+pub(crate) use mapkeeper_closed_loop::{check_route, check_turn};

@@ -20,12 +20,12 @@
 pub mod report;
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::stats::median;
 use mapkeeper_closed_loop::controls::{PoseErrorHold, TimelineSample};
 use mapkeeper_closed_loop::setup::params::RecoveryParams;
 use mapkeeper_closed_loop::setup::{Setup, prepare};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_common::ParamError;
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
 use mapkeeper_updater::{UpdaterParams, Verdict};
@@ -97,19 +97,28 @@ impl CheckDetectionParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.presets.is_empty() {
-            return Err(invalid("check_detection.presets", "needs at least one preset".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "check_detection.presets",
+                "needs at least one preset",
+            )));
         }
         for p in &self.presets {
-            UpdaterParams::preset(p).map_err(|e| invalid("check_detection.presets", e.to_string()))?;
+            UpdaterParams::preset(p)
+                .map_err(|e| ExperimentError::from(ParamError::rule("check_detection.presets", e.to_string())))?;
         }
         if !(2..=1000).contains(&self.max_world) {
-            return Err(invalid("check_detection.max_world", format!("must lie in 2..=1000, got {}", self.max_world)));
+            return Err(ExperimentError::from(ParamError::new(
+                "check_detection.max_world",
+                self.max_world,
+                "must lie in 2..=1000",
+            )));
         }
         if !(0.0..=1.0).contains(&self.zero_error_share) {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::new(
                 "check_detection.zero_error_share",
-                format!("must lie in [0, 1], got {}", self.zero_error_share),
-            ));
+                self.zero_error_share,
+                "must lie in [0, 1]",
+            )));
         }
         for (name, v) in [
             ("check_detection.max_error_m", self.max_error_m),
@@ -120,25 +129,28 @@ impl CheckDetectionParams {
             ("check_detection.clean_max_yaw_rad", self.clean_max_yaw_rad),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(name, format!("must be finite and ≥ 0, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite and ≥ 0")));
             }
         }
         for (name, v) in
             [("check_detection.window_s", self.window_s), ("check_detection.detect_within_s", self.detect_within_s)]
         {
             if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(name, format!("must be finite and > 0, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite and > 0")));
             }
         }
         if self.clean_max_error_m >= self.detect_min_error_m {
-            return Err(invalid("check_detection.clean_max_error_m", "must be below detect_min_error_m".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "check_detection.clean_max_error_m",
+                "must be below detect_min_error_m",
+            )));
         }
         let b = &self.error_bins_m;
         if b.first() != Some(&0.0) || b.windows(2).any(|w| w[1] <= w[0]) || b.iter().any(|v| !v.is_finite()) {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::rule(
                 "check_detection.error_bins_m",
                 format!("must be finite, increasing, from 0, got {b:?}"),
-            ));
+            )));
         }
         Ok(())
     }

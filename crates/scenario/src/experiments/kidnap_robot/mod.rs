@@ -13,7 +13,6 @@
 pub mod report;
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::experiments::scores::Scores;
 use crate::experiments::scores::scores;
 use crate::stats::{frac, mean, median, percentile};
@@ -21,6 +20,7 @@ use mapkeeper_closed_loop::controls::{RobotKidnap, TimelineSample, TrackSample};
 use mapkeeper_closed_loop::setup::params::RecoveryParams;
 use mapkeeper_closed_loop::setup::{Setup, prepare, recovery_time};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
@@ -102,14 +102,15 @@ impl KidnapRobotParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.trials == 0 {
-            return Err(invalid("kidnap_robot.trials", "must be ≥ 1".into()));
+            return Err(ExperimentError::from(ParamError::rule("kidnap_robot.trials", "must be ≥ 1")));
         }
-        UpdaterParams::preset(&self.preset).map_err(|e| invalid("kidnap_robot.preset", e.to_string()))?;
+        UpdaterParams::preset(&self.preset)
+            .map_err(|e| ExperimentError::from(ParamError::rule("kidnap_robot.preset", e.to_string())))?;
         if self.min_world < 2 || self.min_world > self.max_world || self.max_world > 1000 {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::rule(
                 "kidnap_robot.min_world",
                 format!("needs 2 ≤ min_world ≤ max_world ≤ 1000, got {}..{}", self.min_world, self.max_world),
-            ));
+            )));
         }
         for (name, v) in [
             ("kidnap_robot.min_displacement_m", self.min_displacement_m),
@@ -122,7 +123,7 @@ impl KidnapRobotParams {
             ("kidnap_robot.well_localised_max_yaw_rad", self.well_localised_max_yaw_rad),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(name, format!("must be finite and ≥ 0, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite and ≥ 0")));
             }
         }
         for (name, v) in [
@@ -130,18 +131,21 @@ impl KidnapRobotParams {
             ("kidnap_robot.route_length_m", self.route_length_m),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(name, format!("must be finite and > 0, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite and > 0")));
             }
         }
         if self.min_displacement_m > self.max_displacement_m || self.kidnap_min_s > self.kidnap_max_s {
-            return Err(invalid("kidnap_robot.min_displacement_m", "ranges need min ≤ max".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "kidnap_robot.min_displacement_m",
+                "ranges need min ≤ max",
+            )));
         }
         crate::experiments::check_turn("kidnap_robot.max_yaw_rad", self.max_yaw_rad)?;
         if self.free_radius_m > MAX_FREE_RADIUS_M {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::rule(
                 "kidnap_robot.free_radius_m",
                 format!("must be at most {MAX_FREE_RADIUS_M} m, got {}", self.free_radius_m),
-            ));
+            )));
         }
         Ok(())
     }

@@ -14,7 +14,6 @@
 pub mod report;
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::experiments::scores::Scores;
 use crate::experiments::scores::{mean_scores, scores};
 use crate::stats::{mean, paired_diff};
@@ -22,6 +21,7 @@ use mapkeeper_closed_loop::controls::{Kidnap, PoseErrorHold};
 use mapkeeper_closed_loop::setup::params::RecoveryParams;
 use mapkeeper_closed_loop::setup::{Setup, prepare};
 use mapkeeper_closed_loop::trials::{Trials, run_each, run_trials};
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
@@ -89,16 +89,20 @@ impl Table1HoldParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.trials == 0 {
-            return Err(invalid("table1.trials", "must be ≥ 1".into()));
+            return Err(ExperimentError::from(ParamError::rule("table1.trials", "must be ≥ 1")));
         }
         if self.presets.is_empty() {
-            return Err(invalid("table1.presets", "needs at least one preset".into()));
+            return Err(ExperimentError::from(ParamError::rule("table1.presets", "needs at least one preset")));
         }
         for p in &self.presets {
-            UpdaterParams::preset(p).map_err(|e| invalid("table1.presets", e.to_string()))?;
+            UpdaterParams::preset(p)
+                .map_err(|e| ExperimentError::from(ParamError::rule("table1.presets", e.to_string())))?;
         }
         if self.holds_s.is_empty() || self.holds_s.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
-            return Err(invalid("table1.holds_s", format!("needs finite values ≥ 0, got {:?}", self.holds_s)));
+            return Err(ExperimentError::from(ParamError::rule(
+                "table1.holds_s",
+                format!("needs finite values ≥ 0, got {:?}", self.holds_s),
+            )));
         }
         for (name, v) in [
             ("table1.amcl_start_error_m", self.amcl_start_error_m),
@@ -108,11 +112,11 @@ impl Table1HoldParams {
             ("table1.route_length_m", self.route_length_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(name, format!("must be finite and ≥ 0, got {v}")));
+                return Err(ExperimentError::from(ParamError::new(name, v, "must be finite and ≥ 0")));
             }
         }
         if self.min_error_m > self.max_error_m {
-            return Err(invalid("table1.min_error_m", "must not exceed max_error_m".into()));
+            return Err(ExperimentError::from(ParamError::rule("table1.min_error_m", "must not exceed max_error_m")));
         }
         Ok(())
     }

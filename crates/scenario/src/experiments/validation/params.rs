@@ -5,6 +5,7 @@ use crate::experiments::ExperimentError;
 use mapkeeper_closed_loop::runner::{FreshMapParams, RunnerParams};
 use mapkeeper_closed_loop::worlds::generator::GeneratorParams;
 use mapkeeper_closed_loop::worlds::mapping::MappingParams;
+use mapkeeper_common::ParamError;
 use mapkeeper_grid::Point2;
 use mapkeeper_grid::metrics::MetricParams;
 use mapkeeper_sim::Route;
@@ -188,31 +189,34 @@ impl ValidationParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.update_every == 0 || self.update_every > 10_000 {
-            return Err(ExperimentError::InvalidParam {
-                name: "update_every",
-                problem: format!("must lie in 1..=10000, got {}", self.update_every),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::new(
+                "update_every",
+                self.update_every,
+                "must lie in 1..=10000",
+            )));
         }
         if self.worlds < 2 {
-            return Err(ExperimentError::InvalidParam {
-                name: "worlds",
-                problem: format!("need at least 2 worlds, got {}", self.worlds),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::new(
+                "worlds",
+                self.worlds,
+                "need at least 2 worlds",
+            )));
         }
         if !(self.resolution_m.is_finite() && self.resolution_m > 0.0) {
-            return Err(ExperimentError::InvalidParam {
-                name: "resolution_m",
-                problem: format!("must be a finite length > 0 m, got {}", self.resolution_m),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::new(
+                "resolution_m",
+                self.resolution_m,
+                "must be a finite length > 0 m",
+            )));
         }
         crate::experiments::check_route("route", &self.route, 1)?;
         crate::experiments::check_route("exploration_route", &self.exploration_route, 1)?;
         self.runner.validate()?;
         if self.runner.fresh_map.is_none() {
-            return Err(ExperimentError::InvalidParam {
-                name: "runner.fresh_map",
-                problem: "the validation scores a fresh map of every run: give its mapper and stride".into(),
-            });
+            return Err(ExperimentError::InvalidParam(ParamError::rule(
+                "runner.fresh_map",
+                "the validation scores a fresh map of every run: give its mapper and stride",
+            )));
         }
         self.generator.validate()?;
         self.mapping.validate()?;

@@ -3,11 +3,11 @@
 //! caller's rayon pool, collected in job order), and the runs of one preset.
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::experiments::validation::checkpoint::Checkpoints;
 use crate::experiments::validation::{SeedRun, Shard, ValidationParams, ValidationRun, run_seed};
 use mapkeeper_closed_loop::runner::{Clock, Execution, NoClock, RunOptions};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_common::ParamError;
 use mapkeeper_sim::World;
 use std::path::PathBuf;
 
@@ -58,14 +58,17 @@ impl SweepSpec {
     /// Checks the spec and lists the jobs.
     pub fn plan(&self) -> Result<SweepPlan, ExperimentError> {
         if self.seeds == 0 {
-            return Err(invalid("seeds", "must be at least 1".into()));
+            return Err(ExperimentError::from(ParamError::rule("seeds", "must be at least 1")));
         }
         let presets = &self.presets;
         if presets.is_empty() || presets.iter().any(|p| p.trim().is_empty()) {
-            return Err(invalid("presets", "needs preset names separated by commas".into()));
+            return Err(ExperimentError::from(ParamError::rule("presets", "needs preset names separated by commas")));
         }
         if let Some((i, p)) = presets.iter().enumerate().find(|(i, p)| presets[..*i].contains(p)) {
-            return Err(invalid("presets", format!("names '{p}' twice (entry {})", i + 1)));
+            return Err(ExperimentError::from(ParamError::rule(
+                "presets",
+                format!("names '{p}' twice (entry {})", i + 1),
+            )));
         }
         let mut params = Vec::with_capacity(presets.len());
         for preset in presets {
@@ -77,7 +80,11 @@ impl SweepSpec {
             }
             if let Some(len) = self.route_length_m {
                 if !(len.is_finite() && len > 0.0) {
-                    return Err(invalid("route_length", format!("must be a positive number of metres, got {len}")));
+                    return Err(ExperimentError::from(ParamError::new(
+                        "route_length",
+                        len,
+                        "must be a positive number of metres",
+                    )));
                 }
                 p.route = ValidationParams::truncated_route(&p.route, len);
             }
@@ -85,16 +92,16 @@ impl SweepSpec {
         }
         let seeds: Vec<u64> = (0..self.seeds).map(|k| self.first_seed.saturating_add(k)).collect();
         if seeds.windows(2).any(|w| w[0] == w[1]) {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::rule(
                 "seeds",
                 format!("seed {} with {} seeds runs past the largest seed", self.first_seed, self.seeds),
-            ));
+            )));
         }
         let all: Vec<(usize, u64)> = (0..presets.len()).flat_map(|p| seeds.iter().map(move |&s| (p, s))).collect();
         let jobs = match self.shard {
             None => all,
             Some(sh) => sh.slice(&all).map(<[_]>::to_vec).ok_or_else(|| {
-                invalid(
+                ExperimentError::from(ParamError::rule(
                     "shard",
                     format!(
                         "{}/{}: {} job(s) ({} preset(s) × {} seed(s)) cannot make {} non-empty shards",
@@ -105,7 +112,7 @@ impl SweepSpec {
                         self.seeds,
                         sh.count
                     ),
-                )
+                ))
             })?,
         };
         let mcap_dirs = vec![None; presets.len()];

@@ -10,11 +10,11 @@
 pub mod report;
 
 use crate::experiments::ExperimentError;
-use crate::experiments::invalid;
 use crate::experiments::validation::{ValidationParams, ValidationRun, WorldRow, run_seed};
 use crate::stats::{PairedDiff, mean, paired_diff};
 use mapkeeper_closed_loop::runner::NoClock;
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
+use mapkeeper_common::ParamError;
 use mapkeeper_sim::World;
 use mapkeeper_sim::{SensorEffect, SensorRealism};
 use serde::{Deserialize, Serialize};
@@ -88,27 +88,44 @@ impl SensorRealismParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if !(2..=1000).contains(&self.worlds) {
-            return Err(invalid("sensor_realism.worlds", format!("{} is not in 2..=1000", self.worlds)));
+            return Err(ExperimentError::from(ParamError::rule(
+                "sensor_realism.worlds",
+                format!("{} is not in 2..=1000", self.worlds),
+            )));
         }
         if !(1..=1000).contains(&self.seeds) {
-            return Err(invalid("sensor_realism.seeds", format!("{} is not in 1..=1000", self.seeds)));
+            return Err(ExperimentError::from(ParamError::rule(
+                "sensor_realism.seeds",
+                format!("{} is not in 1..=1000", self.seeds),
+            )));
         }
         if self.first_seed.checked_add(self.seeds as u64).is_none() {
-            return Err(invalid("sensor_realism.first_seed", "the last seed overflows 2^64".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "sensor_realism.first_seed",
+                "the last seed overflows 2^64",
+            )));
         }
         if !(self.route_length_m.is_finite() && self.route_length_m > 0.0 && self.route_length_m <= 10_000.0) {
-            return Err(invalid(
+            return Err(ExperimentError::from(ParamError::rule(
                 "sensor_realism.route_length_m",
                 format!("{} is not in (0, 10000]", self.route_length_m),
-            ));
+            )));
         }
         if self.configs.is_empty() {
-            return Err(invalid("sensor_realism.configs", "at least one configuration is needed".into()));
+            return Err(ExperimentError::from(ParamError::rule(
+                "sensor_realism.configs",
+                "at least one configuration is needed",
+            )));
         }
         for (i, c) in self.configs.iter().enumerate() {
-            config_realism(c).map_err(|e| invalid("sensor_realism.configs", format!("[{i}]: {e}")))?;
+            config_realism(c).map_err(|e| {
+                ExperimentError::from(ParamError::rule("sensor_realism.configs", format!("[{i}]: {e}")))
+            })?;
             if self.configs[..i].contains(c) {
-                return Err(invalid("sensor_realism.configs", format!("[{i}]: '{c}' is listed twice")));
+                return Err(ExperimentError::from(ParamError::rule(
+                    "sensor_realism.configs",
+                    format!("[{i}]: '{c}' is listed twice"),
+                )));
             }
         }
         Ok(())
@@ -251,7 +268,8 @@ impl Trials for RealismTrials<'_> {
     ) -> Result<Vec<RealismScores>, ExperimentError> {
         let configs = &self.configs;
         let mut q = self.vp.clone();
-        q.runner.sim.realism = config_realism(&configs[c]).map_err(|e| invalid("sensor_realism.configs", e))?;
+        q.runner.sim.realism = config_realism(&configs[c])
+            .map_err(|e| ExperimentError::from(ParamError::rule("sensor_realism.configs", e)))?;
         q.runner.deskew = config_deskews(&configs[c]);
         q.mapping.deskew = config_deskews(&configs[c]);
         let run = run_seed(&q, seed, &ValidationRun { w1: self.w1, ..ValidationRun::timed_by(&NoClock) }, &|_| {})?;
