@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 /// `paper-strict`, `authors`); `mapkeeper` sets the hit clearance, the grazing gate and the
 /// shadow. Parameter files and records written before the section existed name these fields
 /// `removal_hit_clearance_m`, `removal_min_incidence_rad`, `removal_max_offset_cells` and
-/// `removal_shadow` at the top level; those names are still read (see [`UpdaterParams`]).
+/// `removal_shadow` at the top level; those names are still read (see [`super::UpdaterParams`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RemovalParams {

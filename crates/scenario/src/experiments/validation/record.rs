@@ -199,7 +199,7 @@ pub(super) fn merge_histograms<'a>(hs: impl Iterator<Item = &'a [(u32, u64)]>) -
 /// Value of `runs.json`'s `format` field.
 pub const RUNS_FORMAT: &str = "mapkeeper-validation-runs";
 /// Version of the `runs.json` layout (3: `params.runner.parallel_baseline` left the parameters
-/// for [`crate::RunOptions`], how a run is executed).
+/// for [`mapkeeper_closed_loop::RunOptions`], how a run is executed).
 pub const RUNS_FORMAT_VERSION: u32 = 3;
 
 /// `runs.json`: the machine-readable record of a validation folder, from which `summary.json`,

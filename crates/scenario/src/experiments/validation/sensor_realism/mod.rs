@@ -324,7 +324,7 @@ impl Trials for RealismTrials<'_> {
     }
 }
 
-/// Runs every configuration × seed ([`run_each`]: in parallel on the current rayon pool; the result does not
+/// Runs every configuration × seed ([`mapkeeper_closed_loop::trials::run_trials`]: in parallel on the current rayon pool; the result does not
 /// depend on the thread count). `base` gives the world, route, preset-independent parameters
 /// and the localiser; its `worlds`, `preset` and route length are set from `p`. `progress` is
 /// called once per finished chain.
