@@ -1,0 +1,123 @@
+//! Unit tests of `kidnap_robot`.
+
+use super::*;
+use mapkeeper_grid::GridGeometry;
+
+#[test]
+fn the_target_is_free_and_the_drawn_direction_comes_first() {
+    let geo = GridGeometry::new(100, 100, 0.1, Pose2::IDENTITY).unwrap_or_else(|e| panic!("{e}"));
+    let mut g = OccupancyGrid::filled(geo, CellState::Free);
+    // A wall along x = 5 m.
+    for y in 0..100 {
+        g.cells_mut()[y * 100 + 50] = CellState::Occupied;
+    }
+    let d = RobotKidnapDraw {
+        trial: 0,
+        world: 50,
+        tour_position_m: 0.0,
+        kidnap_s: 3.0,
+        displacement_m: 2.0,
+        direction_rad: 0.0,
+        yaw_rad: 1.0,
+    };
+    let from = Pose2::new(2.0, 5.0, 0.0);
+    let t = kidnap_target(&g, from, &d, 0.5, 0.5).unwrap_or_else(|| panic!("no target"));
+    assert!((t.x - 4.0).abs() < 1e-9 && (t.y - 5.0).abs() < 1e-9 && (t.yaw - 1.0).abs() < 1e-9);
+    // Towards the wall: another direction is taken, never a pose within 0.5 m of it.
+    let from = Pose2::new(3.6, 5.0, 0.0);
+    let t = kidnap_target(&g, from, &d, 0.5, 0.5).unwrap_or_else(|| panic!("no target"));
+    assert!(t.x < 4.5 && (t.x - from.x).hypot(t.y - from.y) > 0.49, "{t:?}");
+    assert!(free_disc(&g, Point2::new(t.x, t.y), 0.5));
+    assert_eq!(
+        draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3),
+        draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3)
+    );
+    let dr = draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, 3);
+    assert!((50..=100).contains(&dr.world) && (0.5..=3.0).contains(&dr.displacement_m));
+}
+
+/// A turn wider than π (its draw's range would be of infinite width at 1e308) and a free
+/// disc too large for the check's cell loop to finish are refused by name.
+#[test]
+fn a_huge_turn_or_free_disc_is_refused_by_name() {
+    let mut p = KidnapRobotParams { max_yaw_rad: 1e308, ..KidnapRobotParams::default() };
+    let e = p.validate().expect_err("refused").to_string();
+    assert!(e.contains("kidnap_robot.max_yaw_rad") && e.contains("at most 2π (a full turn), got 1e308"), "{e}");
+    p.max_yaw_rad = PI + 1e-4;
+    p.validate().expect("π rounded up is accepted (angles wrap)");
+    p.free_radius_m = 1e6;
+    let e = p.validate().expect_err("refused").to_string();
+    assert!(e.contains("kidnap_robot.free_radius_m") && e.contains("at most 5 m"), "{e}");
+}
+
+#[test]
+fn lost_is_split_by_how_far_off_the_localiser_was_then() {
+    let at = |verdict, error_m, yaw_deg: f64| TimelineSample {
+        t_s: 0.0,
+        verdict,
+        n_valid: 100,
+        n_dc: 95,
+        error_m,
+        yaw_error_rad: yaw_deg.to_radians(),
+        recovered: None,
+    };
+    use mapkeeper_updater::Verdict::{Lost, Suspend};
+    // A drifted localiser (0.15 m, 3.7°: right by the success criterion, not well
+    // localised), a well-localised one, one 0.3 m off, and a Suspend at a right pose.
+    let t = [at(Lost, 0.15, 3.7), at(Lost, 0.04, 1.5), at(Lost, 0.3, 0.5), at(Suspend, 0.01, 0.0)];
+    let p = KidnapRobotParams::default();
+    let c = mapkeeper_closed_loop::setup::params::SuccessCriterion::default();
+    assert_eq!(lost_where(&t, |s| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad), 2);
+    let well = |s: &TimelineSample| {
+        s.error_m <= p.well_localised_max_error_m && s.yaw_error_rad <= p.well_localised_max_yaw_rad
+    };
+    assert_eq!(lost_where(&t, well), 1);
+    assert_eq!(lost_where(&t[..1], well), 0);
+}
+
+#[test]
+fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_ways() {
+    let sc = Scores { cc: 80.0, ms: 70.0, opdf: 90.0 };
+    let trial = |k: usize, recovered: bool, reference_final_error_m: f64, lost: [u64; 3]| RobotKidnapTrial {
+        draw: draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, k),
+        applied: true,
+        applied_displacement_m: Some(1.0),
+        detected: true,
+        detection_delay_s: Some(0.1),
+        recovered_pose_updating: recovered,
+        recovered_filter: false,
+        recovered_global_search: recovered,
+        recovery_s: recovered.then_some(2.0),
+        pose_found_s: recovered.then_some(1.0),
+        reference_final_error_m: Some(reference_final_error_m),
+        pose_recoveries: usize::from(recovered),
+        wrong_pose_recoveries: 0,
+        final_error_m: Some(0.05),
+        reference_lost: lost[0],
+        reference_lost_right_pose: lost[1],
+        reference_lost_well_localised: lost[2],
+        reference_steps: 100,
+        reference_steps_well_localised: 40,
+        reference_scores: sc,
+        kidnap_scores: sc,
+    };
+    // Four trials: two whose reference run holds (< 0.2 m at its end), one recovered; two
+    // whose reference ends 0.3 m off, one recovered anyway. Lost without kidnap: one run at
+    // a well-localised step, one while 0.15 m off, one while 0.5 m off.
+    let t = [
+        trial(0, true, 0.05, [3, 3, 1]),
+        trial(1, false, 0.1, [0, 0, 0]),
+        trial(2, true, 0.3, [5, 2, 0]),
+        trial(3, false, 0.3, [4, 0, 0]),
+    ];
+    let s = summarise_robot_kidnap("mapkeeper", &t);
+    assert_eq!(s.trials_reference_held, 2);
+    assert!((s.recovered_rate_reference_held - 0.5).abs() < 1e-12);
+    assert!((s.reference_off_rate - 0.5).abs() < 1e-12);
+    assert!((s.false_lost_rate - 0.75).abs() < 1e-12);
+    assert!((s.false_lost_right_pose_rate - 0.5).abs() < 1e-12);
+    assert!((s.false_lost_well_localised_rate - 0.25).abs() < 1e-12);
+    // One Lost step among 4 × 40 well-localised steps of 4 × 100.
+    assert_eq!(s.false_lost_well_localised_step_rate, Some(1.0 / 160.0));
+    assert_eq!(s.reference_well_localised_share, Some(0.4));
+}
