@@ -111,8 +111,10 @@ pub struct Checked<'a>(&'a RunnerParams);
 
 impl<'a> Checked<'a> {
     /// `params` as checked: for a caller whose own `validate` has just checked them as part of
-    /// a larger whole (e.g. `ValidationParams::validate` checks its `runner`).
+    /// a larger whole (e.g. `ValidationParams::validate` checks its `runner`), or that changed
+    /// only flags `validate` does not constrain. Debug builds check them again.
     pub fn assume(params: &'a RunnerParams) -> Self {
+        debug_assert!(params.validate().is_ok(), "Checked::assume on parameters that do not validate");
         Checked(params)
     }
 
@@ -262,7 +264,7 @@ impl RunnerParams {
             }
         }
         if !(self.max_sim_time_s.is_finite() && self.max_sim_time_s > 0.0) {
-            return Err(bad("max_sim_time_s", self.max_sim_time_s));
+            return Err(ParamError::new("max_sim_time_s", self.max_sim_time_s, "must be finite and > 0 s").into());
         }
         if let Some(k) = &self.kidnap {
             k.validate()?;

@@ -54,8 +54,8 @@ fn same_seed_gives_bit_identical_estimates() {
 }
 
 /// A filter taken back to a saved state gives, from there, the updates it gave the first time,
-/// bit for bit (the harness runs the chain localiser ahead of the updater and goes back when a
-/// control re-initialises it or moves the robot): checked at every step of a run, for the
+/// bit for bit (a caller can take a filter back to an earlier step, e.g. to try a step two ways
+/// and keep one): checked at every step of a run, for the
 /// default filter and for `amcl` (recovery injection, KLD sampling by draws), with a
 /// re-initialisation, and a state restored into another filter of the same map and parameters.
 #[test]

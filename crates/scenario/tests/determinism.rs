@@ -45,7 +45,7 @@ fn same_seed_same_summary_and_maps_on_one_and_two_threads() {
     assert_eq!(summary_json(&summarise(&pa, &c, 0.0)).unwrap(), summary_json(&sa).unwrap());
     assert_eq!(worlds_csv(&records(&c)), worlds_csv(&records(&a)));
     for (ra, rc) in a.iter().zip(&c) {
-        assert_eq!(ra.saved, rc.saved, "seed {}: saved worlds differ with the simulator and localiser ahead", ra.seed);
+        assert_eq!(ra.saved, rc.saved, "seed {}: saved worlds differ with the simulator ahead", ra.seed);
     }
     for (ra, rb) in a.iter().zip(&b) {
         assert_eq!(ra.initial_map, rb.initial_map);

@@ -229,3 +229,13 @@ fn the_real_aws_map_imports_and_validates() {
     let world = World::from_ros_map(&grid, "aws-real");
     validate_imported(&world, "aws-real", Some(25.0));
 }
+
+/// The parameters name a world (`use_site`) but the run is given none: refused before anything
+/// runs, rather than the site's routes driven in the default warehouse.
+#[test]
+fn a_world_named_by_the_parameters_must_be_given() {
+    let mut p = ValidationParams::new(2, "paper").unwrap();
+    p.world = Some("room".into());
+    let e = run_seed(&p, 1, &ValidationRun::timed_by(&NoClock), &|_| {}).unwrap_err();
+    assert!(e.to_string().contains("parameters name the world"), "{e}");
+}

@@ -10,7 +10,7 @@ use rand::rngs::ChaCha8Rng;
 /// random stream, odometry references and filter statistics), without its map tables or
 /// scratch: [`Localiser::save_state`] / [`Localiser::restore_state`] take a filter back to an
 /// earlier step, after which it gives the same updates, bit for bit, as it gave from there the
-/// first time (for running it ahead of its consumers and going back when they act on it).
+/// first time (for a caller that tries a step two ways and keeps one).
 #[derive(Debug)]
 pub struct FilterState {
     rng: ChaCha8Rng,

@@ -65,8 +65,12 @@ pub(super) fn is_complete(out: &Path, plan: &SweepPlan, sweep: bool, args: &Args
         // As the run writes them: with the bags it was asked for.
         let mut params = plan.params[p].clone();
         params.mcap_worlds.clone_from(&args.mcap_worlds);
-        let (want, want_shard) = (serde_json::to_value(&params)?, serde_json::to_value(args.shard)?);
-        if json.get("params") != Some(&want) || json.get("shard").unwrap_or(&serde_json::Value::Null) != &want_shard {
+        // Read as parameters, not compared as text: a folder written before a field's layout
+        // changed (the flat `removal_*` names, read as the `removal` section) is the same run.
+        let held: Option<mapkeeper_scenario::ValidationParams> =
+            json.get("params").and_then(|v| serde_json::from_value(v.clone()).ok());
+        let want_shard = serde_json::to_value(args.shard)?;
+        if held.as_ref() != Some(&params) || json.get("shard").unwrap_or(&serde_json::Value::Null) != &want_shard {
             anyhow::bail!(
                 "--resume: {} holds a run with other parameters or another shard than these flags (use another --out)",
                 file.display()

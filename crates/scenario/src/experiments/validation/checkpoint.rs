@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 /// Version of the checkpoint files; other versions are refused. 2: world rows carry structure
 /// retention and change classes; a version-1 checkpoint would resume without them, and the
 /// resumed outputs would differ from an uninterrupted run's. 3: the fingerprint's parameters no
-/// longer hold `runner.parallel_baseline` (a [`crate::RunOptions`]); a version-2 checkpoint
+/// longer hold `runner.parallel_baseline` (a [`mapkeeper_closed_loop::RunOptions`]); a version-2 checkpoint
 /// would be refused as another run's instead of as an older one. 4: the updater's removal
 /// gates are the `removal` section of the fingerprint's parameters (they were flat fields);
 /// a version-3 checkpoint would likewise be refused as another run's.

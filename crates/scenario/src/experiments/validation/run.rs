@@ -46,6 +46,15 @@ pub fn run_seed(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<SeedRun, ExperimentError> {
     params.validate()?;
+    // The parameters name the world (`use_site` set its routes); the world itself comes beside
+    // them: both or neither, or the site's routes would be driven in another world.
+    if params.world.is_some() != run.w1.is_some() {
+        return Err(ExperimentError::Invalid(format!(
+            "the parameters name the world {:?} but the run is given {}",
+            params.world,
+            if run.w1.is_some() { "a world" } else { "none (the default warehouse)" }
+        )));
+    }
     let default;
     let w1 = match run.w1 {
         Some(w) => w,
