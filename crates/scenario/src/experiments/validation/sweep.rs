@@ -204,8 +204,7 @@ impl Trials for SweepTrials<'_> {
     }
 
     fn run(&self, k: usize, _: &(dyn Fn() + Sync)) -> Result<SeedRun, ExperimentError> {
-        let found =
-            self.done[k].lock().map_err(|_| ExperimentError::Invalid("a validation job panicked".into()))?.take();
+        let found = self.done[k].lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
         if let Some(run) = found {
             return Ok(run);
         }
