@@ -12,6 +12,7 @@ pub mod check_detection;
 pub mod convergence;
 pub mod kidnap_robot;
 pub mod real_data;
+pub mod real_scans;
 pub mod recovery;
 pub mod scores;
 pub mod table1_hold;

@@ -1,0 +1,1 @@
+//! (issue 52, item 4: being written)
