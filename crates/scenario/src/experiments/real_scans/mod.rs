@@ -5,5 +5,6 @@
 //! spliced so that the odometry carries no motion across a cut is a real kidnap ([`splice`],
 //! [`kidnap`]).
 
+pub mod edits;
 pub mod kidnap;
 pub mod splice;
