@@ -38,7 +38,7 @@ pub const LOST_M: f64 = 0.5;
 /// contradicts the reference, metres.
 pub const DISAGREEMENT_M: f64 = 0.1;
 /// Largest time from a scan to a reference pose used to map it, nanoseconds.
-const MAP_POSE_GAP_NS: u64 = 100_000_000;
+pub const MAP_POSE_GAP_NS: u64 = 100_000_000;
 
 /// One recorded log.
 #[derive(Clone, Debug)]

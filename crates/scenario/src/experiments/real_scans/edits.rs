@@ -13,7 +13,9 @@
 //!   shifted by [`EditParams::move_m`] drawn occupied into observed free floor (where M_1 saw
 //!   the item before it moved).
 //!
-//! Only cells G observed are edited (free or occupied in G; unknown cells are untouched), a
+//! Only cells G observed are scored and edited in a class (free or occupied in G); of G's
+//! unknown cells, only those just behind a piece of structure M_1 lacks are touched, made
+//! free floor ([`EditParams::floor_behind_m`] says why), and no score counts them. A
 //! box or a moved item's old place lies on observed free floor at least
 //! [`EditParams::path_clearance_m`] from the reference path with a one-cell gap to anything
 //! occupied, and edits do not overlap (one-cell gap). Every cell where M_1 differs from G is
@@ -62,6 +64,16 @@ pub struct EditParams {
     /// Smallest distance from a piece of structure taken out of M_1 to the reference path,
     /// metres. Default 0.2.
     pub structure_clearance_m: f64,
+    /// The floor the stale map shows behind a piece of structure it lacks, metres: the cells
+    /// of G within this distance of the piece that G never observed (the space behind a wall
+    /// face) are free in M_1, as a survey made before the piece stood there saw them. Without
+    /// it the piece could not be seen missing: in a map built from one side, a wall face has
+    /// unknown cells right behind it, the stale map's ray through the gap stops there, where the
+    /// real beam hits, and an updater that counts unknown cells as blocking (the paper's beam
+    /// classifier does, §4.1) finds no change. These cells are unknown in G, so no score counts
+    /// them. 0: G's unknown cells are never touched (and such pieces go unseen). Default 0.6
+    /// (above the paper's change distance D_th at any range the logs' lidars reach).
+    pub floor_behind_m: f64,
     /// Placements tried per class before it stops short of its share. Default 4000.
     pub attempts: u32,
 }
@@ -77,6 +89,7 @@ impl Default for EditParams {
             move_m: (0.5, 3.0),
             path_clearance_m: 0.6,
             structure_clearance_m: 0.2,
+            floor_behind_m: 0.6,
             attempts: 4000,
         }
     }
@@ -97,8 +110,11 @@ impl EditParams {
                 return Err(ParamError::rule(name, format!("({a}, {b}) must be a range 0 < low ≤ high ≤ 100 m")));
             }
         }
-        for (name, v) in [("path_clearance_m", self.path_clearance_m), ("structure_clearance_m", self.structure_clearance_m)]
-        {
+        for (name, v) in [
+            ("path_clearance_m", self.path_clearance_m),
+            ("structure_clearance_m", self.structure_clearance_m),
+            ("floor_behind_m", self.floor_behind_m),
+        ] {
             if !(v.is_finite() && (0.0..=10.0).contains(&v)) {
                 return Err(ParamError::new(name, v, "must be a distance in [0, 10] m"));
             }
@@ -121,6 +137,9 @@ pub struct Edit {
     pub cells_missing: usize,
     /// Cells free in G and occupied in M_1.
     pub cells_phantom: usize,
+    /// Cells unknown in G and free in M_1: the floor behind a piece M_1 lacks
+    /// ([`EditParams::floor_behind_m`]; never scored).
+    pub floor_behind: usize,
 }
 
 /// The stale map M_1 of a real place, with every edit and the footprints of each class.
@@ -370,6 +389,8 @@ impl Editor<'_> {
     /// Writes an edit: `missing` cells (occupied in G) free in M_1, `phantom` cells (free in G)
     /// occupied in M_1; marks them and their ring taken and records the footprint.
     fn commit(&mut self, class: ChangeClass, missing: &[CellCoord], phantom: &[CellCoord]) {
+        // Before the edit's own ring is taken: the floor right behind the piece belongs to it.
+        let behind = self.floor_behind(missing);
         let footprint = match class {
             ChangeClass::Added => &mut self.footprints.added,
             ChangeClass::Removed => &mut self.footprints.removed,
@@ -389,13 +410,41 @@ impl Editor<'_> {
                 }
             }
         }
+        for &i in &behind {
+            self.map.cells_mut()[i] = CellState::Free;
+            self.taken[i] = true;
+        }
         let first = missing.first().or(phantom.first()).map_or(Point2::new(0.0, 0.0), |&c| g.cell_center(c));
         self.edits.push(Edit {
             class: class_name(class),
             at: (first.x, first.y),
             cells_missing: missing.len(),
             cells_phantom: phantom.len(),
+            floor_behind: behind.len(),
         });
+    }
+
+    /// The cells G never observed within `floor_behind_m` of `piece`, not taken by another
+    /// edit (their indices).
+    fn floor_behind(&self, piece: &[CellCoord]) -> Vec<usize> {
+        let g = self.truth.geometry();
+        let reach = (self.params.floor_behind_m / g.resolution_m()).floor() as i32;
+        let reach_sq = (self.params.floor_behind_m / g.resolution_m()).powi(2);
+        let mut cells = std::collections::BTreeSet::new();
+        for c in piece {
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    if f64::from(dx * dx + dy * dy) > reach_sq {
+                        continue;
+                    }
+                    let n = CellCoord::new(c.ix + dx, c.iy + dy);
+                    if let Some(j) = g.index(n).filter(|&j| self.truth.cells()[j] == CellState::Unknown && !self.taken[j]) {
+                        cells.insert(j);
+                    }
+                }
+            }
+        }
+        cells.into_iter().collect()
     }
 }
 

@@ -5,6 +5,9 @@
 //! spliced so that the odometry carries no motion across a cut is a real kidnap ([`splice`],
 //! [`kidnap`]).
 
+pub mod chain;
 pub mod edits;
 pub mod kidnap;
 pub mod splice;
+#[cfg(test)]
+mod test_logs;

@@ -29,14 +29,19 @@ fn every_difference_is_an_edit_of_a_class_on_observed_cells_off_the_path() {
     assert!(s.edits.iter().any(|e| e.class == "moved"));
     let geometry = *g.geometry();
     let near_path = path_distance(&g, &path, 5.0);
-    let mut differing = 0;
+    let (mut differing, mut behind) = (0, 0);
     for (i, (&a, &b)) in s.map.cells().iter().zip(g.cells()).enumerate() {
         if a == b {
             continue;
         }
+        // G's unknown cells are only ever made free floor behind a piece of structure M_1 lacks.
+        if b == CellState::Unknown {
+            assert_eq!(a, CellState::Free);
+            behind += 1;
+            continue;
+        }
         differing += 1;
-        // Only observed cells, and only free ↔ occupied.
-        assert_ne!(b, CellState::Unknown, "an unknown cell of G was edited");
+        // Observed cells: only free ↔ occupied.
         assert!(matches!((a, b), (CellState::Free, CellState::Occupied) | (CellState::Occupied, CellState::Free)));
         // Each in exactly one class.
         let at = s.footprints.at(i);
@@ -48,6 +53,9 @@ fn every_difference_is_an_edit_of_a_class_on_observed_cells_off_the_path() {
             assert!(f64::from(near_path.distances_m()[i]) >= p.path_clearance_m - 1e-9);
         }
     }
+    assert_eq!(behind, s.edits.iter().map(|e| e.floor_behind).sum::<usize>());
+    assert!(s.edits.iter().filter(|e| e.class == "removed").all(|e| e.floor_behind == 0));
+    assert!(behind > 0, "the room's walls have unknown space behind them");
     let made = s.made_cells.0 + s.made_cells.1 + s.made_cells.2;
     assert_eq!(differing, made);
     let total_missing: usize = s.edits.iter().map(|e| e.cells_missing + e.cells_phantom).sum();
@@ -96,6 +104,11 @@ fn zero_shares_leave_g_as_it_is_and_bad_parameters_are_named() {
     let s = stale_map(&g, &path, &p, 1).unwrap();
     assert_eq!(s.map, g);
     assert!(s.edits.is_empty());
+    // Without floor behind, G's unknown cells are untouched.
+    let p = EditParams { floor_behind_m: 0.0, ..EditParams::default() };
+    let s = stale_map(&g, &path, &p, 1).unwrap();
+    assert!(s.map.cells().iter().zip(g.cells()).all(|(a, b)| (*a == CellState::Unknown) == (*b == CellState::Unknown)));
+    assert!(s.edits.iter().all(|e| e.floor_behind == 0) && !s.edits.is_empty());
     let bad = EditParams { box_m: (1.0, 0.5), ..EditParams::default() };
     let e = stale_map(&g, &path, &bad, 1).unwrap_err().to_string();
     assert!(e.contains("box_m"), "{e}");
