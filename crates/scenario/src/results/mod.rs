@@ -6,6 +6,7 @@
 //! written through [`mapkeeper_grid::StagedDir`].
 
 pub mod claims;
+pub mod html;
 mod merge_problem;
 
 pub use merge_problem::MergeProblem;

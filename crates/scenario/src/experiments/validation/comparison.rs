@@ -5,7 +5,8 @@
 //! that of the unsharded sweep.
 
 use crate::experiments::validation::erosion::{ChangeClassSummary, RetentionSummary};
-use crate::experiments::validation::html::{Part, page_html, world_steppers};
+use crate::experiments::validation::saved_worlds::world_steppers;
+use crate::results::html::{Part, SteppersIntro, page_html};
 use crate::experiments::validation::merge::{load_result_dir, merge_dirs};
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, WorldRow, summarise_records};
 use crate::results::MergeProblem;
@@ -404,10 +405,18 @@ fn write_sweep_html(out: &StagedDir, md: &str, records: &[&ValidationRecord]) ->
             None => text,
         });
     }
-    let mut parts = vec![Part { id: String::new(), markdown: md, base: String::new(), steppers: Vec::new() }];
+    let intro = SteppersIntro::SAVED_WORLDS;
+    let mut parts = vec![Part {
+        id: String::new(),
+        markdown: md,
+        base: String::new(),
+        steppers: Vec::new(),
+        steppers_intro: intro,
+    }];
     for (text, r) in texts.iter().zip(records) {
         let p = &r.params.preset;
-        parts.push(Part { id: format!("{p}-"), markdown: text, base: format!("{p}/"), steppers: world_steppers(r) });
+        let steppers = world_steppers(r);
+        parts.push(Part { id: format!("{p}-"), markdown: text, base: format!("{p}/"), steppers, steppers_intro: intro });
     }
     let page = page_html("Validation sweep", &parts, out.path())?;
     out.write("report.html", page.as_bytes())?;

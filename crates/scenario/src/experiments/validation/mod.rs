@@ -13,7 +13,6 @@ pub mod comparison;
 pub mod erosion;
 pub mod eta;
 pub mod figures;
-pub mod html;
 pub mod markdown;
 pub mod merge;
 pub mod params;

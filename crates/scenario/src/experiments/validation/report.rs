@@ -3,7 +3,7 @@
 //! Validation folder: `runs.json` (the machine-readable record everything else is computed
 //! from), `summary.json`, `worlds.csv`, `report.md`, `edits.json`, `plots/` (the paper's
 //! Fig. 24-27, SVG and PNG, [`crate::experiments::validation::figures`]), `report.html` (the report as one
-//! self-contained page, [`crate::experiments::validation::html`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
+//! self-contained page, [`crate::results::html`]), and per seed `seed-S/maps/{M,G}_iii.{yaml,pgm}`
 //! and `E_iii.png` (M_1, G_1 and the saved worlds, [`crate::experiments::validation::saved_worlds`]) and
 //! `seed-S/trajectories/W_iii_{true,chain,baseline}.tum`.
 //!
@@ -232,10 +232,12 @@ pub fn write_results(dir: &StagedDir, record: &ValidationRecord) -> Result<Summa
     report.push_str(&per_world_md(record));
     report.push_str(&crate::experiments::validation::saved_worlds::saved_worlds_md(record));
     dir.write("report.md", report.as_bytes())?;
-    crate::experiments::validation::html::write_report_html(
+    crate::results::html::write_report_html(
         dir,
+        "Validation report",
         &report,
-        &crate::experiments::validation::html::world_steppers(record),
+        &crate::experiments::validation::saved_worlds::world_steppers(record),
+        crate::results::html::SteppersIntro::SAVED_WORLDS,
     )?;
     Ok(summary)
 }

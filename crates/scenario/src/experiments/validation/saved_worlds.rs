@@ -6,6 +6,7 @@
 
 use crate::experiments::validation::{Scores, SeedRecord, SeedRun, ValidationRecord};
 use crate::results::ResultsError;
+use crate::results::html::{Frame, WorldStepper};
 use mapkeeper_grid::map_io::save_map;
 use mapkeeper_grid::render::render_errors;
 use mapkeeper_grid::{OccupancyGrid, StagedDir};
@@ -100,4 +101,29 @@ pub fn saved_worlds_md(record: &ValidationRecord) -> String {
         }
     }
     s
+}
+
+/// The world steppers of a validation record: one per seed, a frame per saved world.
+pub fn world_steppers(record: &ValidationRecord) -> Vec<WorldStepper> {
+    record
+        .seeds
+        .iter()
+        .map(|seed| WorldStepper {
+            id: format!("worlds-seed-{}", seed.seed),
+            title: format!("Seed {}", seed.seed),
+            frames: saved_worlds_of(record, seed)
+                .into_iter()
+                .filter_map(|w| {
+                    let sc = scores_of(seed, w)?;
+                    let what = if w == 1 { "M_1 against G_1" } else { "M_i against G_i" };
+                    Some(Frame {
+                        world: w,
+                        caption: format!("W_{w} ({what}): CC {:.2}, MS {:.2}, OPDF {:.2}", sc.cc, sc.ms, sc.opdf),
+                        image: map_file(seed.seed, 'E', w),
+                    })
+                })
+                .collect(),
+        })
+        .filter(|s| !s.frames.is_empty())
+        .collect()
 }

@@ -1,10 +1,10 @@
-//! `report.html`: a validation's report as one self-contained page, to open in a browser, mail
+//! `report.html`: a report as one self-contained page (a validation's, a real-scans run's), to open in a browser, mail
 //! or attach to a CI run.
 //!
 //! The page is `report.md` rendered to HTML (CommonMark with tables, by `pulldown-cmark`), with a
 //! table of contents, every image the report shows (the figures in `plots/`) embedded as a
-//! `data:` URI, and per seed a *world stepper*: the error images of the saved worlds
-//! (`seed-S/maps/E_iii.png`, [`crate::experiments::validation::saved_worlds`]) one at a time, with a slider,
+//! `data:` URI, and *world steppers*: error images one at a time (a validation's saved worlds per
+//! seed, `seed-S/maps/E_iii.png`, from `validation::saved_worlds`; a real log's passes), with a slider,
 //! previous / next buttons and the arrow keys, and each world's scores. Links to other files of
 //! the folder (the PNG figures, the maps) stay relative: they resolve beside the folder. A
 //! sweep's page (`OUT/report.html`) holds the comparison and every preset's report.
@@ -12,8 +12,6 @@
 //! No network, no external script or style: the page is the same file on every machine. The
 //! same inputs give byte-identical pages.
 
-use crate::experiments::validation::ValidationRecord;
-use crate::experiments::validation::saved_worlds::{map_file, saved_worlds_of, scores_of};
 use crate::results::ResultsError;
 use base64::Engine as _;
 use mapkeeper_grid::StagedDir;
@@ -24,7 +22,7 @@ use std::path::Path;
 /// One frame of a world stepper: a saved world's error image and its scores.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
-    /// i in W_i.
+    /// i in W_i (a pass of a log: its k).
     pub world: usize,
     /// The caption: the world and M_i/G_i's scores.
     pub caption: String,
@@ -32,37 +30,15 @@ pub struct Frame {
     pub image: String,
 }
 
-/// The saved worlds of one seed, stepped through on the page.
+/// Error images stepped through on the page (a validation's saved worlds of one seed, a log's passes).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorldStepper {
-    /// The run seed.
-    pub seed: u64,
+    /// Its element id, unique within its part (the validation's: `worlds-seed-S`).
+    pub id: String,
+    /// Its heading (the validation's: `Seed S`).
+    pub title: String,
     /// The frames, in world order.
     pub frames: Vec<Frame>,
-}
-
-/// The world steppers of a validation record: one per seed, a frame per saved world.
-pub fn world_steppers(record: &ValidationRecord) -> Vec<WorldStepper> {
-    record
-        .seeds
-        .iter()
-        .map(|seed| WorldStepper {
-            seed: seed.seed,
-            frames: saved_worlds_of(record, seed)
-                .into_iter()
-                .filter_map(|w| {
-                    let sc = scores_of(seed, w)?;
-                    let what = if w == 1 { "M_1 against G_1" } else { "M_i against G_i" };
-                    Some(Frame {
-                        world: w,
-                        caption: format!("W_{w} ({what}): CC {:.2}, MS {:.2}, OPDF {:.2}", sc.cc, sc.ms, sc.opdf),
-                        image: map_file(seed.seed, 'E', w),
-                    })
-                })
-                .collect(),
-        })
-        .filter(|s| !s.frames.is_empty())
-        .collect()
 }
 
 /// One part of a page: a report's Markdown, where its relative links point (`""` for the page's
@@ -78,13 +54,45 @@ pub struct Part<'a> {
     pub base: String,
     /// The world steppers shown after the report.
     pub steppers: Vec<WorldStepper>,
+    /// The heading over the steppers and what their images show.
+    pub steppers_intro: SteppersIntro,
+}
+
+/// The heading over a part's steppers and the sentence saying what their images show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SteppersIntro {
+    /// The heading.
+    pub heading: &'static str,
+    /// The sentence.
+    pub text: &'static str,
+}
+
+impl SteppersIntro {
+    /// A validation's: the saved worlds.
+    pub const SAVED_WORLDS: SteppersIntro = SteppersIntro {
+        heading: "The saved worlds, step by step",
+        text: "The errors of each saved world's map against its ground truth: red wrongly free, orange wrongly \
+occupied, blue missing; black, white and grey are right. Slider, buttons or the arrow keys step through the worlds.",
+    };
 }
 
 /// Writes `report.html` of a validation folder from its `report.md` text and steppers, reading
 /// the images from the folder.
-pub fn write_report_html(dir: &StagedDir, report_md: &str, steppers: &[WorldStepper]) -> Result<(), ResultsError> {
-    let part = Part { id: String::new(), markdown: report_md, base: String::new(), steppers: steppers.to_vec() };
-    let page = page_html("Validation report", &[part], dir.path())?;
+pub fn write_report_html(
+    dir: &StagedDir,
+    title: &str,
+    report_md: &str,
+    steppers: &[WorldStepper],
+    steppers_intro: SteppersIntro,
+) -> Result<(), ResultsError> {
+    let part = Part {
+        id: String::new(),
+        markdown: report_md,
+        base: String::new(),
+        steppers: steppers.to_vec(),
+        steppers_intro,
+    };
+    let page = page_html(title, &[part], dir.path())?;
     dir.write("report.html", page.as_bytes())?;
     Ok(())
 }
@@ -104,13 +112,10 @@ pub fn page_html(title: &str, parts: &[Part<'_>], root: &Path) -> Result<String,
         body.push_str(&html);
         if !part.steppers.is_empty() {
             let id = format!("{}saved-worlds-stepper", part.id);
-            let _ = writeln!(toc, "<li class=\"h2\"><a href=\"#{id}\">The saved worlds, step by step</a></li>");
-            let _ = writeln!(body, "<h2 id=\"{id}\">The saved worlds, step by step</h2>");
-            body.push_str(
-                "<p>The errors of each saved world's map against its ground truth: red wrongly free, orange wrongly \
-                 occupied, blue missing; black, white and grey are right. Slider, buttons or the arrow keys step \
-                 through the worlds.</p>\n",
-            );
+            let intro = part.steppers_intro;
+            let _ = writeln!(toc, "<li class=\"h2\"><a href=\"#{id}\">{}</a></li>", escape(intro.heading));
+            let _ = writeln!(body, "<h2 id=\"{id}\">{}</h2>", escape(intro.heading));
+            let _ = writeln!(body, "<p>{}</p>", escape(intro.text));
             for s in &part.steppers {
                 body.push_str(&stepper_html(&part.id, &part.base, s, root)?);
             }
@@ -224,17 +229,17 @@ fn heading_number(level: HeadingLevel) -> usize {
     }
 }
 
-/// One seed's stepper: every frame's image embedded, the first shown.
+/// One stepper: every frame's image embedded, the first shown.
 fn stepper_html(prefix: &str, base: &str, s: &WorldStepper, root: &Path) -> Result<String, ResultsError> {
-    let id = format!("{prefix}worlds-seed-{}", s.seed);
+    let id = format!("{prefix}{}", s.id);
     let n = s.frames.len();
     let mut h = format!(
-        "<section class=\"stepper\" id=\"{id}\">\n<h3>Seed {seed}</h3>\n<div class=\"controls\">\
+        "<section class=\"stepper\" id=\"{id}\">\n<h3>{title}</h3>\n<div class=\"controls\">\
 <button type=\"button\" data-step=\"-1\" aria-label=\"previous world\">&#9664;</button> \
 <input type=\"range\" min=\"0\" max=\"{max}\" value=\"0\" step=\"1\" aria-label=\"world\"> \
 <button type=\"button\" data-step=\"1\" aria-label=\"next world\">&#9654;</button> \
 <span class=\"label\">{first}</span> <span class=\"count\">({n} worlds)</span></div>\n",
-        seed = s.seed,
+        title = escape(&s.title),
         max = n - 1,
         first = escape(&s.frames[0].caption),
     );
@@ -242,12 +247,12 @@ fn stepper_html(prefix: &str, base: &str, s: &WorldStepper, root: &Path) -> Resu
         let uri = data_uri(root, &format!("{base}{}", f.image))?;
         let _ = writeln!(
             h,
-            "<figure data-world=\"{w}\" data-caption=\"{c}\"{hidden}><img src=\"{uri}\" alt=\"errors of W_{w}, seed {seed}\">\
+            "<figure data-world=\"{w}\" data-caption=\"{c}\"{hidden}><img src=\"{uri}\" alt=\"errors of W_{w}, {title}\">\
 <figcaption>{c} &middot; <a href=\"{base}{img}\">PNG</a></figcaption></figure>",
             w = f.world,
             c = escape(&f.caption),
             hidden = if k == 0 { "" } else { " hidden" },
-            seed = s.seed,
+            title = escape(&s.title),
             img = escape(&f.image),
         );
     }
