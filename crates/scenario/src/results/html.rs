@@ -252,7 +252,7 @@ fn stepper_html(prefix: &str, base: &str, s: &WorldStepper, root: &Path) -> Resu
             w = f.world,
             c = escape(&f.caption),
             hidden = if k == 0 { "" } else { " hidden" },
-            title = escape(&s.title),
+            title = escape(&s.title.to_lowercase()),
             img = escape(&f.image),
         );
     }
