@@ -1,6 +1,6 @@
 //! The experiments, each on the closed loop of `mapkeeper-closed-loop` (its runner, controls,
 //! pose oracle, setup and trial runner). At the top, what the experiments' reports share: the
-//! scores ([`scores`]). Then one module per experiment, each with its parameters, its run and
+//! scores ([`scores`]) and a localiser's error against a log's reference poses ([`reference`]). Then one module per experiment, each with its parameters, its run and
 //! its report, none importing another: the hundred-world validation ([`validation`], with its
 //! structure retention and change-class scores, [`validation::erosion`], the sensor-realism
 //! sweep of its chain, and the merge, comparison and check of its results), the recovery suite
@@ -14,6 +14,7 @@ pub mod kidnap_robot;
 pub mod real_data;
 pub mod real_scans;
 pub mod recovery;
+pub mod reference;
 pub mod scores;
 pub mod table1_hold;
 pub mod validation;

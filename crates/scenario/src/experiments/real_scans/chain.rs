@@ -13,7 +13,7 @@
 
 use super::edits::StaleMap;
 use crate::experiments::ExperimentError;
-use crate::experiments::real_data::{ErrorStats, MAP_POSE_GAP_NS, error_stats};
+use crate::experiments::reference::{ErrorStats, MAP_POSE_GAP_NS, error_stats};
 use mapkeeper_grid::metrics::erosion::{ChangeCells, ClassShares, StructureMask};
 use mapkeeper_grid::metrics::{MetricParams, map_metrics_in};
 use mapkeeper_grid::{CellState, OccupancyGrid};
