@@ -1,4 +1,4 @@
-//! What the real-log experiments share: a localiser's error against a log's reference poses
+//! What the real-log experiments share: a recorded log ([`Dataset`]), a localiser's error against a log's reference poses
 //! ([`error_stats`], [`ErrorStats`], with the targets of issue 14) and how a log is mapped at
 //! its reference poses ([`MAP_POSE_GAP_NS`]). Used by `real_data` (the localiser and the
 //! updater on a log's own map) and `real_scans` (the updater judged against the map at the
@@ -6,8 +6,19 @@
 
 use crate::stats::{median, percentile};
 use mapkeeper_grid::angle_diff;
-use mapkeeper_sensor::{StampedPose, interpolate};
+use mapkeeper_sensor::{SensorLog, StampedPose, interpolate};
 use serde::Serialize;
+
+/// One recorded log.
+#[derive(Clone, Debug)]
+pub struct Dataset {
+    /// Its name in tables (the file's stem).
+    pub name: String,
+    /// Where it came from.
+    pub source: String,
+    /// The log (with truth records: the reference poses).
+    pub log: SensorLog,
+}
 
 /// Position RMSE target, metres (issue 14).
 pub const TARGET_RMSE_M: f64 = 0.05;

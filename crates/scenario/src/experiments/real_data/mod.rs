@@ -11,7 +11,7 @@
 pub mod report;
 
 pub use crate::experiments::reference::{
-    ErrorStats, LOST_M, MAP_POSE_GAP_NS, TARGET_MAX_M, TARGET_RMSE_M, error_stats,
+    Dataset, ErrorStats, LOST_M, MAP_POSE_GAP_NS, TARGET_MAX_M, TARGET_RMSE_M, error_stats,
 };
 
 use crate::experiments::ExperimentError;
@@ -35,17 +35,6 @@ pub const ODOMETRY_TUNED_LOCALISER_TOML: &str = include_str!("../../../params/od
 /// A step whose odometry increment differs from the reference increment by more than this
 /// contradicts the reference, metres.
 pub const DISAGREEMENT_M: f64 = 0.1;
-
-/// One recorded log.
-#[derive(Clone, Debug)]
-pub struct Dataset {
-    /// Its name in tables (the file's stem).
-    pub name: String,
-    /// Where it came from.
-    pub source: String,
-    /// The log (with truth records: the reference poses).
-    pub log: SensorLog,
-}
 
 /// A localiser configuration.
 #[derive(Clone, Debug)]

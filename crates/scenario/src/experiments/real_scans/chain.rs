@@ -115,8 +115,17 @@ pub struct ChainResult {
     pub poses: String,
     /// M_1 against G.
     pub m1: MapScores,
+    /// M_K against G (the last pass; M_1's with no pass).
+    #[serde(rename = "final")]
+    pub last: MapScores,
+    /// The last pass's fresh map F_K against G.
+    pub fresh: MapScores,
     /// The oracle M*_k against G (the ceiling).
     pub oracle: MapScores,
+    /// Cells occupied in M_1 and G that M_K keeps, percent.
+    pub retention: f64,
+    /// Each edit class's cells M_K has as G has them.
+    pub restored: Restored,
     /// Cells occupied in M_1 and G (the retention's denominator).
     pub structure_cells: u64,
     /// Observed cells of each class: (added, removed, moved).
@@ -126,13 +135,6 @@ pub struct ChainResult {
     /// The maps M_2 … M_K (kept for the report's figures when asked).
     #[serde(skip)]
     pub maps: Vec<OccupancyGrid>,
-}
-
-impl ChainResult {
-    /// The last pass's scores (M_1's if there is no pass).
-    pub fn last(&self) -> MapScores {
-        self.per_pass.last().map_or(self.m1, |p| p.scores)
-    }
 }
 
 /// What every chain of one log and one edit seed shares: G, the stale map and what is scored.
@@ -185,9 +187,7 @@ fn with_poses(log: &SensorLog, poses: &[StampedPose]) -> SensorLog {
     let mut out = SensorLog { records: Vec::with_capacity(log.records.len()), ..log.clone() };
     out.records.clear();
     out.records.extend(log.records.iter().filter(|r| !matches!(r, LogRecord::Truth(_))).cloned());
-    out.records.extend(
-        poses.iter().map(|p| LogRecord::Truth(TruePose { stamp_ns: p.stamp_ns, pose_in_map: p.pose })),
-    );
+    out.records.extend(poses.iter().map(|p| LogRecord::Truth(TruePose { stamp_ns: p.stamp_ns, pose_in_map: p.pose })));
     out
 }
 
@@ -208,7 +208,8 @@ pub fn run_chain(
         Ok(MapScores { cc: r.cc, ms: r.ms, opdf: r.opdf })
     };
     let m1 = &s.stale.map;
-    let change = ChangeCells::new(m1, s.truth_map, &observed, Some(&s.stale.footprints)).map_err(|e| chain_error(s, e))?;
+    let change =
+        ChangeCells::new(m1, s.truth_map, &observed, Some(&s.stale.footprints)).map_err(|e| chain_error(s, e))?;
     let structure = StructureMask::new(m1, s.truth_map).map_err(|e| chain_error(s, e))?;
     let options = ReplayOptions {
         odometry_at: OdometryAt::Interpolated,
@@ -223,7 +224,11 @@ pub fn run_chain(
         preset: preset.to_string(),
         poses: poses.name().to_string(),
         m1: score(m1)?,
+        last: score(m1)?,
+        fresh: score(m1)?,
         oracle: score(&oracle_map(m1, s.truth_map))?,
+        retention: 100.0,
+        restored: Restored::of(&change.score(m1).map_err(|e| chain_error(s, e))?),
         structure_cells: structure.count(),
         class_cells: {
             use mapkeeper_grid::metrics::erosion::ChangeClass::{Added, Moved, Removed};
@@ -270,7 +275,94 @@ pub fn run_chain(
             result.maps.push(map.clone());
         }
     }
+    if let Some(p) = result.per_pass.last() {
+        (result.last, result.fresh, result.retention, result.restored) = (p.scores, p.fresh, p.retention, p.restored);
+    }
     Ok(result)
+}
+
+/// One pass of a log without reference poses: what it did, unscored.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct UnscoredPass {
+    /// k in W_k.
+    pub pass: usize,
+    /// Verdicts: Update, Suspend, Lost.
+    pub verdicts: (u64, u64, u64),
+    /// Lost episodes of the localiser.
+    pub lost_episodes: u64,
+    /// Cells that became occupied.
+    pub to_occupied: usize,
+    /// Cells that became free.
+    pub to_free: usize,
+    /// Other changes (to or from unknown).
+    pub other_changes: usize,
+}
+
+/// The passes of a log without reference poses on a given map.
+#[derive(Clone, Debug, Serialize)]
+pub struct UnscoredChain {
+    /// The log's name.
+    pub log: String,
+    /// The updater preset.
+    pub preset: String,
+    /// The localiser.
+    pub poses: String,
+    /// Pass 2 … K.
+    pub per_pass: Vec<UnscoredPass>,
+}
+
+/// The passes of `log` (no reference poses) from `map`, each localising on M_{k-1} from the
+/// localiser's global initialisation; what each changed. The reference cannot be a pose
+/// source here.
+pub fn run_unscored_chain(
+    name: &str,
+    log: &SensorLog,
+    map: &OccupancyGrid,
+    preset: &str,
+    poses: &PoseSourceConfig,
+    passes: usize,
+    seed: u64,
+) -> Result<UnscoredChain, ExperimentError> {
+    let err = |what: String| ExperimentError::Invalid(format!("{name}: {what}"));
+    let PoseSourceConfig::Localiser { params, .. } = poses else {
+        return Err(err("no reference poses to give the updater".into()));
+    };
+    let updater = UpdaterParams::preset(preset).map_err(|e| err(e.to_string()))?;
+    let options = ReplayOptions {
+        odometry_at: OdometryAt::Interpolated,
+        sync_window_ns: DEFAULT_SYNC_WINDOW_NS,
+        ..ReplayOptions::default()
+    };
+    let mut out = UnscoredChain {
+        log: name.to_string(),
+        preset: preset.to_string(),
+        poses: poses.name().to_string(),
+        per_pass: Vec::new(),
+    };
+    let mut current = map.clone();
+    for k in 2..=passes + 1 {
+        let input = PoseInput::Localise {
+            params: params.clone(),
+            seed: mapkeeper_common::stream_seed(seed, &format!("real-scans/pass-{k}")),
+            init: None,
+        };
+        let source = LogSource::new(log.clone(), name.to_string(), options);
+        let run = update_log(source, current.clone(), updater.clone(), input, &NoClock, &mut [])
+            .map_err(|e| err(format!("pass {k}: {e}")))?;
+        let diff = current.diff(&run.map).map_err(|e| err(e.to_string()))?;
+        let to_occupied = diff.iter().filter(|(_, _, b)| *b == CellState::Occupied).count();
+        let to_free = diff.iter().filter(|(_, _, b)| *b == CellState::Free).count();
+        out.per_pass.push(UnscoredPass {
+            pass: k,
+            verdicts: (run.stats.updates, run.stats.suspends, run.stats.losts),
+            lost_episodes: run.lost_episodes.len() as u64,
+            to_occupied,
+            to_free,
+            other_changes: diff.len() - to_occupied - to_free,
+        });
+        current = run.map;
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

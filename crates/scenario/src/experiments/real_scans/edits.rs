@@ -98,9 +98,11 @@ impl Default for EditParams {
 impl EditParams {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ParamError> {
-        for (name, v) in
-            [("added_share", self.added_share), ("removed_share", self.removed_share), ("moved_share", self.moved_share)]
-        {
+        for (name, v) in [
+            ("added_share", self.added_share),
+            ("removed_share", self.removed_share),
+            ("moved_share", self.moved_share),
+        ] {
             if !(v.is_finite() && (0.0..=2.0).contains(&v)) {
                 return Err(ParamError::new(name, v, "must be a share in [0, 2] of G's occupied cells"));
             }
@@ -438,7 +440,9 @@ impl Editor<'_> {
                         continue;
                     }
                     let n = CellCoord::new(c.ix + dx, c.iy + dy);
-                    if let Some(j) = g.index(n).filter(|&j| self.truth.cells()[j] == CellState::Unknown && !self.taken[j]) {
+                    if let Some(j) =
+                        g.index(n).filter(|&j| self.truth.cells()[j] == CellState::Unknown && !self.taken[j])
+                    {
                         cells.insert(j);
                     }
                 }

@@ -5,12 +5,12 @@
 //! that of the unsharded sweep.
 
 use crate::experiments::validation::erosion::{ChangeClassSummary, RetentionSummary};
-use crate::experiments::validation::saved_worlds::world_steppers;
-use crate::results::html::{Part, SteppersIntro, page_html};
 use crate::experiments::validation::merge::{load_result_dir, merge_dirs};
+use crate::experiments::validation::saved_worlds::world_steppers;
 use crate::experiments::validation::{MapQuality, SeedRecord, ValidationRecord, WorldRow, summarise_records};
 use crate::results::MergeProblem;
 use crate::results::ResultsError;
+use crate::results::html::{Part, SteppersIntro, page_html};
 use crate::stats::with_ci;
 use crate::stats::{IntervalUnits, PairedDiff, batch_means_half_width, chain_units, mean, paired_diff};
 use mapkeeper_closed_loop::controls::{LostCounts, VerdictCounts};
@@ -416,7 +416,13 @@ fn write_sweep_html(out: &StagedDir, md: &str, records: &[&ValidationRecord]) ->
     for (text, r) in texts.iter().zip(records) {
         let p = &r.params.preset;
         let steppers = world_steppers(r);
-        parts.push(Part { id: format!("{p}-"), markdown: text, base: format!("{p}/"), steppers, steppers_intro: intro });
+        parts.push(Part {
+            id: format!("{p}-"),
+            markdown: text,
+            base: format!("{p}/"),
+            steppers,
+            steppers_intro: intro,
+        });
     }
     let page = page_html("Validation sweep", &parts, out.path())?;
     out.write("report.html", page.as_bytes())?;

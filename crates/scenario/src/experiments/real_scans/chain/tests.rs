@@ -5,11 +5,7 @@ use mapkeeper_grid::Point2;
 
 /// G, the reference path and a stale map of the first `scans` scans of Intel.
 fn intel(scans: usize, test: &str) -> Option<(SensorLog, OccupancyGrid, StaleMap)> {
-    named("intel", scans, test)
-}
-
-fn named(name: &str, scans: usize, test: &str) -> Option<(SensorLog, OccupancyGrid, StaleMap)> {
-    let log = carmen_prefix(name, scans, test)?;
+    let log = carmen_prefix("intel", scans, test)?;
     let source = LogSource::new(log.clone(), "intel", map_options());
     let path: Vec<Point2> = source.truth().iter().map(|t| t.pose.position()).collect();
     let g = map_log(source, None, &mapper()).unwrap().map;
@@ -39,7 +35,7 @@ fn passes_at_the_reference_poses_move_the_map_towards_g_and_keep_its_structure()
     assert_eq!((r.oracle.cc, r.oracle.ms, r.oracle.opdf), (100.0, 100.0, 100.0));
     // At the reference poses the fresh map is G itself (G is the map at those poses).
     assert_eq!(r.per_pass[0].fresh, r.oracle);
-    let last = r.last();
+    let last = r.last;
     assert!(last.cc > r.m1.cc && last.ms > r.m1.ms && last.opdf > r.m1.opdf, "{:?} against M_1 {:?}", last, r.m1);
     // Each class partly restored, structure kept, nothing estimated.
     let p = r.per_pass.last().unwrap();
@@ -81,63 +77,11 @@ fn the_localisers_poses_are_scored_against_the_reference() {
 fn the_oracle_takes_g_where_g_observed() {
     use mapkeeper_grid::{CellCoord, GridGeometry, Pose2};
     let geometry = GridGeometry::new(3, 1, 1.0, Pose2::IDENTITY).unwrap();
-    let g = OccupancyGrid::from_cells(geometry, vec![CellState::Free, CellState::Unknown, CellState::Occupied]).unwrap();
+    let g =
+        OccupancyGrid::from_cells(geometry, vec![CellState::Free, CellState::Unknown, CellState::Occupied]).unwrap();
     let mut m = OccupancyGrid::filled(geometry, CellState::Occupied);
     m.set(CellCoord::new(2, 0), CellState::Free);
     let o = oracle_map(&m, &g);
     assert_eq!(o.cells(), &[CellState::Free, CellState::Occupied, CellState::Occupied]);
     assert_eq!(observed_cells(&g), vec![true, false, true]);
-}
-
-#[test]
-#[ignore]
-fn probe_presets() {
-    let Some((log, g, stale)) = intel(250, "probe") else { return };
-    let m = mapper();
-    let setup = ChainSetup { name: "intel", log: &log, truth_map: &g, stale: &stale, edit_seed: 5, mapper: &m, metrics: MetricParams::default() };
-    println!("targets {:?} made {:?} edits {}", stale.target_cells, stale.made_cells, stale.edits.len());
-    for preset in ["paper", "paper-strict", "authors", "mapkeeper", "mapkeeper-no-registration"] {
-        let r = run_chain(&setup, preset, &PoseSourceConfig::Reference, 3, 1, false).unwrap();
-        println!("{preset}: m1 {:?}", r.m1);
-        for p in &r.per_pass { println!("  {} {:?} ret {:.2} {:?} verdicts {:?} changed {}", p.pass, p.scores, p.retention, p.restored, p.verdicts, p.cells_changed); }
-    }
-}
-
-#[test]
-#[ignore]
-fn probe_eligible() {
-    for name in ["intel", "aces", "freiburg-079"] {
-        let Some(log) = carmen_prefix(name, 100000, "probe") else { return };
-        let source = LogSource::new(log.clone(), name, map_options());
-        let g = map_log(source, None, &mapper()).unwrap().map;
-        let occ = g.count(CellState::Occupied);
-        let geo = *g.geometry();
-        let d = mapkeeper_grid::DistanceField::from_sites(&geo, 2.0, |i| g.cells()[i] == CellState::Unknown);
-        let counts: Vec<usize> = [0.05, 0.08, 0.1, 0.15, 0.25].iter().map(|&r| g.cells().iter().zip(d.distances_m()).filter(|(c, dd)| **c == CellState::Occupied && f64::from(**dd) > r).count()).collect();
-        println!("{name}: occupied {occ} free {} eligible at 0.05/0.08/0.1/0.15/0.25: {counts:?}", g.count(CellState::Free));
-    }
-}
-
-#[test]
-#[ignore]
-fn probe_added() {
-    let n: usize = std::env::var("PROBE_SCANS").map_or(250, |v| v.parse().unwrap());
-    let Some((log, g, stale)) = named(&std::env::var("PROBE_LOG").unwrap_or("intel".into()), n, "probe") else { return };
-    let m = mapper();
-    let setup = ChainSetup { name: "intel", log: &log, truth_map: &g, stale: &stale, edit_seed: 5, mapper: &m, metrics: MetricParams::default() };
-    for preset in ["paper", "mapkeeper"] {
-        let r = run_chain(&setup, preset, &PoseSourceConfig::Reference, 1, 1, true).unwrap();
-        let m2 = &r.maps[0];
-        let mut counts = std::collections::BTreeMap::new();
-        let mut near = 0;
-        for (i, &f) in stale.footprints.added.iter().enumerate() {
-            if f && g.cells()[i] == CellState::Occupied {
-                *counts.entry(format!("{:?}", m2.cells()[i])).or_insert(0) += 1;
-                let c = g.geometry().coord(i);
-                if c.neighbours8().iter().any(|n| g.geometry().index(*n).is_some_and(|j| m2.cells()[j] == CellState::Occupied && stale.map.cells()[j] == CellState::Free)) { near += 1; }
-            }
-        }
-        let new_occ = stale.map.cells().iter().zip(m2.cells()).filter(|(a, b)| **a != CellState::Occupied && **b == CellState::Occupied).count();
-        println!("{preset}: added cells in M_2: {counts:?}; next to a new occupied cell {near}; new occupied cells anywhere {new_occ}");
-    }
 }

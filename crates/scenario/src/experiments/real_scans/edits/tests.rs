@@ -10,8 +10,15 @@ fn room() -> (OccupancyGrid, Vec<Point2>) {
         for ix in 0..340 {
             let p = g.cell_center(CellCoord::new(ix, iy));
             let inside = (0.0..=16.0).contains(&p.x) && (0.0..=10.0).contains(&p.y);
-            let wall = inside && (p.x < 0.1 || p.x > 15.9 || p.y < 0.1 || p.y > 9.9 || ((7.9..8.1).contains(&p.x) && p.y > 6.0));
-            let state = if wall { CellState::Occupied } else if inside { CellState::Free } else { CellState::Unknown };
+            let wall = inside
+                && (p.x < 0.1 || p.x > 15.9 || p.y < 0.1 || p.y > 9.9 || ((7.9..8.1).contains(&p.x) && p.y > 6.0));
+            let state = if wall {
+                CellState::Occupied
+            } else if inside {
+                CellState::Free
+            } else {
+                CellState::Unknown
+            };
             m.set(CellCoord::new(ix, iy), state);
         }
     }
