@@ -6,7 +6,7 @@
 
 use crate::stats::{median, percentile};
 use mapkeeper_grid::angle_diff;
-use mapkeeper_sensor::{SensorLog, StampedPose, interpolate};
+use mapkeeper_sensor::{LogRecord, SensorLog, StampedPose, interpolate};
 use serde::Serialize;
 
 /// One recorded log.
@@ -18,6 +18,32 @@ pub struct Dataset {
     pub source: String,
     /// The log (with truth records: the reference poses).
     pub log: SensorLog,
+}
+
+impl Dataset {
+    /// The log cut after its first `scans` scans: every record stamped before the scan that
+    /// would be the next (a short run of a long log; all of it if it has no more scans).
+    pub fn first_scans(mut self, scans: usize) -> Self {
+        let mut stamps: Vec<u64> = self.log.scans().map(|s| s.stamp_ns).collect();
+        stamps.sort_unstable();
+        if let Some(&end) = stamps.get(scans) {
+            self.log.records.retain(|r| record_stamp(r) < end);
+        }
+        self
+    }
+
+    /// Whether the log has reference poses (truth records).
+    pub fn has_reference(&self) -> bool {
+        self.log.records.iter().any(|r| matches!(r, LogRecord::Truth(_)))
+    }
+}
+
+fn record_stamp(r: &LogRecord) -> u64 {
+    match r {
+        LogRecord::Scan(s) => s.stamp_ns,
+        LogRecord::Odom(o) => o.stamp_ns,
+        LogRecord::Truth(t) => t.stamp_ns,
+    }
 }
 
 /// Position RMSE target, metres (issue 14).

@@ -1,7 +1,7 @@
 //! `mapkeeper experiment NAME`: one experiment of the paper's claims per subcommand, each into a
 //! folder of its own with `summary.json`, CSV, figures and `report.md`; `--quick` runs a short
 //! setting (the tests use it). The wall clock is read here, not in the libraries. One file per
-//! experiment of the recovery family; `real-data` and `sensor-realism` are `cmd::real_data` and
+//! experiment of the recovery family; `real-data` (with `real-scans`) and `sensor-realism` are `cmd::real_data` and
 //! `cmd::realism`.
 
 mod check_detection;
@@ -53,6 +53,9 @@ pub enum Which {
     /// Real logs with reference poses (CARMEN, bags): the localiser's error against the
     /// reference, where odometry contradicts it, the updater on each log's own map.
     RealData(super::real_data::Args),
+    /// Real scans, known truth: a stale map made from the map at a real log's reference poses by
+    /// seeded edits, the log replayed as worlds W_2 ... W_K, every map scored against the truth.
+    RealScans(super::real_data::scans::Args),
     /// Each sensor-realism switch alone (and all of them) against the ideal lidars: map
     /// quality and localisation of the validation chain on a short setting.
     SensorRealism(super::realism::Args),
@@ -114,6 +117,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Table1(a) => table1::run(a),
         Which::KidnapRobot(a) => kidnap_robot::run(a),
         Which::RealData(a) => super::real_data::run(a),
+        Which::RealScans(a) => super::real_data::scans::run(a),
         Which::SensorRealism(a) => super::realism::run(a),
     }
 }

@@ -1,7 +1,9 @@
 //! `mapkeeper experiment real-data`: the localiser and the updater on recorded logs with
-//! reference poses (the CARMEN logs of `../shared/data/carmen/`, or the user's own).
+//! reference poses (the CARMEN logs of `../shared/data/carmen/`, or the user's own); `real-scans`
+//! ([`scans`]) judges the updater on them against the map at the reference poses.
 
 mod reading;
+pub mod scans;
 
 use super::load_params;
 use anyhow::Context;
@@ -24,6 +26,17 @@ const SHARED_LOGS: [&str; 3] = [
     "../shared/data/carmen/freiburg-079-corrected.log.gz",
     "../shared/data/carmen/aces-corrected.log.gz",
 ];
+
+/// The three shared CARMEN logs (`--log` not given), or an error saying where they were looked for.
+fn shared_logs() -> anyhow::Result<Vec<PathBuf>> {
+    let shared: Vec<PathBuf> = SHARED_LOGS.iter().map(PathBuf::from).collect();
+    anyhow::ensure!(
+        shared.iter().all(|p| p.is_file()),
+        "--log: none given, and the shared CARMEN logs are not at ../shared/data/carmen/ (run from the clone's \
+folder with ../shared beside it, or name logs with --log)"
+    );
+    Ok(shared)
+}
 
 /// Arguments of `mapkeeper experiment real-data`.
 #[derive(clap::Args, Debug)]
@@ -73,17 +86,7 @@ fn default_out(seed: u64) -> PathBuf {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let logs: Vec<PathBuf> = if args.logs.is_empty() {
-        let shared: Vec<PathBuf> = SHARED_LOGS.iter().map(PathBuf::from).collect();
-        anyhow::ensure!(
-            shared.iter().all(|p| p.is_file()),
-            "--log: none given, and the shared CARMEN logs are not at ../shared/data/carmen/ (run from the clone's \
-folder with ../shared beside it, or name logs with --log)"
-        );
-        shared
-    } else {
-        args.logs.clone()
-    };
+    let logs: Vec<PathBuf> = if args.logs.is_empty() { shared_logs()? } else { args.logs.clone() };
     for p in &args.presets {
         mapkeeper_updater::UpdaterParams::preset(p).with_context(|| format!("--presets: '{p}'"))?;
     }
