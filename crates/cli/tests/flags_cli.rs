@@ -188,6 +188,24 @@ const FLAGS: &[Flag] = &[
     num("experiment real-data", "--seeds", Count),
     num("experiment real-data", "--jobs", Count),
     other("experiment real-data", "--out", Path),
+    other("experiment real-scans", "--log", Path),
+    other("experiment real-scans", "--truth-topic", Name),
+    other("experiment real-scans", "--scan-topic", Name),
+    other("experiment real-scans", "--odom-topic", Name),
+    other("experiment real-scans", "--map", Path),
+    num("experiment real-scans", "--worlds", Count),
+    ok("experiment real-scans", "--seed", Count, SEED_OK, SEED_WHY),
+    num("experiment real-scans", "--seeds", Count),
+    other("experiment real-scans", "--presets", Names),
+    other("experiment real-scans", "--poses", Names),
+    other("experiment real-scans", "--edit-params", Path),
+    num("experiment real-scans", "--scans", Count),
+    num("experiment real-scans", "--jobs", Count),
+    other("experiment real-scans", "--out", Path),
+    other("experiment real-scans", "--time-source", Name),
+    num("experiment real-scans", "--rate", Real),
+    num("experiment real-scans", "--keep-every", Count),
+    num("experiment real-scans", "--every-m", Real),
     other("map", "--log", Path),
     other("map", "--log-format", Name),
     other("map", "--scan-topic", Name),
@@ -402,6 +420,7 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
         | "experiment table1-held-pose"
         | "experiment kidnap-robot"
         | "experiment real-data"
+        | "experiment real-scans"
         | "experiment sensor-realism" => vec!["--out".into(), o],
         "convert" => vec!["--log".into(), p("log"), "--out".into(), o],
         "run" => vec!["--world".into(), p("w.toml"), "--map".into(), p("m.yaml"), "--out".into(), o],

@@ -37,6 +37,9 @@ use rand::rngs::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
+/// Places tried for a moved piece's old place before the draw counts as failed.
+const MOVE_TRIES: usize = 30;
+
 /// How the stale map is made.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -193,6 +196,8 @@ pub fn stale_map(
         map: truth.clone(),
         taken: vec![false; g.len()],
         path_distance,
+        occupied_cells: cells_in(truth, CellState::Occupied),
+        free_cells: cells_in(truth, CellState::Free),
         params,
         rng: stream_rng(seed, "real-scans/edits"),
         edits: Vec::new(),
@@ -231,6 +236,11 @@ pub fn stale_map(
     Ok(StaleMap { map: e.map, edits: e.edits, footprints: e.footprints, target_cells: targets, made_cells: made })
 }
 
+/// The indices of `map`'s cells in `state`.
+fn cells_in(map: &OccupancyGrid, state: CellState) -> Vec<usize> {
+    map.cells().iter().enumerate().filter(|(_, c)| **c == state).map(|(i, _)| i).collect()
+}
+
 /// The distance of every cell to the reference path (segments between consecutive positions),
 /// metres, capped at `cap_m`.
 fn path_distance(truth: &OccupancyGrid, path: &[Point2], cap_m: f64) -> DistanceField {
@@ -261,6 +271,9 @@ struct Editor<'a> {
     /// Cells in or next to an edit's footprint: no other edit may use them.
     taken: Vec<bool>,
     path_distance: DistanceField,
+    /// G's occupied cells and free cells (indices), where pieces and boxes are drawn.
+    occupied_cells: Vec<usize>,
+    free_cells: Vec<usize>,
     params: &'a EditParams,
     rng: ChaCha8Rng,
     edits: Vec<Edit>,
@@ -285,7 +298,7 @@ impl Editor<'_> {
                 let (a, b) = self.params.box_m;
                 let (sx, sy) = (self.rng.random_range(a..=b), self.rng.random_range(a..=b));
                 let yaw = self.rng.random_range(0.0..std::f64::consts::PI);
-                let centre = self.random_cell()?;
+                let centre = self.random_cell(CellState::Free)?;
                 let cells = self.box_cells(centre, sx, sy, yaw);
                 if !self.fits_on_floor(&cells) {
                     return None;
@@ -297,31 +310,39 @@ impl Editor<'_> {
             ChangeClass::Moved | ChangeClass::InitialError => {
                 let piece = self.draw_structure()?;
                 let (a, b) = self.params.move_m;
-                let d = self.rng.random_range(a..=b) / self.truth.geometry().resolution_m();
-                let heading = self.rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
-                let (dx, dy) = ((d * heading.cos()).round() as i32, (d * heading.sin()).round() as i32);
-                let old: Vec<CellCoord> = piece.iter().map(|c| CellCoord::new(c.ix + dx, c.iy + dy)).collect();
-                if !self.fits_on_floor(&old) {
-                    return None;
+                let r = self.truth.geometry().resolution_m();
+                // A piece is hard to fit whole on free floor: several places are tried for it.
+                for _ in 0..MOVE_TRIES {
+                    let d = self.rng.random_range(a..=b) / r;
+                    let heading = self.rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+                    let (dx, dy) = ((d * heading.cos()).round() as i32, (d * heading.sin()).round() as i32);
+                    let old: Vec<CellCoord> = piece.iter().map(|c| CellCoord::new(c.ix + dx, c.iy + dy)).collect();
+                    if self.fits_on_floor(&old) {
+                        let n = piece.len() + old.len();
+                        self.commit(class, &piece, &old);
+                        return Some(n);
+                    }
                 }
-                let n = piece.len() + old.len();
-                self.commit(class, &piece, &old);
-                Some(n)
+                None
             }
         }
     }
 
-    fn random_cell(&mut self) -> Option<CellCoord> {
-        let g = self.truth.geometry();
-        let i = self.rng.random_range(0..g.len());
-        Some(g.coord(i))
+    /// A cell drawn from those in `state` in G (`None` if there is none).
+    fn random_cell(&mut self, state: CellState) -> Option<CellCoord> {
+        let list = if state == CellState::Occupied { &self.occupied_cells } else { &self.free_cells };
+        if list.is_empty() {
+            return None;
+        }
+        let i = list[self.rng.random_range(0..list.len())];
+        Some(self.truth.geometry().coord(i))
     }
 
     /// A connected run of G's occupied cells around a seeded occupied cell, about
     /// `segment_m` long (breadth-first over 8-neighbours to half the length either way), none
     /// taken and none nearer the path than `structure_clearance_m`.
     fn draw_structure(&mut self) -> Option<Vec<CellCoord>> {
-        let seed_cell = self.random_cell()?;
+        let seed_cell = self.random_cell(CellState::Occupied)?;
         let ok = |e: &Self, c: CellCoord| {
             e.index(c).is_some_and(|i| {
                 e.truth.cells()[i] == CellState::Occupied
