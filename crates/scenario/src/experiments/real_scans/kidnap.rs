@@ -195,6 +195,84 @@ pub fn wrong_poses(recovered: &[StampedPose], reference: &[StampedPose], p: &Rea
     recovered.iter().filter(|r| interpolate(reference, r.stamp_ns).is_some_and(|t| p.wrong(&r.pose, &t))).count()
 }
 
+/// How a trial ended: recovered, or the first reason it did not.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum KidnapEnd {
+    /// Recovered within the recovery window.
+    Recovered,
+    /// Right to the end, but only from later than the recovery window.
+    Late,
+    /// Pose updating handed over a wrong pose after the cut.
+    WrongPose,
+    /// No Lost after the cut: the check never saw the kidnap (what it said instead:
+    /// [`KidnapTrial::steps_after_cut`]).
+    NeverLost,
+    /// Lost after the cut, but pose updating handed over no pose (its refusals:
+    /// [`KidnapTrial::refusals`]).
+    Refused,
+    /// Pose updating handed over right poses only, and the estimate did not hold them.
+    NotHeld,
+}
+
+impl KidnapEnd {
+    /// Its name in tables (as serialised): `recovered`, `late`, `wrong-pose`, `never-lost`,
+    /// `refused`, `not-held`.
+    pub fn name(self) -> &'static str {
+        match self {
+            KidnapEnd::Recovered => "recovered",
+            KidnapEnd::Late => "late",
+            KidnapEnd::WrongPose => "wrong-pose",
+            KidnapEnd::NeverLost => "never-lost",
+            KidnapEnd::Refused => "refused",
+            KidnapEnd::NotHeld => "not-held",
+        }
+    }
+
+    /// The end of a trial whose estimate did `recovery`, that said Lost after the cut or not
+    /// (`detected`) and was handed `poses_after` poses after the cut, `wrong_after` of them wrong.
+    pub fn of(recovery: &Recovery, detected: bool, poses_after: usize, wrong_after: usize) -> Self {
+        if recovery.recovered {
+            KidnapEnd::Recovered
+        } else if recovery.recover_s.is_some() {
+            KidnapEnd::Late
+        } else if wrong_after > 0 {
+            KidnapEnd::WrongPose
+        } else if !detected {
+            KidnapEnd::NeverLost
+        } else if poses_after == 0 {
+            KidnapEnd::Refused
+        } else {
+            KidnapEnd::NotHeld
+        }
+    }
+}
+
+/// The steps of a run's `steps.csv` after `cut_ns`, counted by outcome (`processed/lost`,
+/// `processed/update`, `no_valid_beams`, …).
+fn outcomes_after(steps_csv: &str, cut_ns: u64) -> BTreeMap<String, usize> {
+    let mut out = BTreeMap::new();
+    for row in steps_csv.lines().skip(1) {
+        let cols: Vec<&str> = row.splitn(4, ',').collect();
+        let stamp_ns = cols.first().and_then(|t| {
+            let (s, ns) = t.split_once('.')?;
+            // `seconds` writes nine decimals; fewer are read as the decimal fraction they are.
+            let ns = format!("{ns:0<9}");
+            Some(s.parse::<u64>().ok()? * 1_000_000_000 + ns.get(..9)?.parse::<u64>().ok()?)
+        });
+        if stamp_ns.is_none_or(|t| t <= cut_ns) {
+            continue;
+        }
+        let key = match (cols.get(1), cols.get(2)) {
+            (Some(o), Some(v)) if !v.is_empty() => format!("{o}/{v}"),
+            (Some(o), _) => o.to_string(),
+            _ => "unknown".into(),
+        };
+        *out.entry(key).or_insert(0) += 1;
+    }
+    out
+}
+
 /// One trial: one cut, one localiser seed, one map, localiser and updater preset, the spliced
 /// window and its paired unspliced window.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -215,6 +293,12 @@ pub struct KidnapTrial {
     pub turn_deg: f64,
     /// The estimate after the cut.
     pub recovery: Recovery,
+    /// How the trial ended.
+    pub end: KidnapEnd,
+    /// The spliced run's steps after the cut by the updater's outcome and verdict
+    /// (`processed/lost`, `no_valid_beams`: the estimate put the lidar off the map's free
+    /// cells, so the check had no beam to judge, …).
+    pub steps_after_cut: BTreeMap<String, usize>,
     /// A Lost episode opened after the cut.
     pub detected: bool,
     /// From the cut to the first Lost after it, seconds.
@@ -287,6 +371,8 @@ pub struct KidnapSummary {
     pub p90_recover_scans: Option<f64>,
     /// Refusals of pose updating over the spliced runs, by reason.
     pub refusals: BTreeMap<String, usize>,
+    /// Trials by how they ended ([`KidnapEnd::name`]).
+    pub ends: BTreeMap<String, usize>,
     /// The three targets all met.
     pub targets_met: bool,
 }
@@ -397,6 +483,14 @@ impl RealKidnapTrials<'_> {
         let recovery = classify_recovery(&run.poses, &reference, cut_ns, self.p);
         let good_from_ns = recovery.recover_s.map(|s| cut_ns + (s * 1e9).round() as u64);
         let first_lost_after = run.lost_episodes.iter().find(|e| e.start_ns > cut_ns);
+        let handed_after: Vec<StampedPose> =
+            run.recovered_poses.iter().filter(|r| r.stamp_ns > cut_ns).copied().collect();
+        let end = KidnapEnd::of(
+            &recovery,
+            first_lost_after.is_some(),
+            handed_after.len(),
+            wrong_poses(&handed_after, &reference, self.p),
+        );
         let unspliced_ref = reference_of(&unspliced);
         let error_at = |poses: &[StampedPose], reference: &[StampedPose], t: u64| {
             let e = poses.iter().rfind(|p| p.stamp_ns <= t)?;
@@ -422,6 +516,8 @@ impl RealKidnapTrials<'_> {
                     .iter()
                     .any(|r| r.stamp_ns > cut_ns && good_from_ns.is_some_and(|g| r.stamp_ns <= g)),
             refusals: refusals(&run.recoveries_csv),
+            end,
+            steps_after_cut: outcomes_after(&run.steps_csv, cut_ns),
             steps: run.poses.len(),
             unspliced_lost_episodes: paired.lost.episodes,
             unspliced_first_lost_error_m: paired
@@ -523,6 +619,10 @@ pub fn summarise(map: &str, localiser: &str, preset: &str, t: &[&KidnapTrial], p
         median_recover_scans: median(scans.clone()),
         p90_recover_scans: percentile(scans, 0.9),
         refusals,
+        ends: t.iter().fold(BTreeMap::new(), |mut m, t| {
+            *m.entry(t.end.name().to_string()).or_insert(0) += 1;
+            m
+        }),
         targets_met: !t.is_empty() && recovered_rate >= 0.9 && wrong_rate <= 0.01 && false_lost_rate <= 0.02,
     }
 }

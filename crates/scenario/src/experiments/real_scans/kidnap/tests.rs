@@ -100,6 +100,36 @@ fn a_pose_handed_over_is_wrong_at_a_third_of_a_metre_or_five_degrees() {
 }
 
 #[test]
+fn a_trial_ends_recovered_or_with_the_first_reason_it_did_not() {
+    let p = RealKidnapParams::default();
+    let judge = |off: &dyn Fn(u64) -> (f64, f64)| classify_recovery(&estimates(off), &reference(), CUT, &p);
+    let recovered = judge(&|k| if k == 11 { (2.0, 0.0) } else { (0.0, 0.0) });
+    let late = judge(&|k| if k > 10 && k < 22 { (2.0, 0.0) } else { (0.0, 0.0) });
+    let never = judge(&|k| if k > 10 { (2.0, 0.0) } else { (0.0, 0.0) });
+    assert_eq!(KidnapEnd::of(&recovered, true, 1, 0), KidnapEnd::Recovered);
+    assert_eq!(KidnapEnd::of(&late, true, 1, 0), KidnapEnd::Late);
+    assert_eq!(KidnapEnd::of(&never, true, 2, 1), KidnapEnd::WrongPose);
+    assert_eq!(KidnapEnd::of(&never, false, 0, 0), KidnapEnd::NeverLost);
+    assert_eq!(KidnapEnd::of(&never, true, 0, 0), KidnapEnd::Refused);
+    assert_eq!(KidnapEnd::of(&never, true, 1, 0), KidnapEnd::NotHeld);
+    assert_eq!(serde_json::to_string(&KidnapEnd::NeverLost).ok().as_deref(), Some("\"never-lost\""));
+    assert_eq!(KidnapEnd::WrongPose.name(), "wrong-pose");
+}
+
+#[test]
+fn steps_after_the_cut_are_counted_by_outcome_and_verdict() {
+    let csv = "time_s,outcome,verdict,n,n_invalid,n_dc,cells_changed,recovery,microseconds\n\
+9.999999999,processed,lost,10,0,9,0,,0.0\n10.000000000,processed,update,10,0,0,0,,0.0\n\
+10.000000001,no_valid_beams,,0,180,0,0,,0.0\n11.5,processed,lost,10,0,9,0,not_recovered,0.0\n\
+12.000000000,no_valid_beams,,0,180,0,0,,0.0\n";
+    let m = outcomes_after(csv, CUT);
+    assert_eq!(m, BTreeMap::from([("no_valid_beams".to_string(), 2), ("processed/lost".to_string(), 1)]));
+    // 11.5 is 11.5 s, after a cut at 11.4 s.
+    let m = outcomes_after(csv, 11_400_000_000);
+    assert_eq!(m, BTreeMap::from([("no_valid_beams".to_string(), 1), ("processed/lost".to_string(), 1)]));
+}
+
+#[test]
 fn refusals_are_counted_by_reason() {
     let csv = format!(
         "{}1.0,lost,refused,,,,poor_fit: best inlier ratio 0.2; rmse 0.1 m (3 of 9 points)\n\
@@ -136,6 +166,8 @@ fn trial(recovered: bool, wrong: usize, false_lost: u64, recover_s: f64) -> Kidn
         wrong_poses: wrong,
         recovered_by_pose_updating: recovered,
         refusals: BTreeMap::from([("poor_fit".to_string(), 1)]),
+        end: if recovered { KidnapEnd::Recovered } else { KidnapEnd::Refused },
+        steps_after_cut: BTreeMap::new(),
         steps: 20,
         unspliced_lost_episodes: false_lost,
         unspliced_first_lost_error_m: None,
@@ -161,6 +193,7 @@ fn the_summary_counts_rates_times_and_targets() {
     let s = summarise("truth", "mapkeeper-real", "paper", &refs, &p);
     assert_eq!((s.recovered_rate, s.wrong_rate, s.false_lost_rate, s.wrong_poses), (0.8, 0.1, 0.1, 1));
     assert_eq!(s.median_recover_s, Some(6.5), "over the recovered trials only");
+    assert_eq!(s.ends, BTreeMap::from([("recovered".to_string(), 8), ("refused".to_string(), 2)]));
     assert!(!s.targets_met);
     assert!(serde_json::to_string(&s).is_ok_and(|j| j.contains("\"recovered_rate\":0.8")));
 }
