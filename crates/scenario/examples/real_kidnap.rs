@@ -8,6 +8,11 @@
 //! cargo run --release -p mapkeeper-scenario --example real_kidnap -- \
 //!     [--cuts 20] [--seeds 1] [--seed 52] [--jobs 1] [--logs intel,aces,freiburg-079] [--localiser mapkeeper-real]
 //! ```
+//!
+//! `--debug CUT:MAP:PRESET` (e.g. `--logs intel --debug 3:truth:paper`) prints that trial's spliced
+//! run step by step instead: the updater's rows with the estimate's error, and pose updating's
+//! attempts.
+#![allow(clippy::disallowed_methods)] // an example times itself; the libraries read no clock
 
 use mapkeeper_common::stream_rng;
 use mapkeeper_grid::mapper::MapperParams;
@@ -15,7 +20,9 @@ use mapkeeper_grid::{CellState, OccupancyGrid, Point2};
 use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
 use mapkeeper_harness::{LogSource, ReplayOptions};
 use mapkeeper_scenario::experiments::real_data::Dataset;
-use mapkeeper_scenario::experiments::real_scans::kidnap::{RealKidnapParams, run_real_kidnap, trial_seed};
+use mapkeeper_scenario::experiments::real_scans::kidnap::{
+    RealKidnapParams, RealKidnapResults, run_real_kidnap, trial_seed,
+};
 use mapkeeper_scenario::experiments::real_scans::splice::{REFERENCE_GAP_NS, referenced_scans};
 use rand::RngExt;
 use std::time::Instant;
@@ -121,71 +128,127 @@ fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
     args.iter().position(|a| a == name).and_then(|k| args.get(k + 1)).and_then(|v| v.parse().ok()).unwrap_or(default)
 }
 
+/// The log `name` of `../shared` with G and the stale map; `None` (with a note) if absent.
+fn load(name: &str, seed: u64) -> Option<(Dataset, OccupancyGrid, OccupancyGrid)> {
+    let rel = format!("data/carmen/{name}-corrected.log.gz");
+    let path = mapkeeper_common::shared_data::path(&rel, "the real_kidnap example")?;
+    let imported = mapkeeper_logs::read_log(&path, None, &mapkeeper_logs::ImportOptions::default())
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let dataset = Dataset { name: name.to_string(), source: path.display().to_string(), log: imported.log };
+    let mapper =
+        MapLogParams { mapper: MapperParams::default(), no_return_clear_m: 0.0, resolution_m: 0.05, margin_m: 1.0 };
+    let options = ReplayOptions { max_truth_gap_ns: REFERENCE_GAP_NS, ..ReplayOptions::default() };
+    let g = map_log(LogSource::new(dataset.log.clone(), name, options), None, &mapper)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .map;
+    let m1 = stale(&g, &dataset.log, seed, 30, 30);
+    Some((dataset, g, m1))
+}
+
+/// One table row per summary.
+fn print_summaries(name: &str, r: &RealKidnapResults) {
+    for s in &r.summaries {
+        let pct = |x: f64| format!("{:.0} %", 100.0 * x);
+        let opt = |x: Option<f64>| x.map_or("–".into(), |v| format!("{v:.1}"));
+        println!(
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} / {} | {} / {} | {:?} | {:?} |",
+            s.map,
+            s.preset,
+            s.trials,
+            pct(s.recovered_rate),
+            pct(s.recovered_by_pose_updating_rate),
+            pct(s.detected_rate),
+            pct(s.wrong_rate),
+            s.pose_recoveries,
+            s.wrong_poses,
+            pct(s.false_lost_rate),
+            pct(s.unspliced_off_rate),
+            opt(s.median_recover_s),
+            opt(s.p90_recover_s),
+            opt(s.median_recover_scans),
+            opt(s.p90_recover_scans),
+            s.ends,
+            s.refusals
+        );
+    }
+}
+
+/// The cuts and one line per trial.
+fn trial_lines(r: &RealKidnapResults) -> String {
+    let mut out = String::new();
+    for d in &r.cuts {
+        out.push_str(&format!(
+            "  cut {}: {:.1}-{:.1} s, jump {:.2} m turn {:.0}°, window {} + {} scans\n",
+            d.index,
+            d.cut.start_ns as f64 * 1e-9,
+            d.cut.end_ns as f64 * 1e-9,
+            d.jump_m,
+            d.turn_rad.to_degrees(),
+            d.scans_before,
+            d.scans_after
+        ));
+    }
+    let round = |x: Option<f64>, k: f64| x.map(|v| (v * k).round() / k);
+    for t in &r.trials {
+        out.push_str(&format!(
+            "  cut {} {} {}: {} ({:?} s, {:?} scans; first error {:.2} m, final {:.2} m / {:.1}°), Lost {} \
+(after the cut: {:?} s), poses {} wrong {}, refusals {:?}, steps after the cut {:?}; unspliced Lost {} (error then \
+{:?}), max error {:.2} m\n",
+            t.cut,
+            t.map,
+            t.preset,
+            t.end.name(),
+            round(t.recovery.recover_s, 100.0),
+            t.recovery.recover_scans,
+            t.recovery.first_error_m.unwrap_or(f64::NAN),
+            t.recovery.final_error_m.unwrap_or(f64::NAN),
+            t.recovery.final_yaw_error_deg.unwrap_or(f64::NAN),
+            t.lost_episodes,
+            round(t.lost_delay_s, 100.0),
+            t.pose_recoveries,
+            t.wrong_poses,
+            t.refusals,
+            t.steps_after_cut,
+            t.unspliced_lost_episodes,
+            round(t.unspliced_first_lost_error_m, 1000.0),
+            t.unspliced_max_error_m
+        ));
+    }
+    out
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let cuts: usize = arg(&args, "--cuts", 20);
-    let seeds: usize = arg(&args, "--seeds", 1);
     let seed: u64 = arg(&args, "--seed", 52);
     let jobs: usize = arg(&args, "--jobs", 1);
     let logs: String = arg(&args, "--logs", "intel,aces,freiburg-079".to_string());
-    let localiser: String = arg(&args, "--localiser", "mapkeeper-real".to_string());
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().unwrap_or_else(|e| panic!("{e}"));
-    let mut p = RealKidnapParams { seeds_per_cut: seeds, localisers: vec![localiser], ..RealKidnapParams::default() };
-    p.cuts.count = cuts;
+    let mut p = RealKidnapParams {
+        seeds_per_cut: arg(&args, "--seeds", 1),
+        localisers: vec![arg(&args, "--localiser", "mapkeeper-real".to_string())],
+        ..RealKidnapParams::default()
+    };
+    p.cuts.count = arg(&args, "--cuts", 20);
     println!(
-        "| log | map | preset | trials | recovered | by pose updating | Lost after the cut | wrong | poses (wrong) | false Lost | unspliced off ≥ 0.3 m | recover median / p90 s | scans | refusals |"
+        "| log | map | preset | trials | recovered | by pose updating | Lost after the cut | wrong | poses (wrong) | false Lost | unspliced off ≥ 0.3 m | recover median / p90 s | scans | ends | refusals |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut details = String::new();
     for name in logs.split(',') {
-        let rel = format!("data/carmen/{name}-corrected.log.gz");
-        let Some(path) = mapkeeper_common::shared_data::path(&rel, "the real_kidnap example") else { continue };
         let t0 = Instant::now();
-        let imported = mapkeeper_logs::read_log(&path, None, &mapkeeper_logs::ImportOptions::default())
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
-        let dataset = Dataset { name: name.to_string(), source: path.display().to_string(), log: imported.log };
-        let mapper =
-            MapLogParams { mapper: MapperParams::default(), no_return_clear_m: 0.0, resolution_m: 0.05, margin_m: 1.0 };
-        let options = ReplayOptions { max_truth_gap_ns: REFERENCE_GAP_NS, ..ReplayOptions::default() };
-        let g = map_log(LogSource::new(dataset.log.clone(), name, options), None, &mapper)
-            .unwrap_or_else(|e| panic!("{name}: {e}"))
-            .map;
-        let m1 = stale(&g, &dataset.log, seed, 30, 30);
+        let Some((dataset, g, m1)) = load(name, seed) else { continue };
         let prep = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
         let maps = [("stale", &m1), ("truth", &g)];
         if let Some(spec) = args.iter().position(|a| a == "--debug").and_then(|k| args.get(k + 1)) {
             debug(&dataset, &maps, &p, seed, spec);
             continue;
         }
+        let t1 = Instant::now();
         let r = pool
             .install(|| run_real_kidnap(&dataset, &maps, &p, seed, &|| {}))
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         let wall = t1.elapsed().as_secs_f64();
-        for s in &r.summaries {
-            let pct = |x: f64| format!("{:.0} %", 100.0 * x);
-            let opt = |x: Option<f64>| x.map_or("–".into(), |v| format!("{v:.1}"));
-            println!(
-                "| {name} | {} | {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} / {} | {} / {} | {:?} | {:?} |",
-                s.map,
-                s.preset,
-                s.trials,
-                pct(s.recovered_rate),
-                pct(s.recovered_by_pose_updating_rate),
-                pct(s.detected_rate),
-                pct(s.wrong_rate),
-                s.pose_recoveries,
-                s.wrong_poses,
-                pct(s.false_lost_rate),
-                pct(s.unspliced_off_rate),
-                opt(s.median_recover_s),
-                opt(s.p90_recover_s),
-                opt(s.median_recover_scans),
-                opt(s.p90_recover_scans),
-                s.ends,
-                s.refusals
-            );
-        }
+        print_summaries(name, &r);
         let steps: usize = r.trials.iter().map(|t| t.steps + t.unspliced_steps).sum();
         details.push_str(&format!(
             "\n{name}: read + map {prep:.1} s; {} trials in {wall:.1} s on {jobs} thread(s): {:.3} s per trial \
@@ -194,43 +257,7 @@ fn main() {
             wall / r.trials.len().max(1) as f64,
             1e3 * wall / steps.max(1) as f64
         ));
-        for d in &r.cuts {
-            details.push_str(&format!(
-                "  cut {}: {:.1}-{:.1} s, jump {:.2} m turn {:.0}°, window {} + {} scans\n",
-                d.index,
-                d.cut.start_ns as f64 * 1e-9,
-                d.cut.end_ns as f64 * 1e-9,
-                d.jump_m,
-                d.turn_rad.to_degrees(),
-                d.scans_before,
-                d.scans_after
-            ));
-        }
-        for t in &r.trials {
-            details.push_str(&format!(
-                "  cut {} {} {}: {} ({:?} s, {:?} scans; first error {:.2} m, final {:.2} m / {:.1}°), Lost {} \
-(after the cut: {:?} s), poses {} wrong {}, refusals {:?}, steps after the cut {:?}; unspliced Lost {} (error then \
-{:?}), max error {:.2} m\n",
-                t.cut,
-                t.map,
-                t.preset,
-                t.end.name(),
-                t.recovery.recover_s.map(|s| (s * 100.0).round() / 100.0),
-                t.recovery.recover_scans,
-                t.recovery.first_error_m.unwrap_or(f64::NAN),
-                t.recovery.final_error_m.unwrap_or(f64::NAN),
-                t.recovery.final_yaw_error_deg.unwrap_or(f64::NAN),
-                t.lost_episodes,
-                t.lost_delay_s.map(|s| (s * 100.0).round() / 100.0),
-                t.pose_recoveries,
-                t.wrong_poses,
-                t.refusals,
-                t.steps_after_cut,
-                t.unspliced_lost_episodes,
-                t.unspliced_first_lost_error_m.map(|e| (e * 1000.0).round() / 1000.0),
-                t.unspliced_max_error_m
-            ));
-        }
+        details.push_str(&trial_lines(&r));
     }
     println!("{details}");
 }

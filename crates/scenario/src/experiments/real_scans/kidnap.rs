@@ -1,4 +1,4 @@
-//! Real kidnaps from real logs (issue 52, item 4): a log spliced at a drawn cut ([`splice`])
+//! Real kidnaps from real logs (issue 52, item 4): a log spliced at a drawn cut ([`splice`](super::splice))
 //! is replayed, over a window around the cut, by the chain localiser and the updater with the
 //! paper's reaction to Lost (`update_log` with [`PoseInput::Localise`]), on each map given
 //! (the stale map, G) for each localiser and updater preset; each trial is paired with the

@@ -223,9 +223,58 @@ fn parameters_are_checked_with_their_names() {
     assert!(toml::from_str::<RealKidnapParams>("cut = 3\n").is_err(), "unknown keys are refused");
 }
 
+/// G at the reference poses of `log` up to `end_ns`, with real-data's mapper parameters.
+fn map_up_to(log: &SensorLog, end_ns: u64) -> OccupancyGrid {
+    let part = splice::window(log, 0, end_ns);
+    let options = ReplayOptions { max_truth_gap_ns: splice::REFERENCE_GAP_NS, ..ReplayOptions::default() };
+    let mapper = mapkeeper_harness::jobs::map::MapLogParams {
+        mapper: mapkeeper_grid::mapper::MapperParams::default(),
+        no_return_clear_m: 0.0,
+        resolution_m: 0.05,
+        margin_m: 1.0,
+    };
+    mapkeeper_harness::jobs::map::map_log(LogSource::new(part, "intel", options), None, &mapper)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .map
+}
+
+/// `g` with every tenth occupied cell made free: a stale map of the place.
+fn erase_every_tenth_wall_cell(g: &OccupancyGrid) -> OccupancyGrid {
+    use mapkeeper_grid::CellState::{Free, Occupied};
+    let mut stale = g.clone();
+    let occupied: Vec<usize> = (0..g.cells().len()).filter(|&i| g.cells()[i] == Occupied).step_by(10).collect();
+    for &i in &occupied {
+        stale.cells_mut()[i] = Free;
+    }
+    assert!(!occupied.is_empty() && stale != *g);
+    stale
+}
+
+/// The largest disagreement between the odometry increment and the reference increment over
+/// consecutive scans of `log`, metres, and the stamp of the scan it starts from.
+fn worst_odometry_gap(log: &SensorLog) -> (f64, u64) {
+    let mut steps: Vec<u64> = log.scans().map(|s| s.stamp_ns).collect();
+    steps.dedup();
+    let r = reference_of(log);
+    let odo: Vec<StampedPose> =
+        log.odometry().map(|o| StampedPose { stamp_ns: o.stamp_ns, pose: o.pose_in_odom }).collect();
+    let mut worst = (0.0f64, 0u64);
+    for w in steps.windows(2) {
+        if let (Some(r0), Some(r1), Some(o0), Some(o1)) =
+            (interpolate(&r, w[0]), interpolate(&r, w[1]), interpolate(&odo, w[0]), interpolate(&odo, w[1]))
+        {
+            let (dr, dodo) = (r0.between(&r1), o0.between(&o1));
+            let gap = (dr.x - dodo.x).hypot(dr.y - dodo.y);
+            if gap > worst.0 {
+                worst = (gap, w[0]);
+            }
+        }
+    }
+    worst
+}
+
 /// The Intel log's window around one cut, end to end: the spliced run and its pair, on G and on
-/// a stale G, for `paper` and `mapkeeper`. The unspliced run is the same run up to the cut and
-/// carries no kidnap; the spliced one sees a jump of ≥ 0.5 m its odometry did not.
+/// a stale G, for `paper` and `mapkeeper`, the same on one thread and on two.
 #[test]
 fn an_intel_cut_runs_end_to_end_paired_with_its_unspliced_window() {
     let Some(path) = mapkeeper_common::shared_data::path(
@@ -237,112 +286,48 @@ fn an_intel_cut_runs_end_to_end_paired_with_its_unspliced_window() {
     let imported = mapkeeper_logs::read_log(&path, None, &mapkeeper_logs::ImportOptions::default())
         .unwrap_or_else(|e| panic!("{e}"));
     let dataset = Dataset { name: "intel".into(), source: path.display().to_string(), log: imported.log };
-    // G from the first part of the log only (the window lies in it): a fraction of the cost.
     let cuts =
         CutParams { count: 1, before_scans: 3, after_scans: 4, before_s: 5.0, after_s: 12.0, ..CutParams::default() };
     let p = RealKidnapParams { cuts, presets: vec!["paper".into(), "mapkeeper".into()], ..RealKidnapParams::default() };
     let draws = draw_cuts(&dataset.log, "intel", &p.cuts, 3).unwrap_or_else(|e| panic!("{e}"));
     let d = draws[0];
-    let g = {
-        let part = splice::window(&dataset.log, 0, d.window_end_ns + 60 * S);
-        let options = ReplayOptions { max_truth_gap_ns: splice::REFERENCE_GAP_NS, ..ReplayOptions::default() };
-        let mapper = mapkeeper_harness::jobs::map::MapLogParams {
-            mapper: mapkeeper_grid::mapper::MapperParams::default(),
-            no_return_clear_m: 0.0,
-            resolution_m: 0.05,
-            margin_m: 1.0,
-        };
-        mapkeeper_harness::jobs::map::map_log(LogSource::new(part, "intel", options), None, &mapper)
-            .unwrap_or_else(|e| panic!("{e}"))
-            .map
-    };
-    // A stale G: every tenth occupied cell erased.
-    let mut stale = g.clone();
-    let occupied: Vec<usize> = (0..stale.cells().len())
-        .filter(|&i| stale.cells()[i] == mapkeeper_grid::CellState::Occupied)
-        .step_by(10)
-        .collect();
-    for &i in &occupied {
-        stale.cells_mut()[i] = mapkeeper_grid::CellState::Free;
-    }
-    assert!(!occupied.is_empty() && stale != g);
-    let maps = [("stale", &stale), ("truth", &g)];
-    let results = run_real_kidnap(&dataset, &maps, &p, 3, &|| {}).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(results.cuts, draws);
-    assert_eq!(results.trials.len(), 4);
-    assert_eq!(results.summaries.len(), 4);
     assert!(d.jump_m >= 0.5, "the robot is moved: {d:?}");
+    // G from the log up to a minute past the window only: a fraction of the cost.
+    let g = map_up_to(&dataset.log, d.window_end_ns + 60 * S);
+    let stale = erase_every_tenth_wall_cell(&g);
+    let maps = [("stale", &stale), ("truth", &g)];
+    // The same results on one thread and on two (the trials run in any order).
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
+        pool.install(|| run_real_kidnap(&dataset, &maps, &p, 3, &|| {})).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let results = on(1);
+    assert_eq!(on(2), results);
+    assert_eq!((results.cuts.as_slice(), results.trials.len(), results.summaries.len()), (draws.as_slice(), 4, 4));
     for t in &results.trials {
-        println!(
-            "{} {} jump {:.2} m turn {:.0}°: recovered {} ({:?} s, {:?} scans), lost {} (first after the cut {:?} s), \
-poses {} wrong {}, refusals {:?}; unspliced lost {} max error {:.3} m",
-            t.map,
-            t.preset,
-            t.jump_m,
-            t.turn_deg,
-            t.recovery.recovered,
-            t.recovery.recover_s,
-            t.recovery.recover_scans,
-            t.lost_episodes,
-            t.lost_delay_s,
-            t.pose_recoveries,
-            t.wrong_poses,
-            t.refusals,
-            t.unspliced_lost_episodes,
-            t.unspliced_max_error_m
-        );
+        println!("{} {}: {:?}, {:?}; steps after the cut {:?}", t.map, t.preset, t.end, t.recovery, t.steps_after_cut);
         assert!(t.steps > 0 && t.unspliced_steps > 0 && t.recovery.steps_after >= p.cuts.after_scans, "{t:?}");
         assert_eq!(t.lost_before_cut, 0, "no Lost before the cut on the first seconds of a window: {t:?}");
     }
-    // The pair, directly: identical up to the cut; the unspliced reference has no jump and its
-    // odometry follows it, the spliced odometry stands still where its reference jumps.
+    // The pair, directly: the same run up to the cut. The spliced odometry stands still where
+    // the reference jumps; the unspliced odometry follows its reference (no kidnap).
     let trials = RealKidnapTrials {
         dataset: &dataset,
         maps: &maps,
         p: &p,
         seed: 3,
-        cuts: draws.clone(),
+        cuts: draws,
         reference: reference_of(&dataset.log),
     };
     let job = KidnapJob { cut: 0, seed: 0, map: 1, localiser: 0, preset: 0 };
     let init = interpolate(&trials.reference, d.window_start_ns).unwrap_or(Pose2::IDENTITY);
-    let spliced = d.spliced(&dataset.log).unwrap_or_else(|e| panic!("{e}"));
-    let unspliced = d.unspliced(&dataset.log);
+    let (spliced, unspliced) = (d.spliced(&dataset.log).unwrap_or_else(|e| panic!("{e}")), d.unspliced(&dataset.log));
     let a = trials.run_one(spliced.clone(), &job, init).unwrap_or_else(|e| panic!("{e}"));
     let b = trials.run_one(unspliced.clone(), &job, init).unwrap_or_else(|e| panic!("{e}"));
     let before = |r: &UpdateRun| r.poses.iter().filter(|e| e.stamp_ns <= d.cut.start_ns).copied().collect::<Vec<_>>();
     assert!(!before(&a).is_empty() && before(&a) == before(&b));
-    let steps = |l: &SensorLog| {
-        let mut s: Vec<u64> = l.scans().map(|s| s.stamp_ns).collect();
-        s.dedup();
-        s
-    };
-    let worst = |l: &SensorLog| {
-        let r = reference_of(l);
-        let odo: Vec<StampedPose> =
-            l.odometry().map(|o| StampedPose { stamp_ns: o.stamp_ns, pose: o.pose_in_odom }).collect();
-        let mut worst = (0.0f64, 0u64);
-        for w in steps(l).windows(2) {
-            if let (Some(r0), Some(r1), Some(o0), Some(o1)) =
-                (interpolate(&r, w[0]), interpolate(&r, w[1]), interpolate(&odo, w[0]), interpolate(&odo, w[1]))
-            {
-                let (dr, dodo) = (r0.between(&r1), o0.between(&o1));
-                let gap = (dr.x - dodo.x).hypot(dr.y - dodo.y);
-                if gap > worst.0 {
-                    worst = (gap, w[0]);
-                }
-            }
-        }
-        worst
-    };
-    let (spliced_gap, at) = worst(&spliced);
-    assert!(
-        spliced_gap >= 0.5 && at == d.cut.start_ns,
-        "the spliced log's odometry misses the jump: {spliced_gap} at {at}"
-    );
-    let (unspliced_gap, _) = worst(&unspliced);
-    assert!(
-        unspliced_gap < 0.3,
-        "the unspliced log has no kidnap: odometry and reference agree within {unspliced_gap} m"
-    );
+    let (gap, at) = worst_odometry_gap(&spliced);
+    assert!(gap >= 0.5 && at == d.cut.start_ns, "the spliced log's odometry misses the jump: {gap} m at {at}");
+    let (gap, _) = worst_odometry_gap(&unspliced);
+    assert!(gap < 0.3, "the unspliced log has no kidnap: odometry and reference agree within {gap} m");
 }
