@@ -642,7 +642,7 @@ pub fn run_real_kidnap(
     if maps.is_empty() {
         return Err(ExperimentError::Invalid(format!("real kidnap on {}: no map given", dataset.name)));
     }
-    let cuts = draw_cuts(&dataset.log, &dataset.name, &p.cuts, seed).map_err(ExperimentError::Invalid)?;
+    let cuts = draw_cuts(&dataset.log, &dataset.name, &p.cuts, seed)?;
     let reference = reference_of(&dataset.log);
     run_trials(&RealKidnapTrials { dataset, maps, p, seed, cuts, reference }, progress)
 }

@@ -20,6 +20,7 @@
 //! the joint holding the reference at `t_b`, so that the reference jumps within the 1 ns of the
 //! joint and nowhere is it interpolated across the cut.
 
+use crate::experiments::ExperimentError;
 use mapkeeper_common::{ParamError, stream_rng};
 use mapkeeper_grid::{Pose2, angle_diff};
 use mapkeeper_sensor::{LogRecord, OdometryReading, SensorLog, StampedPose, TruePose, interpolate, interpolate_within};
@@ -357,12 +358,15 @@ pub fn referenced_scans(log: &SensorLog) -> Vec<StampedPose> {
 /// room before them, then an end `t_b` uniformly among the later scans with room after them
 /// whose reference pose lies `min_jump_m`-`max_jump_m` from `t_a`'s (any turn); a start with no
 /// such end is drawn again, at most `max_tries` times. Both ends are scans with a reference
-/// pose ([`referenced_scans`]). An error names the log (`name`) and what is missing.
-pub fn draw_cuts(log: &SensorLog, name: &str, params: &CutParams, seed: u64) -> Result<Vec<CutDraw>, String> {
-    params.validate().map_err(|e| format!("{name}: cut parameter {e}"))?;
+/// pose ([`referenced_scans`]). Bad parameters are refused as `cuts.…`; a log with no room
+/// for a cut is an error naming the log (`name`) and what is missing.
+pub fn draw_cuts(log: &SensorLog, name: &str, params: &CutParams, seed: u64) -> Result<Vec<CutDraw>, ExperimentError> {
+    params.validate().map_err(|e| ExperimentError::from(e.within("cuts")))?;
     let scans = referenced_scans(log);
     let (Some(first), Some(last)) = (scans.first(), scans.last()) else {
-        return Err(format!("{name}: no scan with a reference pose within 0.1 s: no cut can be drawn"));
+        return Err(ExperimentError::Invalid(format!(
+            "{name}: no scan with a reference pose within 0.1 s: no cut can be drawn"
+        )));
     };
     let (before_ns, after_ns) = ((params.before_s * 1e9).round() as u64, (params.after_s * 1e9).round() as u64);
     let n = scans.len();
@@ -393,7 +397,7 @@ pub fn draw_cuts(log: &SensorLog, name: &str, params: &CutParams, seed: u64) -> 
             }
         }
         let Some((a, b)) = found else {
-            return Err(format!(
+            return Err(ExperimentError::Invalid(format!(
                 "{name}: cut {k}: no two scans with reference poses {}-{} m apart and the window's room ({} s / {} \
 scans before, {} s / {} scans after) in {} tries",
                 params.min_jump_m,
@@ -403,7 +407,7 @@ scans before, {} s / {} scans after) in {} tries",
                 params.after_s,
                 params.after_scans,
                 params.max_tries
-            ));
+            )));
         };
         // The window's ends are scans: the latest at or before the earlier of the two starts
         // (`starts` leaves room for both), the earliest at or after the later of the two ends.
