@@ -200,6 +200,8 @@ const FLAGS: &[Flag] = &[
     other("experiment real-scans", "--poses", Names),
     other("experiment real-scans", "--edit-params", Path),
     num("experiment real-scans", "--scans", Count),
+    num("experiment real-scans", "--kidnap-cuts", Count),
+    other("experiment real-scans", "--kidnap-localisers", Names),
     num("experiment real-scans", "--jobs", Count),
     other("experiment real-scans", "--out", Path),
     other("experiment real-scans", "--time-source", Name),

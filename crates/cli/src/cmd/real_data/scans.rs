@@ -11,6 +11,7 @@ use mapkeeper_harness::jobs::map::MapLogParams;
 use mapkeeper_localiser::FilterParams;
 use mapkeeper_scenario::experiments::real_scans::chain::PoseSourceConfig;
 use mapkeeper_scenario::experiments::real_scans::edits::EditParams;
+use mapkeeper_scenario::experiments::real_scans::kidnap::RealKidnapParams;
 use mapkeeper_scenario::experiments::real_scans::report::write_real_scans;
 use mapkeeper_scenario::experiments::real_scans::{LogInput, RealScansParams, chain_count, run_real_scans};
 use std::path::PathBuf;
@@ -68,9 +69,17 @@ pub struct Args {
     /// Only the first N scans of each log (a short run), 10 to 10000000.
     #[arg(long, value_name = "N", value_parser = crate::cmd::count_in(10, 10_000_000), allow_hyphen_values = true)]
     pub scans: Option<usize>,
+    /// Spliced kidnaps per log (cuts 0.5-5 m apart, each paired with the unspliced log, with
+    /// the presets paper, authors and mapkeeper on the first edit seed's stale map and on G), 0
+    /// to 10000; 0: none.
+    #[arg(long, value_name = "N", default_value_t = 20, value_parser = crate::cmd::count_in(0, 10_000), allow_hyphen_values = true)]
+    pub kidnap_cuts: usize,
+    /// The localisers of the spliced kidnaps, comma-separated (mapkeeper-real, amcl, ...).
+    #[arg(long, value_name = "A,B", value_delimiter = ',', default_value = "mapkeeper-real")]
+    pub kidnap_localisers: Vec<String>,
     /// A short setting for tests: K = 3, one edit seed, the first 150 scans of each log, the
-    /// presets paper and mapkeeper, the reference poses and mapkeeper-real (flags given
-    /// explicitly still win for --presets and --poses).
+    /// presets paper and mapkeeper, the reference poses and mapkeeper-real, 2 kidnap cuts (flags
+    /// given explicitly still win for --presets and --poses).
     #[arg(long)]
     pub quick: bool,
     #[command(flatten)]
@@ -117,7 +126,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pose_sources,
         metrics: MetricParams::default(),
         keep_maps: true,
+        kidnaps: None,
     };
+    let cuts = if args.quick { args.kidnap_cuts.min(2) } else { args.kidnap_cuts };
+    let mut params = params;
+    if cuts > 0 {
+        for l in &args.kidnap_localisers {
+            FilterParams::preset(l).with_context(|| format!("--kidnap-localisers: '{l}'"))?;
+        }
+        let mut k = RealKidnapParams::default();
+        k.cuts.count = cuts;
+        k.localisers = args.kidnap_localisers.clone();
+        params.kidnaps = Some(k);
+    }
     params.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     let map = match &args.map {
         Some(p) => Some(mapkeeper_grid::map_io::load_map(p).with_context(|| format!("--map {}", p.display()))?),
@@ -150,6 +171,20 @@ or --truth-topic (a topic of reference poses)",
     write_real_scans(&dir, &results, &params, wall)?;
     let out = dir.finish()?;
     for r in &results {
+        if let Some(k) = &r.kidnaps {
+            for x in k.summaries.iter().filter(|x| x.preset == "mapkeeper") {
+                outln!(
+                    "{}: spliced kidnaps, mapkeeper, {} on {}: {:.0} % of {} recovered, {:.0} % wrong, {:.0} % false Lost",
+                    r.name,
+                    x.localiser,
+                    x.map,
+                    100.0 * x.recovered_rate,
+                    x.trials,
+                    100.0 * x.wrong_rate,
+                    100.0 * x.false_lost_rate
+                );
+            }
+        }
         for c in r.summaries.iter().filter(|c| c.preset == "mapkeeper") {
             outln!(
                 "{} ({} scans), mapkeeper, poses {}: MS {:.2} → {:.2} (pass {worlds}), CC {:.2} → {:.2}, OPDF {:.2} → {:.2}; retention {:.2} %",

@@ -51,6 +51,8 @@ pub struct RealScansParams {
     pub metrics: MetricParams,
     /// Keep the maps of every pass of the first edit seed (the report's figures).
     pub keep_maps: bool,
+    /// The spliced kidnaps, on the first edit seed's stale map and on G (`None`: not run).
+    pub kidnaps: Option<kidnap::RealKidnapParams>,
 }
 
 impl RealScansParams {
@@ -73,6 +75,9 @@ impl RealScansParams {
                 .map_err(|e| ExperimentError::Invalid(format!("updater preset '{p}': {e}")))?;
         }
         self.edits.validate().map_err(ExperimentError::InvalidParam)?;
+        if let Some(k) = &self.kidnaps {
+            k.validate().map_err(|e| ExperimentError::InvalidParam(e.within("kidnaps")))?;
+        }
         Ok(())
     }
 }
@@ -117,6 +122,8 @@ pub struct LogResult {
     pub summaries: Vec<ChainSummary>,
     /// Without reference poses: the passes on the given map, unscored.
     pub unscored: Vec<UnscoredChain>,
+    /// The spliced kidnaps (on the first edit seed's stale map and on G), if run.
+    pub kidnaps: Option<kidnap::RealKidnapResults>,
     /// G (or the given map).
     #[serde(skip)]
     pub truth_map: Option<OccupancyGrid>,
@@ -308,6 +315,7 @@ each pass changed"
                 chains: Vec::new(),
                 summaries: Vec::new(),
                 unscored: Vec::new(),
+                kidnaps: None,
                 truth_map: map.cloned(),
                 first_stale: prep.as_ref().and_then(|p| p.stale.first().map(|s| s.map.clone())),
             }
@@ -323,16 +331,28 @@ each pass changed"
     for r in &mut results {
         r.summaries = summarise(&r.chains, &params.presets, &params.pose_sources);
     }
+    if let Some(k) = &params.kidnaps {
+        for ((r, input), prep) in results.iter_mut().zip(logs).zip(&prepared) {
+            let Some(prep) = prep else { continue };
+            let Some(stale) = prep.stale.first() else { continue };
+            let maps = [("stale", &stale.map), ("truth", &prep.truth_map)];
+            r.kidnaps = Some(kidnap::run_real_kidnap(&input.dataset, &maps, k, params.edit_seeds[0], progress)?);
+        }
+    }
     Ok(results)
 }
 
-/// The number of chains [`run_real_scans`] runs (its progress count).
+/// The number of chains and kidnap trials [`run_real_scans`] runs (its progress count).
 pub fn chain_count(logs: &[LogInput], params: &RealScansParams) -> usize {
     let with_reference = logs
         .iter()
         .filter(|l| l.dataset.log.records.iter().any(|r| matches!(r, mapkeeper_sensor::LogRecord::Truth(_))))
         .count();
     let localisers = params.pose_sources.iter().filter(|s| **s != PoseSourceConfig::Reference).count();
-    with_reference * params.edit_seeds.len() * params.presets.len() * params.pose_sources.len()
+    let kidnaps = params
+        .kidnaps
+        .as_ref()
+        .map_or(0, |k| k.cuts.count * k.seeds_per_cut * 2 * k.localisers.len() * k.presets.len());
+    with_reference * (params.edit_seeds.len() * params.presets.len() * params.pose_sources.len() + kidnaps)
         + (logs.len() - with_reference) * params.presets.len() * localisers
 }

@@ -300,6 +300,9 @@ itself, by construction); restored: the share of each class's observed cells M_{
             );
         }
         s.push('\n');
+        if let Some(k) = &r.kidnaps {
+            kidnaps_md(&mut s, k);
+        }
         for source in &params.pose_sources {
             if r.summaries.iter().any(|c| c.poses == source.name()) {
                 let rel = format!("{}/ms_{}.png", file_name(&r.name), file_name(source.name()));
@@ -308,4 +311,45 @@ itself, by construction); restored: the share of each class's observed cells M_{
         }
     }
     s
+}
+
+/// The spliced kidnaps of one log.
+fn kidnaps_md(s: &mut String, k: &super::kidnap::RealKidnapResults) {
+    let p = &k.params;
+    let _ = writeln!(
+        s,
+        "### Spliced kidnaps\n\n{} cuts (the robot carried {:.1}-{:.1} m, any turn, its odometry blind), each paired with the \
+unspliced log; recovered: within {} m and {}° of the reference within {} s of the cut and to the end of the window; \
+wrong: a pose handed over {} m or {}° off or more; false Lost: a Lost on the unspliced window. Targets: ≥ 90 % \
+recovered, ≤ 1 % wrong, ≤ 2 % false Lost.\n",
+        k.cuts.len(),
+        p.cuts.min_jump_m,
+        p.cuts.max_jump_m,
+        p.recovered_max_error_m,
+        p.recovered_max_yaw_deg,
+        p.recovery_window_s,
+        p.wrong_min_error_m,
+        p.wrong_min_yaw_deg
+    );
+    s.push_str("| map | localiser | preset | trials | recovered | wrong pose | false Lost | time to recover, median / p90 (s) | (scans) | how the trials ended |\n|---|---|---|---:|---:|---:|---:|---|---|---|\n");
+    for x in &k.summaries {
+        let ends: Vec<String> = x.ends.iter().map(|(e, n)| format!("{e} {n}")).collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.1} % | {:.1} % | {:.1} % | {} / {} | {} / {} | {} |",
+            x.map,
+            x.localiser,
+            x.preset,
+            x.trials,
+            100.0 * x.recovered_rate,
+            100.0 * x.wrong_rate,
+            100.0 * x.false_lost_rate,
+            opt(x.median_recover_s, 1),
+            opt(x.p90_recover_s, 1),
+            opt(x.median_recover_scans, 0),
+            opt(x.p90_recover_scans, 0),
+            ends.join(", ")
+        );
+    }
+    s.push('\n');
 }
