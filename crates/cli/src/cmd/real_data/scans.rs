@@ -69,9 +69,9 @@ pub struct Args {
     /// Only the first N scans of each log (a short run), 10 to 10000000.
     #[arg(long, value_name = "N", value_parser = crate::cmd::count_in(10, 10_000_000), allow_hyphen_values = true)]
     pub scans: Option<usize>,
-    /// Spliced kidnaps per log (cuts 0.5-5 m apart, each paired with the unspliced log, with
-    /// the presets paper, authors and mapkeeper on the first edit seed's stale map and on G), 0
-    /// to 10000; 0: none.
+    /// Spliced kidnaps per log (cuts 0.5-5 m apart, each paired with the unspliced log, on the
+    /// first edit seed's stale map and on G; with the presets paper, authors and mapkeeper, or
+    /// those of --presets when it is given), 0 to 10000; 0: none.
     #[arg(long, value_name = "N", default_value_t = 20, value_parser = crate::cmd::count_in(0, 10_000), allow_hyphen_values = true)]
     pub kidnap_cuts: usize,
     /// The localisers of the spliced kidnaps, comma-separated (mapkeeper-real, amcl, ...).
@@ -136,6 +136,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         let mut k = RealKidnapParams::default();
         k.cuts.count = cuts;
+        // The three presets by default; the run's own when --presets (or --quick) says.
+        if !defaults_presets || args.quick {
+            k.presets = params.presets.clone();
+        }
         k.localisers = args.kidnap_localisers.clone();
         params.kidnaps = Some(k);
     }
