@@ -19,7 +19,7 @@ use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2};
 use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
 use mapkeeper_harness::{LogSource, ReplayOptions};
-use mapkeeper_scenario::experiments::real_data::Dataset;
+use mapkeeper_scenario::experiments::reference::Dataset;
 use mapkeeper_scenario::experiments::real_scans::kidnap::{
     RealKidnapParams, RealKidnapResults, run_real_kidnap, trial_seed,
 };

@@ -1,15 +1,24 @@
 //! The experiments' folders stand apart: each experiment (a folder, or `convergence.rs`) imports
 //! what every experiment shares (the closed loop of `mapkeeper-closed-loop`, which cannot
-//! import an experiment by its dependencies, and the scores at the top of `experiments/`) and
+//! import an experiment by its dependencies, and the scores and the reference-pose scoring at the
+//! top of `experiments/`) and
 //! never another experiment; the shared file imports no experiment; `results/claims.rs` imports
 //! no report (docs/ARCHITECTURE.md).
 #![allow(clippy::unwrap_used)]
 
 use std::path::{Path, PathBuf};
 
-const EXPERIMENTS: [&str; 7] =
-    ["validation", "check_detection", "table1_hold", "kidnap_robot", "recovery", "real_data", "convergence"];
-const SHARED: [&str; 1] = ["scores"];
+const EXPERIMENTS: [&str; 8] = [
+    "validation",
+    "check_detection",
+    "table1_hold",
+    "kidnap_robot",
+    "recovery",
+    "real_data",
+    "real_scans",
+    "convergence",
+];
+const SHARED: [&str; 2] = ["scores", "reference"];
 
 fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")

@@ -23,7 +23,7 @@
 
 use super::splice::{CutDraw, CutParams, draw_cuts};
 use crate::experiments::ExperimentError;
-use crate::experiments::real_data::Dataset;
+use crate::experiments::reference::Dataset;
 use crate::stats::{frac, median, percentile};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_common::{ParamError, stream_seed};
