@@ -46,7 +46,18 @@ fn real_scans_scores_a_simulated_bag_and_runs_one_without_reference_on_a_given_m
     ]);
     assert!(printed.contains("drive") && printed.contains("poses reference"), "{printed}");
     let v: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
-    let log = &v["logs"][0];
+    check_scored(&v["logs"][0]);
+    for f in ["report.md", "report.html", "drive/G.yaml", "drive/M_1.yaml", "drive/ms_reference.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    assert!(out.join("drive/errors/mapkeeper_reference_W03.png").is_file());
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("The passes, step by step") && html.contains("data:image/png;base64"));
+    check_unscored(&dir, &bag, &sim);
+}
+
+/// The scored log's fields: every chain's scores, the kidnaps, the stale map.
+fn check_scored(log: &Value) {
     let chains = log["chains"].as_array().unwrap();
     assert_eq!(chains.len(), 2, "mapkeeper × (reference, mapkeeper-real)");
     for c in chains {
@@ -77,15 +88,12 @@ fn real_scans_scores_a_simulated_bag_and_runs_one_without_reference_on_a_given_m
     }
     let stale = &log["stale"][0];
     assert!(stale["edits"].as_u64().unwrap() > 0, "{stale}");
-    for f in ["report.md", "report.html", "drive/G.yaml", "drive/M_1.yaml", "drive/ms_reference.png"] {
-        assert!(out.join(f).is_file(), "{f} missing");
-    }
-    assert!(out.join("drive/errors/mapkeeper_reference_W03.png").is_file());
-    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    assert!(html.contains("The passes, step by step") && html.contains("data:image/png;base64"));
+}
 
+/// The bag without its truth topic: refused without --map, unscored with it.
+fn check_unscored(dir: &std::path::Path, bag: &std::path::Path, sim: &std::path::Path) {
     // Without reference poses and without --map: refused, naming the flag.
-    let o = mapkeeper(&["experiment", "real-scans", "--log", s(&bag), "--quick", "--out", s(&dir.join("x"))]);
+    let o = mapkeeper(&["experiment", "real-scans", "--log", s(bag), "--quick", "--out", s(&dir.join("x"))]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("--map") && e.contains("no reference poses"), "{e}");
     // With a map: the passes run, unscored, and the report says why.
@@ -94,7 +102,7 @@ fn real_scans_scores_a_simulated_bag_and_runs_one_without_reference_on_a_given_m
         "experiment",
         "real-scans",
         "--log",
-        s(&bag),
+        s(bag),
         "--map",
         s(&sim.join("ground_truth.yaml")),
         "--quick",

@@ -19,11 +19,11 @@ use mapkeeper_grid::mapper::MapperParams;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2};
 use mapkeeper_harness::jobs::map::{MapLogParams, map_log};
 use mapkeeper_harness::{LogSource, ReplayOptions};
-use mapkeeper_scenario::experiments::reference::Dataset;
 use mapkeeper_scenario::experiments::real_scans::kidnap::{
     RealKidnapParams, RealKidnapResults, run_real_kidnap, trial_seed,
 };
 use mapkeeper_scenario::experiments::real_scans::splice::{REFERENCE_GAP_NS, referenced_scans};
+use mapkeeper_scenario::experiments::reference::Dataset;
 use rand::RngExt;
 use std::time::Instant;
 

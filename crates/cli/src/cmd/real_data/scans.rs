@@ -13,7 +13,7 @@ use mapkeeper_scenario::experiments::real_scans::chain::PoseSourceConfig;
 use mapkeeper_scenario::experiments::real_scans::edits::EditParams;
 use mapkeeper_scenario::experiments::real_scans::kidnap::RealKidnapParams;
 use mapkeeper_scenario::experiments::real_scans::report::write_real_scans;
-use mapkeeper_scenario::experiments::real_scans::{LogInput, RealScansParams, chain_count, run_real_scans};
+use mapkeeper_scenario::experiments::real_scans::{LogInput, LogResult, RealScansParams, chain_count, run_real_scans};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -100,18 +100,36 @@ fn pose_source(name: &str) -> anyhow::Result<PoseSourceConfig> {
     Ok(PoseSourceConfig::Localiser { name: name.to_string(), params: Box::new(params) })
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let logs = if args.logs.is_empty() { shared_logs()? } else { args.logs.clone() };
+/// The run's parameters from the flags (`--quick` applied).
+fn params(args: &Args) -> anyhow::Result<RealScansParams> {
     let defaults_presets = args.presets.join(",") == DEFAULT_PRESETS;
-    let presets = if args.quick && defaults_presets { vec!["paper".into(), "mapkeeper".into()] } else { args.presets };
+    let presets =
+        if args.quick && defaults_presets { vec!["paper".into(), "mapkeeper".into()] } else { args.presets.clone() };
     let default_poses = args.poses.join(",") == "reference,mapkeeper-real,amcl";
-    let poses =
-        if args.quick && default_poses { vec!["reference".into(), "mapkeeper-real".into()] } else { args.poses };
+    let poses = if args.quick && default_poses {
+        vec!["reference".into(), "mapkeeper-real".into()]
+    } else {
+        args.poses.clone()
+    };
     let pose_sources = poses.iter().map(|p| pose_source(p)).collect::<anyhow::Result<Vec<_>>>()?;
     let edits = load_params(EditParams::default(), args.edit_params.as_deref(), EditParams::validate)?;
-    let (worlds, seeds, scans) =
-        if args.quick { (3, 1, Some(args.scans.unwrap_or(150))) } else { (args.worlds, args.seeds, args.scans) };
+    let (worlds, seeds) = if args.quick { (3, 1) } else { (args.worlds, args.seeds) };
+    let cuts = if args.quick { args.kidnap_cuts.min(2) } else { args.kidnap_cuts };
+    let kidnaps = if cuts > 0 {
+        for l in &args.kidnap_localisers {
+            FilterParams::preset(l).with_context(|| format!("--kidnap-localisers: '{l}'"))?;
+        }
+        let mut k = RealKidnapParams::default();
+        k.cuts.count = cuts;
+        k.localisers = args.kidnap_localisers.clone();
+        // The issue's three presets by default; the run's own when --presets (or --quick) says.
+        if !defaults_presets || args.quick {
+            k.presets = presets.clone();
+        }
+        Some(k)
+    } else {
+        None
+    };
     let params = RealScansParams {
         mapper: MapLogParams {
             mapper: MapperParams::default(),
@@ -126,24 +144,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pose_sources,
         metrics: MetricParams::default(),
         keep_maps: true,
-        kidnaps: None,
+        kidnaps,
     };
-    let cuts = if args.quick { args.kidnap_cuts.min(2) } else { args.kidnap_cuts };
-    let mut params = params;
-    if cuts > 0 {
-        for l in &args.kidnap_localisers {
-            FilterParams::preset(l).with_context(|| format!("--kidnap-localisers: '{l}'"))?;
-        }
-        let mut k = RealKidnapParams::default();
-        k.cuts.count = cuts;
-        // The issue's three presets by default; the run's own when --presets (or --quick) says.
-        if !defaults_presets || args.quick {
-            k.presets = params.presets.clone();
-        }
-        k.localisers = args.kidnap_localisers.clone();
-        params.kidnaps = Some(k);
-    }
     params.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(params)
+}
+
+/// The logs (cut to `--scans`), each with the map a log without reference poses starts from.
+fn inputs(args: &Args) -> anyhow::Result<Vec<LogInput>> {
+    let logs = if args.logs.is_empty() { shared_logs()? } else { args.logs.clone() };
+    let scans = if args.quick { Some(args.scans.unwrap_or(150)) } else { args.scans };
     let map = match &args.map {
         Some(p) => Some(mapkeeper_grid::map_io::load_map(p).with_context(|| format!("--map {}", p.display()))?),
         None => None,
@@ -162,6 +172,13 @@ or --truth-topic (a topic of reference poses)",
         );
         inputs.push(LogInput { dataset, map: map.clone() });
     }
+    Ok(inputs)
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let params = params(&args)?;
+    let inputs = inputs(&args)?;
     let out =
         args.output.out.clone().unwrap_or_else(|| crate::cmd::numbered_out(&format!("real-scans-s{}", args.seed)));
     let dir = crate::cmd::output_dir(&out, args.output.force)?;
@@ -174,7 +191,14 @@ or --truth-topic (a topic of reference poses)",
     let wall = args.timing.wall_s(start);
     write_real_scans(&dir, &results, &params, wall)?;
     let out = dir.finish()?;
-    for r in &results {
+    print_lines(&results, params.worlds);
+    outln!("{:.1} s wall; wrote {}", wall, out.display());
+    Ok(())
+}
+
+/// The lines printed for `mapkeeper`: the kidnaps and each pose source's pass K.
+fn print_lines(results: &[LogResult], worlds: usize) {
+    for r in results {
         if let Some(k) = &r.kidnaps {
             for x in k.summaries.iter().filter(|x| x.preset == "mapkeeper") {
                 outln!(
@@ -205,6 +229,4 @@ or --truth-topic (a topic of reference poses)",
             );
         }
     }
-    outln!("{:.1} s wall; wrote {}", wall, out.display());
-    Ok(())
 }

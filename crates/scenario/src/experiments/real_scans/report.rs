@@ -186,6 +186,16 @@ M_k is scored against G over the cells G observed (CC, MS, OPDF, percent); the o
         params.presets.join(", "),
         params.pose_sources.iter().map(PoseSourceConfig::name).collect::<Vec<_>>().join(", "),
     );
+    logs_md(&mut s, results);
+    targets_md(&mut s, results, k);
+    for r in results {
+        log_md(&mut s, r, params);
+    }
+    s
+}
+
+/// The logs and their stale maps.
+fn logs_md(s: &mut String, results: &[LogResult]) {
     s.push_str("## The logs and their stale maps\n\n");
     s.push_str(
         "| log | scans | path (m) | G: observed / occupied cells | edits per seed | cells added / removed / moved, asked | made | floor behind |\n|---|---:|---:|---|---:|---|---|---:|\n",
@@ -210,6 +220,10 @@ M_k is scored against G over the cells G observed (CC, MS, OPDF, percent); the o
             r.stale.iter().map(|x| x.floor_behind as f64).sum::<f64>() / n,
         );
     }
+}
+
+/// The targets' verdicts.
+fn targets_md(s: &mut String, results: &[LogResult], k: usize) {
     s.push_str("\n## Targets\n\n");
     let _ = writeln!(
         s,
@@ -238,7 +252,12 @@ at least {:.0} % of the same preset's at the reference poses; no seed whose pass
             );
         }
     }
-    for r in results {
+}
+
+/// One log's section: its scores, or what each pass changed when it has no reference.
+fn log_md(s: &mut String, r: &LogResult, params: &RealScansParams) {
+    let k = params.worlds;
+    {
         let _ = writeln!(s, "\n## {}\n", r.name);
         if let Some(note) = &r.note {
             let _ = writeln!(s, "Note: {note}.\n");
@@ -261,7 +280,7 @@ at least {:.0} % of the same preset's at the reference poses; no seed whose pass
                     );
                 }
             }
-            continue;
+            return;
         }
         let _ = writeln!(
             s,
@@ -301,7 +320,7 @@ itself, by construction); restored: the share of each class's observed cells M_{
         }
         s.push('\n');
         if let Some(k) = &r.kidnaps {
-            kidnaps_md(&mut s, k);
+            kidnaps_md(s, k);
         }
         for source in &params.pose_sources {
             if r.summaries.iter().any(|c| c.poses == source.name()) {
@@ -310,7 +329,6 @@ itself, by construction); restored: the share of each class's observed cells M_{
             }
         }
     }
-    s
 }
 
 /// The spliced kidnaps of one log.
