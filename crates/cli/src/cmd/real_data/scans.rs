@@ -68,7 +68,7 @@ pub struct Args {
     pub edit_params: Option<PathBuf>,
     /// Only the first N scans of each log (a short run), 10 to 10000000.
     #[arg(long, value_name = "N", value_parser = crate::cmd::count_in(10, 10_000_000), allow_hyphen_values = true)]
-    pub scans: Option<usize>,
+    pub first_scans: Option<usize>,
     /// Spliced kidnaps per log (cuts 0.5-5 m apart, each paired with the unspliced log, on the
     /// first edit seed's stale map and on G; with the presets paper, authors and mapkeeper, or
     /// those of --presets when it is given), 0 to 10000; 0: none.
@@ -150,10 +150,10 @@ fn params(args: &Args) -> anyhow::Result<RealScansParams> {
     Ok(params)
 }
 
-/// The logs (cut to `--scans`), each with the map a log without reference poses starts from.
+/// The logs (cut to `--first-scans`), each with the map a log without reference poses starts from.
 fn inputs(args: &Args) -> anyhow::Result<Vec<LogInput>> {
     let logs = if args.logs.is_empty() { shared_logs()? } else { args.logs.clone() };
-    let scans = if args.quick { Some(args.scans.unwrap_or(150)) } else { args.scans };
+    let scans = if args.quick { Some(args.first_scans.unwrap_or(150)) } else { args.first_scans };
     let map = match &args.map {
         Some(p) => Some(mapkeeper_grid::map_io::load_map(p).with_context(|| format!("--map {}", p.display()))?),
         None => None,
