@@ -322,7 +322,13 @@ impl ScanMatcher {
         let g = df.geometry();
         let distances_m = df.distances_m().to_vec();
         let s2 = 2.0 * params.kernel_sigma_m * params.kernel_sigma_m;
-        let kernel = distances_m.iter().map(|&d| (-(d as f64 * d as f64) / s2).exp() as f32).collect();
+        // Most cells lie at the cap: their kernel is computed once.
+        let cap = df.max_distance_m();
+        let at_cap = (-(cap as f64 * cap as f64) / s2).exp() as f32;
+        let kernel = distances_m
+            .iter()
+            .map(|&d| if d >= cap { at_cap } else { (-(d as f64 * d as f64) / s2).exp() as f32 })
+            .collect();
         Self {
             width: g.width(),
             height: g.height(),

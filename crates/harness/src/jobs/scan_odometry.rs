@@ -6,23 +6,30 @@
 //! map of the recent scans (scan-to-submap), in the `odom` frame, which starts at the identity
 //! at the first step:
 //!
-//! 1. **Predict** with a constant velocity: the last step's increment, scaled by the ratio of
-//!    this step's time gap to the last one's (at most [`MAX_GAP_RATIO`]); the first two steps
-//!    predict no motion.
+//! 1. **Predict** the last step's motion again (a constant motion per step: logs thinned by
+//!    travel, as CARMEN's corrected logs are, have steps a metre apart at any time gap); the
+//!    first two steps predict no motion.
 //! 2. **Match** the step's beam endpoints (`matcher.max_beams` per lidar, evenly over the valid
 //!    readings shorter than `max_range_m`) against the local map from the prediction with the
-//!    localiser's [`ScanMatcher`] (a correlative search in its window, then a refinement).
-//! 3. **Accept or keep the prediction**: an accepted match gives the step's pose; a refused one
+//!    localiser's [`ScanMatcher`] (a correlative search, then a refinement) in its window
+//!    ([`ScanMatchParams::window_for`] of the predicted motion: ±0.2 m and ±0.15 rad unless
+//!    `window_xy_per_m` or `window_yaw_per_motion` widen it).
+//! 3. **Search wide** where that match is refused or clipped by its window's edge: every
+//!    `wide_resolution_m` cell and `wide_yaw_step_rad` yaw within `matcher.max_window_xy_m` and
+//!    `matcher.max_window_yaw_rad` of the prediction, on a coarse table, then the fine match from
+//!    the best of them; the better accepted match of the two is kept.
+//! 4. **Accept or keep the prediction**: an accepted match gives the step's pose; a refused one
 //!    (fewer than `matcher.min_inlier_share` of the beams within `matcher.inlier_m` of the local
 //!    map) leaves the prediction, and is counted. After `restart_after_refused` refusals in a
 //!    row the local map is started afresh from the step's scans at the prediction (a *restart*,
 //!    counted): the robot has left the map behind, or the map no longer fits.
-//! 4. **Grow the local map**: a step becomes a *key scan* when its pose is `key_distance_m` or
+//! 5. **Grow the local map**: a step becomes a *key scan* when its pose is `key_distance_m` or
 //!    `key_turn_rad` from the last key scan's; the local map is the distance field of the last
-//!    `submap_scans` key scans' endpoints (to the points themselves, not to their cells, so the
-//!    match is not pulled onto the cell lattice), in a square of `2 · submap_radius_m` around
-//!    the newest key scan, rebuilt when a key scan is added. A robot standing still matches the same
-//!    map again and again, so its odometry does not creep.
+//!    `submap_scans` key scans' surfaces (their endpoints, with the gaps between neighbouring
+//!    beams on one surface filled in, and the distance taken to the points themselves, not to
+//!    their cells, so the match is not pulled onto the cell lattice), in a square of
+//!    `2 · submap_radius_m` around the newest key scan, rebuilt when a key scan is added. A robot
+//!    standing still matches the same map again and again, so its odometry does not creep.
 //!
 //! Deterministic: no randomness, no clock. Any log is accepted: a step without a usable beam
 //! keeps the prediction (counted apart), a scan whose header is invalid gives no beams, a log
@@ -32,16 +39,12 @@
 //! to the motion, or an open space beyond `max_range_m`, pins the pose across the corridor only
 //! (the prediction carries it along); the drift of any incremental method grows with the path.
 
+use local_map::LocalMap;
 use mapkeeper_common::ParamError;
-use mapkeeper_grid::{DistanceField, GridGeometry, Point2, Pose2, wrap_angle};
-use mapkeeper_localiser::{BeamSelection, BeamSet, ScanMatchParams, ScanMatcher};
+use mapkeeper_grid::Pose2;
+use mapkeeper_localiser::{BeamSelection, BeamSet, Match, ScanMatchParams, Window};
 use mapkeeper_logs::ScanOdometrySummary;
-use mapkeeper_sensor::{BeamValidity, LaserScan, LogRecord, OdometryReading, SensorLog};
-use std::collections::VecDeque;
-
-/// The prediction scales the last increment by this step's time gap over the last one's, at most
-/// this much (a gap in the log, a dropped scan, is not extrapolated further).
-pub const MAX_GAP_RATIO: f64 = 3.0;
+use mapkeeper_sensor::{LaserScan, LogRecord, OdometryReading, SensorLog};
 
 /// The scan-odometry maker's parameters.
 ///
@@ -56,14 +59,18 @@ pub const MAX_GAP_RATIO: f64 = 3.0;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScanOdometryParams {
     /// The match: windows around the prediction, kernel, inlier distance, acceptance, beams per
-    /// lidar (`enabled` is not read). Default: the localiser's defaults with a ±0.2 m, ±0.15 rad
-    /// window and acceptance at 0.4 of the beams within 0.1 m.
+    /// lidar (`enabled` and the second-search fields are not read; `max_window_xy_m` and
+    /// `max_window_yaw_rad` are the wide search's window, `refused_min_inlier_gain` how much
+    /// more of the beams the wide search's match must fit to replace an accepted one). Default:
+    /// the localiser's defaults with a ±0.2 m, ±0.15 rad window, a wide window of ±1.2 m and
+    /// ±1 rad, and acceptance at 0.4 of the beams within 0.1 m.
     pub matcher: ScanMatchParams,
-    /// Readings at or beyond this are not matched nor mapped, metres. Default 15.
+    /// Readings at or beyond this are not matched nor mapped, metres. Default 30 (a corridor's
+    /// far end pins the pose along it).
     pub max_range_m: f64,
     /// The local map's cell size, metres. Default 0.05.
     pub resolution_m: f64,
-    /// Half the side of the local map's square around the newest key scan, metres. Default 15.
+    /// Half the side of the local map's square around the newest key scan, metres. Default 30.
     pub submap_radius_m: f64,
     /// Key scans in the local map. Default 15.
     pub submap_scans: usize,
@@ -73,6 +80,10 @@ pub struct ScanOdometryParams {
     pub key_turn_rad: f64,
     /// Refused matches in a row after which the local map is started afresh. Default 10.
     pub restart_after_refused: usize,
+    /// The wide search's cell (its position step, and its kernel's σ), metres. Default 0.1.
+    pub wide_resolution_m: f64,
+    /// The wide search's yaw step, radians. Default 0.015 (0.86°).
+    pub wide_yaw_step_rad: f64,
 }
 
 impl Default for ScanOdometryParams {
@@ -82,16 +93,20 @@ impl Default for ScanOdometryParams {
                 enabled: true,
                 window_xy_m: 0.2,
                 window_yaw_rad: 0.15,
+                max_window_xy_m: 1.2,
+                max_window_yaw_rad: 1.0,
                 min_inlier_share: 0.4,
                 ..ScanMatchParams::default()
             },
-            max_range_m: 15.0,
+            max_range_m: 30.0,
             resolution_m: 0.05,
-            submap_radius_m: 15.0,
+            submap_radius_m: 30.0,
             submap_scans: 15,
             key_distance_m: 0.25,
             key_turn_rad: 0.15,
             restart_after_refused: 10,
+            wide_resolution_m: 0.1,
+            wide_yaw_step_rad: 0.015,
         }
     }
 }
@@ -100,7 +115,7 @@ impl ScanOdometryParams {
     /// Checks every field; the first violation is returned (the matcher's named `scan_match.…`).
     pub fn validate(&self) -> Result<(), ParamError> {
         self.matcher.validate()?;
-        let checks: [(&'static str, f64, bool, &'static str); 7] = [
+        let checks: [(&'static str, f64, bool, &'static str); 9] = [
             ("max_range_m", self.max_range_m, self.max_range_m > 0.0, "must be > 0"),
             ("resolution_m", self.resolution_m, (0.005..=1.0).contains(&self.resolution_m), "must be in [0.005, 1]"),
             (
@@ -118,6 +133,18 @@ impl ScanOdometryParams {
                 self.restart_after_refused >= 1,
                 "must be >= 1",
             ),
+            (
+                "wide_resolution_m",
+                self.wide_resolution_m,
+                self.wide_resolution_m >= self.resolution_m && self.wide_resolution_m <= 1.0,
+                "must be at least resolution_m and at most 1",
+            ),
+            (
+                "wide_yaw_step_rad",
+                self.wide_yaw_step_rad,
+                (0.001..=0.1).contains(&self.wide_yaw_step_rad),
+                "must be in [0.001, 0.1]",
+            ),
         ];
         for (name, value, ok, requirement) in checks {
             if !(ok && value.is_finite()) {
@@ -129,18 +156,22 @@ impl ScanOdometryParams {
 
     /// The method in a sentence, with its parameters (the import report's `method`).
     pub fn describe(&self) -> String {
+        let m = &self.matcher;
         format!(
-            "scan-to-local-map matching: each step's scans against the endpoints of the last {} key scans \
-(one each {} m or {} rad), {} m cells; constant-velocity prediction, search ±{} m ±{} rad, accepted at {} of the \
-beams within {} m, else the prediction is kept; beams < {} m",
+            "scan-to-local-map matching: each step's scans against the surfaces of the last {} key scans \
+(one each {} m or {} rad) in {} m cells; the last step's motion as the prediction, searched within ±{} m ±{} rad \
+(wider for larger motion) and, where refused, within ±{} m ±{} rad; accepted at {} of the beams within {} m, \
+else the prediction is kept; beams < {} m",
             self.submap_scans,
             self.key_distance_m,
             self.key_turn_rad,
             self.resolution_m,
-            self.matcher.window_xy_m,
-            self.matcher.window_yaw_rad,
-            self.matcher.min_inlier_share,
-            self.matcher.inlier_m,
+            m.window_xy_m,
+            m.window_yaw_rad,
+            m.max_window_xy_m,
+            m.max_window_yaw_rad,
+            m.min_inlier_share,
+            m.inlier_m,
             self.max_range_m
         )
     }
@@ -155,93 +186,33 @@ pub struct ScanOdometry {
     pub summary: ScanOdometrySummary,
 }
 
-/// One key scan of the local map: its pose and its points ([`map_points`]) in the robot frame.
-#[derive(Clone, Debug)]
-struct KeyScan {
-    pose: Pose2,
-    ends: Vec<[f64; 2]>,
-}
-
-/// The local map: the last key scans and the matcher built on them.
-struct LocalMap {
-    keys: VecDeque<KeyScan>,
-    matcher: Option<ScanMatcher>,
-}
-
-impl LocalMap {
-    fn new() -> Self {
-        Self { keys: VecDeque::new(), matcher: None }
+/// The match of `ends` from `predicted` (after the predicted motion `step_motion`) on `map`, if
+/// one is accepted: in the window the motion opens, and where that is refused or clipped by its
+/// edge, from the best pose of the wide search too; the better accepted of the two.
+fn best_match(
+    map: &LocalMap,
+    predicted: &Pose2,
+    step_motion: &Pose2,
+    ends: &[[f64; 2]],
+    p: &ScanOdometryParams,
+) -> Option<Match> {
+    let matcher = map.matcher.as_ref()?;
+    let sm = &p.matcher;
+    let window = sm.window_for(step_motion.x.hypot(step_motion.y), step_motion.yaw);
+    let usable = |m: &Match| m.accepted && m.pose_in_map.is_finite();
+    let first = matcher.match_scan_within(predicted, ends, window);
+    if first.is_some_and(|m| usable(&m) && !m.at_edge) {
+        return first;
     }
-
-    /// Whether `pose` is far enough from the last key scan to be one.
-    fn wants_key(&self, pose: &Pose2, p: &ScanOdometryParams) -> bool {
-        self.keys.back().is_none_or(|k| {
-            k.pose.distance(pose) >= p.key_distance_m || wrap_angle(k.pose.yaw - pose.yaw).abs() >= p.key_turn_rad
-        })
-    }
-
-    /// Adds a key scan, its points in the robot frame (dropping the oldest beyond
-    /// `submap_scans`), and rebuilds the matcher.
-    fn add(&mut self, pose: Pose2, points: &[[f64; 2]], p: &ScanOdometryParams) {
-        self.keys.push_back(KeyScan { pose, ends: points.to_vec() });
-        while self.keys.len() > p.submap_scans {
-            self.keys.pop_front();
-        }
-        self.matcher = self.field(pose, p).map(|f| ScanMatcher::from_field(&f, p.matcher));
-    }
-
-    /// Forgets every key scan.
-    fn clear(&mut self) {
-        self.keys.clear();
-        self.matcher = None;
-    }
-
-    /// The distance field of the key scans' endpoints in the square around `centre` (to the
-    /// points themselves, not to their cells: no bias towards the cell lattice).
-    fn field(&self, centre: Pose2, p: &ScanOdometryParams) -> Option<DistanceField> {
-        let cells = (2.0 * p.submap_radius_m / p.resolution_m).ceil() as usize;
-        let origin = Pose2::new(centre.x - p.submap_radius_m, centre.y - p.submap_radius_m, 0.0);
-        let geometry = GridGeometry::new(cells, cells, p.resolution_m, origin).ok()?;
-        let points = self.keys.iter().flat_map(|k| {
-            let frame = k.pose.prepare();
-            k.ends.iter().map(move |&[x, y]| frame.transform_point(Point2::new(x, y)))
-        });
-        Some(DistanceField::to_points(&geometry, points, ScanMatcher::cap_m(&p.matcher, p.resolution_m)))
-    }
-}
-
-/// The largest gap between two neighbouring beams' endpoints that the local map fills in, metres
-/// (a wider one is a jump from one surface to another, or a surface seen too obliquely to trust).
-pub const MAX_FILL_GAP_M: f64 = 0.2;
-
-/// The points of `scan` for the local map, robot frame: every valid endpoint short of
-/// `max_range_m`, and between neighbouring beams whose endpoints are at most
-/// [`MAX_FILL_GAP_M`] and five beam spacings apart, points every `spacing_m` along the segment
-/// (a surface, not a scatter of points: a matched endpoint lands on the surface, not between
-/// two samples of it).
-fn map_points(scan: &LaserScan, max_range_m: f64, spacing_m: f64, out: &mut Vec<[f64; 2]>) {
-    let mut last: Option<(f64, Point2)> = None;
-    for (i, &r) in scan.ranges_m.iter().enumerate() {
-        if scan.validity_of(r) != BeamValidity::Valid || (r as f64) >= max_range_m {
-            last = None;
-            continue;
-        }
-        let r = r as f64;
-        let a = scan.beam_angle(i as f64);
-        let p = scan.lidar_in_robot.transform_point(Point2::new(r * a.cos(), r * a.sin()));
-        if let Some((r0, q)) = last {
-            let gap = p.distance(q);
-            let spacing = 5.0 * r.min(r0) * scan.angle_increment_rad.abs();
-            if gap <= MAX_FILL_GAP_M.min(spacing.max(spacing_m)) {
-                let n = (gap / spacing_m).floor() as usize;
-                out.extend((1..=n.min(64)).map(|k| {
-                    let t = k as f64 / (n + 1) as f64;
-                    [q.x + t * (p.x - q.x), q.y + t * (p.y - q.y)]
-                }));
-            }
-        }
-        out.push([p.x, p.y]);
-        last = Some((r, p));
+    let wide = Window { xy_m: sm.max_window_xy_m, yaw_rad: sm.max_window_yaw_rad };
+    let second = map
+        .wide
+        .as_ref()
+        .and_then(|w| w.search(predicted, ends, wide, p.wide_yaw_step_rad, sm.prior_weight))
+        .and_then(|from| matcher.match_scan_within(&from, ends, sm.base_window()));
+    match (first.filter(usable), second.filter(usable)) {
+        (Some(a), Some(b)) => Some(if b.inlier_share >= a.inlier_share + sm.refused_min_inlier_gain { b } else { a }),
+        (a, b) => a.or(b),
     }
 }
 
@@ -249,14 +220,9 @@ fn map_points(scan: &LaserScan, max_range_m: f64, spacing_m: f64, out: &mut Vec<
 fn step_points(step: &[&LaserScan], p: &ScanOdometryParams) -> Vec<[f64; 2]> {
     let mut out = Vec::new();
     for scan in step.iter().filter(|s| s.validate().is_ok()) {
-        map_points(scan, p.max_range_m, 0.5 * p.resolution_m, &mut out);
+        local_map::map_points(scan, p.max_range_m, p.resolution_m, &mut out);
     }
     out
-}
-
-/// The increment `d` scaled by `ratio` (a constant velocity over a longer or shorter gap).
-fn scaled(d: &Pose2, ratio: f64) -> Pose2 {
-    Pose2::new(d.x * ratio, d.y * ratio, wrap_angle(d.yaw * ratio))
 }
 
 /// The scans of `log` grouped into steps: consecutive scans with the same stamp.
@@ -278,14 +244,11 @@ pub fn odometry_from_scans(log: &SensorLog, params: &ScanOdometryParams) -> Scan
     let mut readings = Vec::new();
     let mut map = LocalMap::new();
     let mut beams = BeamSet::new();
-    let (mut pose, mut last_increment, mut last_gap_ns) = (Pose2::IDENTITY, Pose2::IDENTITY, 0u64);
-    let mut last_stamp: Option<u64> = None;
+    let (mut pose, mut step_motion) = (Pose2::IDENTITY, Pose2::IDENTITY);
     let mut refused_in_a_row = 0usize;
     for step in steps(log) {
         let stamp = step[0].stamp_ns;
-        let gap = last_stamp.map_or(0, |t| stamp.saturating_sub(t));
-        let ratio = if last_gap_ns > 0 { (gap as f64 / last_gap_ns as f64).min(MAX_GAP_RATIO) } else { 0.0 };
-        let predicted = pose.compose(&scaled(&last_increment, ratio));
+        let predicted = pose.compose(&step_motion);
         beams.clear();
         for scan in step.iter().filter(|s| s.validate().is_ok()) {
             beams.add_scan(scan, params.matcher.max_beams, params.max_range_m, BeamSelection::EvenlyOverValid);
@@ -294,13 +257,13 @@ pub fn odometry_from_scans(log: &SensorLog, params: &ScanOdometryParams) -> Scan
         let now = if ends.is_empty() {
             summary.without_beams += 1;
             predicted
-        } else if let Some(matcher) = &map.matcher {
-            match matcher.match_scan(&predicted, ends).filter(|m| m.accepted && m.pose_in_map.is_finite()) {
+        } else if map.matcher.is_some() {
+            match best_match(&map, &predicted, &step_motion, ends, params) {
                 Some(m) => {
                     summary.matched += 1;
                     refused_in_a_row = 0;
                     if map.wants_key(&m.pose_in_map, params) {
-                        map.add(m.pose_in_map, &step_points(&step, params), params);
+                        map.add(m.pose_in_map, step_points(&step, params), params);
                     }
                     m.pose_in_map
                 }
@@ -311,22 +274,20 @@ pub fn odometry_from_scans(log: &SensorLog, params: &ScanOdometryParams) -> Scan
                         summary.restarts += 1;
                         refused_in_a_row = 0;
                         map.clear();
-                        map.add(predicted, &step_points(&step, params), params);
+                        map.add(predicted, step_points(&step, params), params);
                     }
                     predicted
                 }
             }
         } else {
             // The first step with beams starts the local map where the odometry is.
-            map.add(predicted, &step_points(&step, params), params);
+            map.add(predicted, step_points(&step, params), params);
             predicted
         };
         let now = if now.is_finite() { now } else { pose };
         summary.path_m += pose.distance(&now);
-        last_increment = pose.between(&now);
-        last_gap_ns = gap;
+        step_motion = pose.between(&now);
         pose = now;
-        last_stamp = Some(stamp);
         readings.push(OdometryReading { stamp_ns: stamp, pose_in_odom: pose });
     }
     summary.steps = readings.len();
@@ -350,5 +311,6 @@ pub fn with_odometry(log: SensorLog, odometry: &ScanOdometry) -> SensorLog {
     SensorLog { header: log.header, records }
 }
 
+mod local_map;
 #[cfg(test)]
 mod tests;

@@ -3,7 +3,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use mapkeeper_grid::{CellState, OccupancyGrid, cast_ray};
+use mapkeeper_grid::{CellState, OccupancyGrid, cast_ray, wrap_angle};
+use mapkeeper_localiser::ScanMatchParams;
 use mapkeeper_sensor::{LogHeader, TruePose};
 use mapkeeper_testkit::rooms::{fill_rect, walled_cells};
 
