@@ -160,7 +160,7 @@ impl ScanOdometryParams {
         format!(
             "scan-to-local-map matching: each step's scans against the surfaces of the last {} key scans \
 (one each {} m or {} rad) in {} m cells; the last step's motion as the prediction, searched within ±{} m ±{} rad \
-(wider for larger motion) and, where refused, within ±{} m ±{} rad; accepted at {} of the beams within {} m, \
+and, where refused or clipped, within ±{} m ±{} rad; accepted at {} of the beams within {} m, \
 else the prediction is kept; beams < {} m",
             self.submap_scans,
             self.key_distance_m,
@@ -187,8 +187,10 @@ pub struct ScanOdometry {
 }
 
 /// The match of `ends` from `predicted` (after the predicted motion `step_motion`) on `map`, if
-/// one is accepted: in the window the motion opens, and where that is refused or clipped by its
-/// edge, from the best pose of the wide search too; the better accepted of the two.
+/// one is accepted. First narrow, in the window the motion opens; where that is refused or
+/// clipped by the window's edge, wide: from the best pose of the wide search. The wide match
+/// replaces an accepted narrow one if it fits at least `matcher.refused_min_inlier_gain` more of
+/// the beams (default 0: as many).
 fn best_match(
     map: &LocalMap,
     predicted: &Pose2,
@@ -263,7 +265,7 @@ pub fn odometry_from_scans(log: &SensorLog, params: &ScanOdometryParams) -> Scan
                     summary.matched += 1;
                     refused_in_a_row = 0;
                     if map.wants_key(&m.pose_in_map, params) {
-                        map.add(m.pose_in_map, step_points(&step, params), params);
+                        map.add(m.pose_in_map, step_points(&step, params), ends, params);
                     }
                     m.pose_in_map
                 }
@@ -274,14 +276,14 @@ pub fn odometry_from_scans(log: &SensorLog, params: &ScanOdometryParams) -> Scan
                         summary.restarts += 1;
                         refused_in_a_row = 0;
                         map.clear();
-                        map.add(predicted, step_points(&step, params), params);
+                        map.add(predicted, step_points(&step, params), ends, params);
                     }
                     predicted
                 }
             }
         } else {
             // The first step with beams starts the local map where the odometry is.
-            map.add(predicted, step_points(&step, params), params);
+            map.add(predicted, step_points(&step, params), ends, params);
             predicted
         };
         let now = if now.is_finite() { now } else { pose };

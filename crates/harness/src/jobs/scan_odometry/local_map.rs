@@ -4,10 +4,11 @@
 
 use super::ScanOdometryParams;
 use mapkeeper_grid::geometry::floor_exact;
-use mapkeeper_grid::{DistanceField, GridGeometry, Point2, Pose2, wrap_angle};
+use mapkeeper_grid::{DistanceField, GridGeometry, Point2, Pose2, traverse, wrap_angle};
 use mapkeeper_localiser::{ScanMatcher, Window};
 use mapkeeper_sensor::{BeamValidity, LaserScan};
 use std::collections::VecDeque;
+use std::ops::ControlFlow;
 
 /// The largest gap between two neighbouring beams' endpoints that the local map fills in, metres
 /// (a wider one is a jump from one surface to another, or a surface seen too obliquely to trust).
@@ -16,11 +17,17 @@ pub const MAX_FILL_GAP_M: f64 = 0.2;
 /// Beams the wide search scores (evenly over the match's beams).
 pub const WIDE_SEARCH_BEAMS: usize = 90;
 
-/// One key scan of the local map: its pose and its points ([`map_points`]) in the robot frame.
+/// A wide-search pose whose beams end in known space fewer than this share of them is scored as
+/// if the others ended there and fitted nothing.
+pub const MIN_KNOWN_SHARE: f64 = 0.5;
+
+/// One key scan of the local map: its pose, its points ([`map_points`]) and its matched beams'
+/// endpoints, in the robot frame.
 #[derive(Clone, Debug)]
 struct KeyScan {
     pose: Pose2,
     points: Vec<[f64; 2]>,
+    ends: Vec<[f64; 2]>,
 }
 
 /// The local map: the last key scans, the matcher built on them and the wide search's table.
@@ -45,10 +52,10 @@ impl LocalMap {
         })
     }
 
-    /// Adds a key scan, its points in the robot frame (dropping the oldest beyond
-    /// `submap_scans`), and rebuilds the tables around it.
-    pub fn add(&mut self, pose: Pose2, points: Vec<[f64; 2]>, p: &ScanOdometryParams) {
-        self.keys.push_back(KeyScan { pose, points });
+    /// Adds a key scan, its points and its beams' endpoints in the robot frame (dropping the
+    /// oldest beyond `submap_scans`), and rebuilds the tables around it.
+    pub fn add(&mut self, pose: Pose2, points: Vec<[f64; 2]>, ends: &[[f64; 2]], p: &ScanOdometryParams) {
+        self.keys.push_back(KeyScan { pose, points, ends: ends.to_vec() });
         while self.keys.len() > p.submap_scans {
             self.keys.pop_front();
         }
@@ -57,7 +64,9 @@ impl LocalMap {
         let fine_cap = (3.0 * p.matcher.kernel_sigma_m).max(p.matcher.inlier_m) + p.resolution_m;
         self.matcher = self.field(pose, p.resolution_m, fine_cap, p).map(|f| ScanMatcher::from_field(&f, p.matcher));
         let sigma = p.wide_resolution_m;
-        self.wide = self.field(pose, p.wide_resolution_m, 3.0 * sigma, p).map(|f| WideSearch::new(&f, sigma));
+        self.wide = self
+            .field(pose, p.wide_resolution_m, 3.0 * sigma, p)
+            .map(|f| WideSearch::new(&f, sigma, &self.known(f.geometry())));
     }
 
     /// Forgets every key scan.
@@ -79,6 +88,30 @@ impl LocalMap {
             k.points.iter().map(move |&[x, y]| frame.transform_point(Point2::new(x, y)))
         });
         Some(DistanceField::to_points(&geometry, points, cap_m))
+    }
+}
+
+impl LocalMap {
+    /// Which cells of `geometry` the key scans saw: those their beams crossed or ended in.
+    fn known(&self, geometry: &GridGeometry) -> Vec<bool> {
+        let mut known = vec![false; geometry.len()];
+        for k in &self.keys {
+            let frame = k.pose.prepare();
+            let from = k.pose.position();
+            for &[x, y] in &k.ends {
+                let to = frame.transform_point(Point2::new(x, y));
+                let _ = traverse(geometry, from, to, |c| {
+                    if let Some(i) = geometry.index(c) {
+                        known[i] = true;
+                    }
+                    ControlFlow::<()>::Continue(())
+                });
+                if let Some(i) = geometry.world_to_cell(to).and_then(|c| geometry.index(c)) {
+                    known[i] = true;
+                }
+            }
+        }
+        known
     }
 }
 
@@ -115,18 +148,22 @@ pub(super) fn map_points(scan: &LaserScan, max_range_m: f64, spacing_m: f64, out
 
 /// The wide search: every cell offset and every yaw step within a wide window, scored on a
 /// coarse table of the kernel `exp(−d² / 2σ²)` of the distance to the local map's points (σ a
-/// coarse cell), as the localiser's correlative search does on the fine one.
+/// coarse cell), as the localiser's correlative search does on the fine one, but over the beams
+/// that end in space the key scans saw: a pose whose beams reach past the local map (the robot
+/// moved on and sees more) is not outscored by one that stays inside it (a corridor's look-alike
+/// a metre back), as it would be by a mean over every beam.
 pub(super) struct WideSearch {
     width: usize,
     height: usize,
     resolution_m: f64,
     /// The grid's origin (its yaw is 0: the grid's axes are the odom frame's).
     origin: Point2,
+    /// The kernel of each cell the key scans saw; −1 for a cell they did not.
     kernel: Vec<f32>,
 }
 
 impl WideSearch {
-    fn new(field: &DistanceField, sigma_m: f64) -> Self {
+    fn new(field: &DistanceField, sigma_m: f64, known: &[bool]) -> Self {
         let g = field.geometry();
         let s2 = 2.0 * sigma_m * sigma_m;
         let cap = field.max_distance_m();
@@ -134,7 +171,12 @@ impl WideSearch {
         let kernel = field
             .distances_m()
             .iter()
-            .map(|&d| if d >= cap { at_cap } else { (-(d as f64 * d as f64) / s2).exp() as f32 })
+            .zip(known)
+            .map(|(&d, &seen)| match (seen, d >= cap) {
+                (false, _) => -1.0,
+                (true, true) => at_cap,
+                (true, false) => (-(d as f64 * d as f64) / s2).exp() as f32,
+            })
             .collect();
         Self {
             width: g.width(),
@@ -145,18 +187,20 @@ impl WideSearch {
         }
     }
 
+    /// The kernel at a cell, −1 where the key scans saw nothing (outside the grid too).
     fn kernel_at(&self, u: i64, v: i64) -> f32 {
         if (u as u64) < self.width as u64 && (v as u64) < self.height as u64 {
             self.kernel[v as usize * self.width + u as usize]
         } else {
-            0.0
+            -1.0
         }
     }
 
     /// The best pose within `window` of `predicted` (cell steps in position, `yaw_step_rad` in
     /// yaw) for the endpoints `ends` (robot frame; [`WIDE_SEARCH_BEAMS`] of them are scored),
-    /// by the mean kernel minus a prior of `prior_weight · ½ Σ (Δ / window)²` towards the
-    /// prediction. `None` without endpoints.
+    /// by the mean kernel of the beams ending in known space (over at least [`MIN_KNOWN_SHARE`]
+    /// of the beams) minus a prior of `prior_weight · ½ Σ (Δ / window)²` towards the prediction.
+    /// `None` without endpoints.
     pub fn search(
         &self,
         predicted: &Pose2,
@@ -170,7 +214,7 @@ impl WideSearch {
         }
         let stride = ends.len().div_ceil(WIDE_SEARCH_BEAMS).max(1);
         let chosen: Vec<[f64; 2]> = ends.iter().step_by(stride).copied().collect();
-        let n = chosen.len() as f64;
+        let floor = MIN_KNOWN_SHARE * chosen.len() as f64;
         let cells = (window.xy_m / self.resolution_m).round() as i64;
         let yaws = (window.yaw_rad / yaw_step_rad).round() as i64;
         let inv = 1.0 / self.resolution_m;
@@ -190,10 +234,17 @@ impl WideSearch {
             let yaw_prior = axis(k as f64 * yaw_step_rad, window.yaw_rad);
             for j in -cells..=cells {
                 for i in -cells..=cells {
-                    let sum: f64 = idx.iter().map(|&(u, v)| self.kernel_at(u + i, v + j) as f64).sum();
+                    let (mut sum, mut known) = (0.0f64, 0usize);
+                    for &(u, v) in &idx {
+                        let k = self.kernel_at(u + i, v + j);
+                        if k >= 0.0 {
+                            sum += k as f64;
+                            known += 1;
+                        }
+                    }
                     let (dx, dy) = (i as f64 * self.resolution_m, j as f64 * self.resolution_m);
                     let prior = 0.5 * prior_weight * (axis(dx, window.xy_m) + axis(dy, window.xy_m) + yaw_prior);
-                    let score = sum / n - prior;
+                    let score = sum / (known as f64).max(floor) - prior;
                     if best.is_none_or(|b| score > b.0) {
                         best = Some((score, Pose2::new(predicted.x + dx, predicted.y + dy, yaw)));
                     }
