@@ -2,9 +2,13 @@
 //! own log) into the project's JSON Lines sensor log, with what the import found.
 
 use super::log_input::LogInput;
+use mapkeeper_harness::jobs::odometry_drift::odometry_drift;
 use mapkeeper_harness::jobs::scan_odometry::{self, ScanOdometryParams};
 use mapkeeper_logs::{ImportOptions, ImportReport, Imported, OdometryFrom, ScanOdometrySummary, read_log};
 use mapkeeper_sensor::{SensorLog, StampedPose, write_tum_with_comment};
+
+/// The stretches of reference path over which the odometry's drift is printed, metres.
+const DRIFT_STRETCHES_M: [f64; 2] = [1.0, 10.0];
 
 /// Arguments of `mapkeeper convert`.
 #[derive(clap::Args, Debug)]
@@ -15,7 +19,8 @@ from the content, --log-format to override) and writes OUT/log.jsonl (every stam
 log's first, which import.json records as epoch_ns), OUT/import.json (the lidars with their mounts, \
 the odometry and reference sources, every topic with its type and message count, timestamps that \
 stepped back) and, when the log has reference poses, OUT/reference.tum (TUM, for evo; times in seconds \
-on the log's clock, relative to epoch_ns).\n\n\
+on the log's clock, relative to epoch_ns), and prints how far the odometry drifts from them per metre \
+(over stretches of 1 m and 10 m of their path).\n\n\
 A log with laser scans and no odometry (no odometry topic, no odom → base transforms) is refused \
 unless --odometry-from-scans is given: then the odometry is made by matching each scan against a local \
 map of the recent scans (docs/real-data.md, \"Logs with scans only\"), and import.json's scan_odometry \
@@ -85,8 +90,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if *replaced > 0 { format!(" (its own {replaced} odometry readings replaced)") } else { String::new() }
         );
     }
+    let odometry: Vec<StampedPose> =
+        imported.log.odometry().map(|o| StampedPose { stamp_ns: o.stamp_ns, pose: o.pose_in_odom }).collect();
+    for stretch_m in DRIFT_STRETCHES_M {
+        if let Some(d) = odometry_drift(&odometry, &truth, stretch_m) {
+            outln!("odometry against the reference poses: {d}");
+        }
+    }
     let scans = imported.log.scans().count();
-    let odom = imported.log.odometry().count();
+    let odom = odometry.len();
     outln!(
         "wrote {}/log.jsonl ({scans} scans, {odom} odometry readings, {} reference poses) and import.json{}",
         out.display(),

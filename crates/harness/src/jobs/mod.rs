@@ -4,6 +4,7 @@
 
 pub mod localise;
 pub mod map;
+pub mod odometry_drift;
 pub mod scan_odometry;
 pub mod update;
 
