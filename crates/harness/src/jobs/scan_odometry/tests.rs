@@ -114,6 +114,9 @@ fn increments_agree_with_the_true_ones_in_a_ray_cast_room() {
         "worst increment error per step {step_m:.4} m {step_rad:.4} rad, per 20 steps (1 m) {metre_m:.4} m \
 {metre_rad:.4} rad; end {end_m:.4} m after {path_m:.1} m"
     );
+    // Measured: 0.037 m and 0.003 rad per step (5 cm of travel: the pose jitters by a few
+    // centimetres where a key scan is added, and does not add up), 0.036 m and 0.004 rad per
+    // metre, 0.042 m at the end of 29.7 m.
     assert!(step_m < 0.04 && step_rad < 0.005, "per step: {step_m} m, {step_rad} rad");
     assert!(metre_m < 0.05 && metre_rad < 0.01, "per metre: {metre_m} m, {metre_rad} rad");
     assert!(path_m > 25.0 && end_m < 0.005 * path_m, "end {end_m} m after {path_m} m");
