@@ -35,9 +35,10 @@ pub struct Args {
     #[command(flatten)]
     pub input: LogInput,
     /// Make the odometry by matching the scans (each against a local map of the recent scans,
-    /// from a constant-velocity prediction; a refused match keeps the prediction), for a log
-    /// that has scans and no odometry. A log with odometry has it replaced (a note says so).
-    /// import.json's scan_odometry counts the matches and the refusals.
+    /// from the last step's motion; a refused match keeps that prediction), for a log that has
+    /// scans and no odometry. A log with odometry has it replaced (a note says so). import.json's
+    /// scan_odometry counts the matches and the refusals (docs/real-data.md, "Logs with scans
+    /// only").
     #[arg(long, conflicts_with_all = ["odom_topic", "odom_from_tf"])]
     pub odometry_from_scans: bool,
     #[command(flatten)]
