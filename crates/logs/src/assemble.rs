@@ -183,16 +183,7 @@ impl Assembler {
 
     /// Builds the sensor log.
     pub fn finish(mut self, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
-        if let Some(problem) = options.thinning.problem() {
-            return Err(ImportError::unusable(&self.path, format!("thinning {:?}: {problem}", options.thinning)));
-        }
-        if options.odometry == OdometryFrom::Scans && matches!(options.thinning, Thinning::EveryMetres(_)) {
-            return Err(ImportError::unusable(
-                &self.path,
-                "--every-m thins the scans by the odometry's travel, and --odometry-from-scans makes the odometry from \
-the scans after the import: thin with --keep-every instead",
-            ));
-        }
+        self.check_options(options)?;
         self.settle_time(options)?;
         let (mut lidars, mut scan_records, mut backward) = self.lidar_streams(options)?;
         let (odom_source, mut odom) = self.odometry_track(options)?;
@@ -268,6 +259,21 @@ by the odometry over the sweep (docs/real-data.md)"
         };
         let log = SensorLog { header: report.log_header(), records: records.into_iter().map(|r| r.3).collect() };
         Ok((log, report))
+    }
+
+    /// Refuses a thinning that cannot be used, alone or with where the odometry comes from.
+    fn check_options(&self, options: &ImportOptions) -> Result<(), ImportError> {
+        if let Some(problem) = options.thinning.problem() {
+            return Err(ImportError::unusable(&self.path, format!("thinning {:?}: {problem}", options.thinning)));
+        }
+        if options.odometry == OdometryFrom::Scans && matches!(options.thinning, Thinning::EveryMetres(_)) {
+            return Err(ImportError::unusable(
+                &self.path,
+                "--every-m thins the scans by the odometry's travel, and --odometry-from-scans makes the odometry from \
+the scans after the import: thin with --keep-every instead",
+            ));
+        }
+        Ok(())
     }
 
     /// The chosen lidars: their report entries, (id, mount, mirrored, scans with clamped

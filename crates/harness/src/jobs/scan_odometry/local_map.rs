@@ -209,7 +209,7 @@ impl WideSearch {
         yaw_step_rad: f64,
         prior_weight: f64,
     ) -> Option<Pose2> {
-        if ends.is_empty() || !(yaw_step_rad > 0.0) {
+        if ends.is_empty() || yaw_step_rad.is_nan() || yaw_step_rad <= 0.0 {
             return None;
         }
         let stride = ends.len().div_ceil(WIDE_SEARCH_BEAMS).max(1);
