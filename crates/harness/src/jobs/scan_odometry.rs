@@ -11,7 +11,8 @@
 //!    first two steps predict no motion.
 //! 2. **Match** the step's beam endpoints (`matcher.max_beams` per lidar, evenly over the valid
 //!    readings shorter than `max_range_m`) against the local map from the prediction with the
-//!    localiser's [`ScanMatcher`] (a correlative search, then a refinement) in its window
+//!    localiser's [`ScanMatcher`](mapkeeper_localiser::ScanMatcher) (a correlative search, then
+//!    a refinement) in its window
 //!    ([`ScanMatchParams::window_for`] of the predicted motion: ±0.2 m and ±0.15 rad unless
 //!    `window_xy_per_m` or `window_yaw_per_motion` widen it).
 //! 3. **Search wide** where that match is refused or clipped by its window's edge: every
