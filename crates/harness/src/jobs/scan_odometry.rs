@@ -8,7 +8,7 @@
 //!
 //! 1. **Predict** the last step's motion again (a constant motion per step: logs thinned by
 //!    travel, as CARMEN's corrected logs are, have steps a metre apart at any time gap); the
-//!    first two steps predict no motion.
+//!    first step predicts none.
 //! 2. **Match** the step's beam endpoints (`matcher.max_beams` per lidar, evenly over the valid
 //!    readings shorter than `max_range_m`) against the local map from the prediction with the
 //!    localiser's [`ScanMatcher`](mapkeeper_localiser::ScanMatcher) (a correlative search, then
@@ -17,8 +17,11 @@
 //!    `window_xy_per_m` or `window_yaw_per_motion` widen it).
 //! 3. **Search wide** where that match is refused or clipped by its window's edge: every
 //!    `wide_resolution_m` cell and `wide_yaw_step_rad` yaw within `matcher.max_window_xy_m` and
-//!    `matcher.max_window_yaw_rad` of the prediction, on a coarse table, then the fine match from
-//!    the best of them; the better accepted match of the two is kept.
+//!    `matcher.max_window_yaw_rad` of the prediction, scored on a coarse table over the beams
+//!    that end where the key scans saw (a pose that sees past the local map is not outscored by
+//!    a look-alike inside it), then the fine match from the best of them. The wide match replaces
+//!    an accepted narrow one when it fits at least as large a share of the beams (plus
+//!    `matcher.refused_min_inlier_gain`, default 0).
 //! 4. **Accept or keep the prediction**: an accepted match gives the step's pose; a refused one
 //!    (fewer than `matcher.min_inlier_share` of the beams within `matcher.inlier_m` of the local
 //!    map) leaves the prediction, and is counted. After `restart_after_refused` refusals in a
@@ -297,12 +300,11 @@ pub fn odometry_from_scans(log: &SensorLog, params: &ScanOdometryParams) -> Scan
     ScanOdometry { readings, summary }
 }
 
-/// `log` with its odometry records replaced by `odometry`'s readings (each just before the scans
-/// of its stamp); the other records keep their order.
+/// `log` with its odometry records replaced by `odometry`'s readings, the records in stamp order
+/// (stable), odometry before truth before scans at one stamp, as the importers write them.
 pub fn with_odometry(log: SensorLog, odometry: &ScanOdometry) -> SensorLog {
     let mut records: Vec<LogRecord> = log.records.into_iter().filter(|r| !matches!(r, LogRecord::Odom(_))).collect();
     records.extend(odometry.readings.iter().map(|o| LogRecord::Odom(*o)));
-    // Stable: odometry before truth before scans at one stamp, as the importers write them.
     records.sort_by_key(|r| {
         let kind = match r {
             LogRecord::Odom(_) => 0u8,
