@@ -53,6 +53,44 @@ impl DistanceField {
         Self { geometry: *geometry, max_distance_m: cap as f32, distances_m }
     }
 
+    /// The distance from each cell's centre to the nearest of `points` (map frame), exactly (not
+    /// to the centre of the point's cell), capped at `max_distance_m`: a field whose zeros lie
+    /// on the points, for matching against scattered points (a lidar's endpoints) without the
+    /// bias of the cell lattice. Non-finite points are ignored; a point outside the grid still
+    /// counts for the cells within the cap of it.
+    ///
+    /// ```
+    /// use mapkeeper_grid::{CellCoord, DistanceField, GridGeometry, Point2, Pose2};
+    /// let g = GridGeometry::new(10, 10, 0.1, Pose2::IDENTITY).unwrap();
+    /// let f = DistanceField::to_points(&g, [Point2::new(0.52, 0.5)], 0.3);
+    /// assert!((f.at_cell(CellCoord::new(5, 4)) - 0.05f32.hypot(0.03)).abs() < 1e-6);
+    /// assert_eq!(f.at_cell(CellCoord::new(0, 0)), 0.3, "capped");
+    /// ```
+    pub fn to_points(geometry: &GridGeometry, points: impl IntoIterator<Item = Point2>, max_distance_m: f64) -> Self {
+        let cap = if max_distance_m.is_finite() { max_distance_m.max(0.0) } else { 0.0 };
+        let (w, h) = (geometry.width() as i64, geometry.height() as i64);
+        let mut distances_m = vec![cap as f32; (w * h) as usize];
+        let reach = (cap / geometry.resolution_m()).ceil() as i64 + 1;
+        for p in points.into_iter().filter(|p| p.is_finite()) {
+            let (u, v) = geometry.world_to_grid(p);
+            let (cu, cv) = (crate::geometry::floor_exact(u) as i64, crate::geometry::floor_exact(v) as i64);
+            if cu < -reach || cv < -reach || cu >= w + reach || cv >= h + reach {
+                continue;
+            }
+            for j in (cv - reach).max(0)..(cv + reach + 1).min(h) {
+                for i in (cu - reach).max(0)..(cu + reach + 1).min(w) {
+                    let d = (((i as f64 + 0.5 - u).powi(2) + (j as f64 + 0.5 - v).powi(2)).sqrt()
+                        * geometry.resolution_m()) as f32;
+                    let cell = &mut distances_m[(j * w + i) as usize];
+                    if d < *cell {
+                        *cell = d;
+                    }
+                }
+            }
+        }
+        Self { geometry: *geometry, max_distance_m: cap as f32, distances_m }
+    }
+
     /// The geometry of the field (that of the source grid).
     pub fn geometry(&self) -> &GridGeometry {
         &self.geometry

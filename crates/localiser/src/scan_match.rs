@@ -305,14 +305,30 @@ pub struct ScanMatcher {
 }
 
 impl ScanMatcher {
-    /// The table for `map` (one distance transform, capped at 4 σ + the inlier distance).
+    /// The table for `map` (one distance transform, capped at [`ScanMatcher::cap_m`]).
     pub fn new(map: &OccupancyGrid, params: ScanMatchParams) -> Self {
-        let g = map.geometry();
-        let cap = (4.0 * params.kernel_sigma_m + params.inlier_m).max(g.resolution_m());
-        let df = DistanceField::to_occupied(map, cap);
+        let cap = Self::cap_m(&params, map.geometry().resolution_m());
+        Self::from_field(&DistanceField::to_occupied(map, cap), params)
+    }
+
+    /// The distance the table needs, metres: 4 σ + the inlier distance, at least a cell.
+    pub fn cap_m(params: &ScanMatchParams, resolution_m: f64) -> f64 {
+        (4.0 * params.kernel_sigma_m + params.inlier_m).max(resolution_m)
+    }
+
+    /// The table of a distance field made elsewhere (to scattered points rather than occupied
+    /// cells: [`DistanceField::to_points`]), which should reach at least [`ScanMatcher::cap_m`].
+    pub fn from_field(df: &DistanceField, params: ScanMatchParams) -> Self {
+        let g = df.geometry();
         let distances_m = df.distances_m().to_vec();
         let s2 = 2.0 * params.kernel_sigma_m * params.kernel_sigma_m;
-        let kernel = distances_m.iter().map(|&d| (-(d as f64 * d as f64) / s2).exp() as f32).collect();
+        // Most cells lie at the cap: their kernel is computed once.
+        let cap = df.max_distance_m();
+        let at_cap = (-(cap as f64 * cap as f64) / s2).exp() as f32;
+        let kernel = distances_m
+            .iter()
+            .map(|&d| if d >= cap { at_cap } else { (-(d as f64 * d as f64) / s2).exp() as f32 })
+            .collect();
         Self {
             width: g.width(),
             height: g.height(),

@@ -14,7 +14,7 @@ use crate::report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
 use crate::rigid::Rigid3;
 use crate::timing::StreamStamps;
 use mapkeeper_grid::Pose2;
-use mapkeeper_sensor::{LaserScan, LogHeader, LogRecord, OdometryReading, SensorLog, SweepTiming, TruePose};
+use mapkeeper_sensor::{LaserScan, LogRecord, OdometryReading, SensorLog, SweepTiming, TruePose};
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 
@@ -91,6 +91,10 @@ pub struct RawPose {
     /// used in place of the stamps when they cannot be trusted (`timing`).
     pub record_ns: Option<u64>,
 }
+
+/// The odometry source of an import whose odometry the caller makes from the scans, until it
+/// does ([`OdometryFrom::Scans`]).
+pub const SCANS_TO_COME: &str = "none read: to be made from the scans (--odometry-from-scans)";
 
 /// Collects a reader's events and turns them into a [`SensorLog`] and an [`ImportReport`].
 #[derive(Debug)]
@@ -179,9 +183,7 @@ impl Assembler {
 
     /// Builds the sensor log.
     pub fn finish(mut self, options: &ImportOptions) -> Result<(SensorLog, ImportReport), ImportError> {
-        if let Some(problem) = options.thinning.problem() {
-            return Err(ImportError::unusable(&self.path, format!("thinning {:?}: {problem}", options.thinning)));
-        }
+        self.check_options(options)?;
         self.settle_time(options)?;
         let (mut lidars, mut scan_records, mut backward) = self.lidar_streams(options)?;
         let (odom_source, mut odom) = self.odometry_track(options)?;
@@ -247,6 +249,7 @@ by the odometry over the sweep (docs/real-data.md)"
             scans: n_scans,
             odometry_source: odom_source,
             odometry_messages: odom.len(),
+            scan_odometry: None,
             truth_source,
             truth_poses: truth.len(),
             lidars,
@@ -254,8 +257,23 @@ by the odometry over the sweep (docs/real-data.md)"
             topics: self.topics,
             notes: self.notes,
         };
-        let log = SensorLog { header: header_of(&report), records: records.into_iter().map(|r| r.3).collect() };
+        let log = SensorLog { header: report.log_header(), records: records.into_iter().map(|r| r.3).collect() };
         Ok((log, report))
+    }
+
+    /// Refuses a thinning that cannot be used, alone or with where the odometry comes from.
+    fn check_options(&self, options: &ImportOptions) -> Result<(), ImportError> {
+        if let Some(problem) = options.thinning.problem() {
+            return Err(ImportError::unusable(&self.path, format!("thinning {:?}: {problem}", options.thinning)));
+        }
+        if options.odometry == OdometryFrom::Scans && matches!(options.thinning, Thinning::EveryMetres(_)) {
+            return Err(ImportError::unusable(
+                &self.path,
+                "--every-m thins the scans by the odometry's travel, and --odometry-from-scans makes the odometry from \
+the scans after the import: thin with --keep-every instead",
+            ));
+        }
+        Ok(())
     }
 
     /// The chosen lidars: their report entries, (id, mount, mirrored, scans with clamped
@@ -415,13 +433,30 @@ by the odometry over the sweep (docs/real-data.md)"
                 .collect()
         };
         let tf_name = format!("/tf {} -> {}", options.odom_frame, options.base_frame);
+        let make_it = "or make it from the scans with `mapkeeper convert --odometry-from-scans`";
         match &options.odometry {
+            OdometryFrom::Scans => {
+                let tf = from_tf(self).len();
+                let mut held: Vec<String> =
+                    self.odometry.iter().map(|(t, v)| format!("{} readings of {t}", v.len())).collect();
+                if tf > 0 {
+                    held.push(format!("{tf} transforms {tf_name}"));
+                }
+                if !held.is_empty() {
+                    self.notes.push(format!(
+                        "the log's own odometry ({}) is not used: --odometry-from-scans replaces it",
+                        held.join(", ")
+                    ));
+                }
+                self.odometry.clear();
+                Ok((SCANS_TO_COME.to_string(), Vec::new()))
+            }
             OdometryFrom::Topic(topic) => match from_topic(self, topic) {
                 Some(v) => Ok((topic.clone(), v)),
                 None => Err(ImportError::unusable(
                     &self.path,
                     format!(
-                        "odometry topic '{topic}' has no odometry messages; odometry topics: [{}]",
+                        "odometry topic '{topic}' has no odometry messages; odometry topics: [{}] ({make_it})",
                         self.odometry_topics()
                     ),
                 )),
@@ -429,7 +464,10 @@ by the odometry over the sweep (docs/real-data.md)"
             OdometryFrom::Tf => {
                 let v = from_tf(self);
                 if v.is_empty() {
-                    return Err(ImportError::unusable(&self.path, format!("no transforms {tf_name} in the log")));
+                    return Err(ImportError::unusable(
+                        &self.path,
+                        format!("no transforms {tf_name} in the log ({make_it})"),
+                    ));
                 }
                 Ok((tf_name, v))
             }
@@ -450,7 +488,8 @@ by the odometry over the sweep (docs/real-data.md)"
                 Err(ImportError::unusable(
                     &self.path,
                     format!(
-                        "no odometry: no topic '/odom', {} odometry topics [{}] (choose one with --odom-topic), and no {tf_name}",
+                        "no odometry: no topic '/odom', {} odometry topics [{}] (choose one with --odom-topic), and no \
+{tf_name} (set the frames with --odom-frame and --base-frame), {make_it}",
                         self.odometry.len(),
                         self.odometry_topics()
                     ),
@@ -533,7 +572,7 @@ received it), as --stamp record does"
         let odom_used = |t: &str| match &options.odometry {
             OdometryFrom::Topic(o) => o == t,
             OdometryFrom::Auto => true,
-            OdometryFrom::Tf => false,
+            OdometryFrom::Tf | OdometryFrom::Scans => false,
         };
         for (topic, v) in self.odometry.iter().filter(|(t, _)| odom_used(t)) {
             streams.push((topic.clone(), v.iter().map(|o| o.stamp_ns).collect()));
@@ -544,7 +583,7 @@ received it), as --stamp record does"
             .filter(|t| !t.is_static && t.parent == options.odom_frame && t.child == options.base_frame)
             .map(|t| t.stamp_ns)
             .collect();
-        if !odom_edge.is_empty() {
+        if !odom_edge.is_empty() && options.odometry != OdometryFrom::Scans {
             streams.push((format!("/tf {} -> {}", options.odom_frame, options.base_frame), odom_edge));
         }
         if let Some(src) = &self.truth_source {
@@ -556,18 +595,6 @@ received it), as --stamp record does"
     fn odometry_topics(&self) -> String {
         self.odometry.keys().cloned().collect::<Vec<_>>().join(", ")
     }
-}
-
-/// The sensor log's header: the import report as its `meta`, with the tool's name and version.
-fn header_of(report: &ImportReport) -> LogHeader {
-    let meta = match serde_json::to_value(report) {
-        Ok(serde_json::Value::Object(mut m)) => {
-            m.insert("tool".into(), format!("mapkeeper-logs {}", env!("CARGO_PKG_VERSION")).into());
-            m
-        }
-        _ => serde_json::Map::new(),
-    };
-    LogHeader::new(meta)
 }
 
 /// A pose the reader took as written (a corrected CARMEN pose of 1e308, odometry chained from

@@ -379,7 +379,12 @@ impl KindEvidence {
 
 /// The kind to read `p` as, and why (the import report's note); an error for a kind asked for
 /// that the file cannot be.
-fn decide_kind(p: &Parsed, asked: CarmenKind, path: &Path) -> Result<(bool, String), ImportError> {
+fn decide_kind(
+    p: &Parsed,
+    asked: CarmenKind,
+    odometry_from_scans: bool,
+    path: &Path,
+) -> Result<(bool, String), ImportError> {
     let e = KindEvidence::of(p);
     let looks = e.looks_corrected();
     let odometry = if e.odom_lines > 0 {
@@ -413,10 +418,10 @@ fn decide_kind(p: &Parsed, asked: CarmenKind, path: &Path) -> Result<(bool, Stri
             format!("line {}", e.first_differing_line),
             "read as a corrected log (as asked), but this laser message's pose and odometry triplets differ, which a corrected log's never do",
         )),
-        CarmenKind::Corrected if e.odom_lines == 0 => Err(ImportError::parse(
+        CarmenKind::Corrected if e.odom_lines == 0 && !odometry_from_scans => Err(ImportError::parse(
             path,
             "the whole file",
-            "read as a corrected log (as asked), but it has no ODOM lines: a corrected log's raw odometry is in them, and without it there is no odometry (read it as raw to take the poses as odometry)",
+            "read as a corrected log (as asked), but it has no ODOM lines: a corrected log's raw odometry is in them, and without it there is no odometry (read it as raw to take the poses as odometry, or make the odometry from the scans with --odometry-from-scans)",
         )),
         CarmenKind::Corrected => Ok((
             true,
@@ -448,7 +453,7 @@ fn assemble(mut p: Parsed, path: &Path, options: &ImportOptions) -> Result<(Sens
             a.count_message(k, k);
         }
     }
-    let (corrected, why) = decide_kind(&p, options.carmen_kind, path)?;
+    let (corrected, why) = decide_kind(&p, options.carmen_kind, options.odometry == OdometryFrom::Scans, path)?;
     a.note(why);
     if let Some(note) = settle_time(&mut p, corrected, path, options)? {
         a.note(note);

@@ -34,10 +34,10 @@ pub mod ros1;
 pub mod ros2;
 mod timing;
 
-pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
+pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform, SCANS_TO_COME};
 pub use error::ImportError;
 pub use options::{CarmenKind, ImportOptions, OdometryFrom, RATE_HZ_RANGE, StampFrom, Thinning, TimeSource};
-pub use report::{BackwardSteps, ImportReport, LidarInfo, TopicCount};
+pub use report::{BackwardSteps, ImportReport, LidarInfo, ScanOdometrySummary, TopicCount};
 pub use rigid::Rigid3;
 pub use ros2::{
     CHANGE_ADDED, CHANGE_NONE, CHANGE_OTHER, CHANGE_REMOVED, McapRunWriter, McapWriteError, UpdaterStepMsg,

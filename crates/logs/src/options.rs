@@ -13,6 +13,11 @@ pub enum OdometryFrom {
     /// The `odom → base` transform of `/tf` ([`ImportOptions::odom_frame`],
     /// [`ImportOptions::base_frame`]).
     Tf,
+    /// None from the log: the caller makes it by matching the scans (`mapkeeper convert
+    /// --odometry-from-scans`). The assembled log has no odometry records, any odometry the file
+    /// holds is left out (a note says so), and the report's odometry source says it is to be
+    /// made from the scans.
+    Scans,
 }
 
 /// Which kind of CARMEN log a file is: raw (the laser lines' poses and the `ODOM` lines are the

@@ -2,6 +2,7 @@
 //! timestamps that stepped back. Printed by the CLI and kept in the sensor log's header `meta`.
 
 use mapkeeper_grid::Pose2;
+use mapkeeper_sensor::LogHeader;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -48,6 +49,40 @@ pub struct BackwardSteps {
     pub largest_s: f64,
 }
 
+/// How the odometry was made by matching the scans (`mapkeeper convert --odometry-from-scans`),
+/// for a log that has scans and no odometry. Each step (the scans of one stamp) gives one
+/// reading: the match's pose where it was accepted, the constant-velocity prediction where not.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ScanOdometrySummary {
+    /// The method, in a sentence (with its main parameters).
+    pub method: String,
+    /// Steps, one odometry reading each.
+    pub steps: usize,
+    /// Steps whose match was accepted.
+    pub matched: usize,
+    /// Steps whose match was refused (too few beams fit the local map): the prediction stands.
+    pub refused: usize,
+    /// Steps without a usable beam (all readings invalid or beyond the range used): the
+    /// prediction stands.
+    pub without_beams: usize,
+    /// Times the local map was started afresh, from the prediction, after refused matches in a
+    /// row.
+    pub restarts: usize,
+    /// The odometry's path length, metres.
+    pub path_m: f64,
+}
+
+impl ScanOdometrySummary {
+    /// One line for a terminal.
+    pub fn line(&self) -> String {
+        format!(
+            "odometry made by scan matching: {} steps, {} matched, {} refused (prediction kept), {} without usable beams, \
+{} local-map restart(s), {:.1} m of path",
+            self.steps, self.matched, self.refused, self.without_beams, self.restarts, self.path_m
+        )
+    }
+}
+
 /// What an import found.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ImportReport {
@@ -66,6 +101,10 @@ pub struct ImportReport {
     pub odometry_source: String,
     /// Odometry readings imported.
     pub odometry_messages: usize,
+    /// How the odometry was made from the scans, when it was (`--odometry-from-scans`; absent
+    /// from `import.json` otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scan_odometry: Option<ScanOdometrySummary>,
     /// Where the reference poses came from, if any.
     pub truth_source: Option<String>,
     /// Reference poses imported.
@@ -81,6 +120,29 @@ pub struct ImportReport {
 }
 
 impl ImportReport {
+    /// The odometry source named when it is made by matching the scans.
+    pub const SCAN_ODOMETRY_SOURCE: &'static str = "scan matching (--odometry-from-scans)";
+
+    /// Records odometry made from the scans: the source, the reading count and how it went.
+    pub fn set_scan_odometry(&mut self, summary: ScanOdometrySummary) {
+        self.odometry_source = Self::SCAN_ODOMETRY_SOURCE.to_string();
+        self.odometry_messages = summary.steps;
+        self.scan_odometry = Some(summary);
+    }
+
+    /// The sensor log's header for this import: the report as its `meta`, with the tool's name
+    /// and version.
+    pub fn log_header(&self) -> LogHeader {
+        let meta = match serde_json::to_value(self) {
+            Ok(serde_json::Value::Object(mut m)) => {
+                m.insert("tool".into(), format!("mapkeeper-logs {}", env!("CARGO_PKG_VERSION")).into());
+                m
+            }
+            _ => serde_json::Map::new(),
+        };
+        LogHeader::new(meta)
+    }
+
     /// A few lines for a terminal.
     pub fn lines(&self) -> Vec<String> {
         let mut out = vec![format!(
@@ -108,6 +170,9 @@ impl ImportReport {
                 if l.tilt_deg > 2.0 { format!(", tilted {:.1} deg (ignored)", l.tilt_deg) } else { String::new() },
                 l.mount_source
             ));
+        }
+        if let Some(s) = &self.scan_odometry {
+            out.push(format!("  {}", s.line()));
         }
         if let Some(t) = &self.truth_source {
             out.push(format!("  reference: {} poses from {t}", self.truth_poses));

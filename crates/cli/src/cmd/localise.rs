@@ -71,6 +71,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_localiser(&args.localiser)?;
     let (log, log_path, imported) = args.input.read_with_origin()?;
+    super::log_input::require_odometry(&log, &log_path)?;
     let localiser = resolve_localiser(&args.localiser, imported).to_string();
     let preset = FilterParams::preset(&localiser).context("--localiser")?;
     let params = load_params(preset, args.params.as_deref(), FilterParams::validate)?;

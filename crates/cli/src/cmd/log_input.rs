@@ -223,6 +223,22 @@ impl LogInput {
     }
 }
 
+/// Refuses a log that has scans and no odometry for a command whose localiser moves by the
+/// odometry (`localise`, `update --localise`, `run --log`): every step would be skipped. The
+/// error names the file and the way out, `convert --odometry-from-scans`.
+pub fn require_odometry(log: &SensorLog, path: &std::path::Path) -> anyhow::Result<()> {
+    let scans = log.scans().count();
+    if scans > 0 && log.odometry().next().is_none() {
+        anyhow::bail!(
+            "{}: {scans} scans and no odometry readings: the localiser moves by the odometry; make it from the scans \
+with `mapkeeper convert --log {} --odometry-from-scans --out DIR` and give --log DIR",
+            path.display(),
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// The `--localiser` value that picks the preset from the log: [`resolve_localiser`].
 pub const AUTO_LOCALISER: &str = "auto";
 

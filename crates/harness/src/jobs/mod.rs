@@ -1,9 +1,11 @@
 //! Whole replay jobs over a recorded log, each one call for the command line: localise,
-//! update, map. Each is a [`LogSource`](crate::LogSource), a session and observers run by
+//! update, map; and the odometry a log with scans only lacks ([`scan_odometry`]). Each replay is a [`LogSource`](crate::LogSource), a session and observers run by
 //! [`crate::run`].
 
 pub mod localise;
 pub mod map;
+pub mod odometry_drift;
+pub mod scan_odometry;
 pub mod update;
 
 /// The random stream of the chain localiser of a replay, named as the closed loop names its

@@ -190,3 +190,53 @@ fn bad_scans_are_refused_with_their_place() {
     let e = a.finish(&ImportOptions::default()).unwrap_err().to_string();
     assert!(e.starts_with("x.log: line 7 (/scan): scan:"), "{e}");
 }
+
+#[test]
+fn a_log_without_odometry_is_refused_naming_the_flag_that_makes_it_from_the_scans() {
+    let scans_only = || {
+        let mut a = Assembler::new(Path::new("demo.bag"), "test");
+        for k in 0..3 {
+            a.scan(scan("/scan", "laser", k * 1_000));
+        }
+        a
+    };
+    let opts = ImportOptions { base_frame: "laser".into(), ..ImportOptions::default() };
+    let e = scans_only().finish(&opts).unwrap_err().to_string();
+    assert!(e.contains("demo.bag") && e.contains("no odometry") && e.contains("--odometry-from-scans"), "{e}");
+    // An odometry topic or the /tf edge asked for by name: the flag is named too.
+    for odometry in [OdometryFrom::Topic("/odom".into()), OdometryFrom::Tf] {
+        let e = scans_only().finish(&ImportOptions { odometry, ..opts.clone() }).unwrap_err().to_string();
+        assert!(e.contains("--odometry-from-scans"), "{e}");
+    }
+    // Asked to make it from the scans: a log without odometry, said so in the report.
+    let scans = ImportOptions { odometry: OdometryFrom::Scans, ..opts.clone() };
+    let (log, report) = scans_only().finish(&scans).unwrap();
+    assert_eq!((log.scans().count(), log.odometry().count()), (3, 0));
+    assert_eq!((report.odometry_source.as_str(), report.odometry_messages), (SCANS_TO_COME, 0));
+    assert!(report.scan_odometry.is_none() && !report.notes.iter().any(|n| n.contains("not used")));
+    // --every-m thins by the odometry's travel, which is not there yet: refused, naming both.
+    let e = scans_only()
+        .finish(&ImportOptions { thinning: Thinning::EveryMetres(0.5), ..scans.clone() })
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--every-m") && e.contains("--odometry-from-scans") && e.contains("--keep-every"), "{e}");
+}
+
+#[test]
+fn odometry_from_the_scans_replaces_the_logs_own_with_a_note() {
+    let mut a = Assembler::new(Path::new("r.bag"), "test");
+    a.scan(scan("/scan", "base_link", 0));
+    a.odometry(RawOdometry { topic: "/odom".into(), stamp_ns: 0, pose: Pose2::IDENTITY, record_ns: None });
+    a.transform(tf("odom", "base_link", Rigid3::IDENTITY, false));
+    let (log, mut report) =
+        a.finish(&ImportOptions { odometry: OdometryFrom::Scans, ..ImportOptions::default() }).unwrap();
+    assert_eq!(log.odometry().count(), 0);
+    let note = report.notes.iter().find(|n| n.contains("not used")).unwrap();
+    assert!(note.contains("1 readings of /odom") && note.contains("1 transforms /tf odom -> base_link"), "{note}");
+    // The caller's odometry goes into the report, its printed lines and the log's header.
+    let made = crate::ScanOdometrySummary { steps: 1, matched: 0, refused: 0, ..Default::default() };
+    report.set_scan_odometry(made);
+    assert_eq!((report.odometry_source.as_str(), report.odometry_messages), (ImportReport::SCAN_ODOMETRY_SOURCE, 1));
+    assert!(report.lines().iter().any(|l| l.contains("odometry made by scan matching: 1 steps")));
+    assert!(report.log_header().meta["scan_odometry"]["steps"] == 1);
+}

@@ -103,6 +103,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let map = load_map(&args.map)?;
     super::log_input::check_localiser(&args.localiser)?;
     let (log, log_path, imported) = args.input.read_with_origin()?;
+    if args.localise {
+        super::log_input::require_odometry(&log, &log_path)?;
+    }
     let source = LogSource::new(log, log_path.display().to_string(), options);
     let poses = pose_input(&args, imported)?;
     let dir = super::output_dir(&args.output.out, args.output.force)?;
