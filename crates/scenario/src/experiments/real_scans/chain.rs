@@ -176,6 +176,16 @@ fn chain_error(s: &ChainSetup<'_>, what: impl std::fmt::Display) -> ExperimentEr
     ExperimentError::Invalid(format!("{} (edit seed {}): {what}", s.name, s.edit_seed))
 }
 
+/// How a pass replays the log: odometry interpolated at each step, unsynchronised lidars
+/// grouped as `mapkeeper update` groups them (the real-data experiment's updater runs).
+fn pass_options() -> ReplayOptions {
+    ReplayOptions {
+        odometry_at: OdometryAt::Interpolated,
+        sync_window_ns: DEFAULT_SYNC_WINDOW_NS,
+        ..ReplayOptions::default()
+    }
+}
+
 /// How G and the fresh maps are replayed: a scan is mapped at a pose at most
 /// [`MAP_POSE_GAP_NS`] from it (the real-data experiment's rule).
 pub fn map_options() -> ReplayOptions {
@@ -211,11 +221,7 @@ pub fn run_chain(
     let change =
         ChangeCells::new(m1, s.truth_map, &observed, Some(&s.stale.footprints)).map_err(|e| chain_error(s, e))?;
     let structure = StructureMask::new(m1, s.truth_map).map_err(|e| chain_error(s, e))?;
-    let options = ReplayOptions {
-        odometry_at: OdometryAt::Interpolated,
-        sync_window_ns: DEFAULT_SYNC_WINDOW_NS,
-        ..ReplayOptions::default()
-    };
+    let options = pass_options();
     let source = || LogSource::new(s.log.clone(), s.name.to_string(), options);
     let truth = source().truth().to_vec();
     let mut result = ChainResult {
@@ -328,11 +334,7 @@ pub fn run_unscored_chain(
         return Err(err("no reference poses to give the updater".into()));
     };
     let updater = UpdaterParams::preset(preset).map_err(|e| err(e.to_string()))?;
-    let options = ReplayOptions {
-        odometry_at: OdometryAt::Interpolated,
-        sync_window_ns: DEFAULT_SYNC_WINDOW_NS,
-        ..ReplayOptions::default()
-    };
+    let options = pass_options();
     let mut out = UnscoredChain {
         log: name.to_string(),
         preset: preset.to_string(),

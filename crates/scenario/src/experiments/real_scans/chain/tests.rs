@@ -18,19 +18,16 @@ fn intel_with(scans: usize, edits: &EditParams, test: &str) -> Option<(SensorLog
     Some((log, g, stale))
 }
 
+/// The chains' setup for Intel and edit seed 5.
+fn setup<'a>(log: &'a SensorLog, g: &'a OccupancyGrid, stale: &'a StaleMap, m: &'a MapLogParams) -> ChainSetup<'a> {
+    ChainSetup { name: "intel", log, truth_map: g, stale, edit_seed: 5, mapper: m, metrics: MetricParams::default() }
+}
+
 #[test]
 fn passes_at_the_reference_poses_move_the_map_towards_g_and_keep_its_structure() {
     let Some((log, g, stale)) = intel(250, "passes_at_the_reference_poses_move_the_map_towards_g") else { return };
     let m = mapper();
-    let setup = ChainSetup {
-        name: "intel",
-        log: &log,
-        truth_map: &g,
-        stale: &stale,
-        edit_seed: 5,
-        mapper: &m,
-        metrics: MetricParams::default(),
-    };
+    let setup = setup(&log, &g, &stale, &m);
     let r = run_chain(&setup, "mapkeeper", &PoseSourceConfig::Reference, 3, 1, true).unwrap();
     assert_eq!(r.per_pass.len(), 3);
     assert_eq!(r.maps.len(), 3);
@@ -63,15 +60,7 @@ fn the_localisers_poses_are_scored_against_the_reference() {
         return;
     };
     let m = mapper();
-    let setup = ChainSetup {
-        name: "intel",
-        log: &log,
-        truth_map: &g,
-        stale: &stale,
-        edit_seed: 5,
-        mapper: &m,
-        metrics: MetricParams::default(),
-    };
+    let setup = setup(&log, &g, &stale, &m);
     let poses =
         PoseSourceConfig::Localiser { name: "mapkeeper-real".into(), params: Box::new(FilterParams::mapkeeper_real()) };
     let a = run_chain(&setup, "mapkeeper", &poses, 2, 9, false).unwrap();
