@@ -194,8 +194,7 @@ pub fn map_options() -> ReplayOptions {
 
 /// `log` with its truth records replaced by `poses` (the map at those poses is the fresh map).
 fn with_poses(log: &SensorLog, poses: &[StampedPose]) -> SensorLog {
-    let mut out = SensorLog { records: Vec::with_capacity(log.records.len()), ..log.clone() };
-    out.records.clear();
+    let mut out = SensorLog { header: log.header.clone(), records: Vec::with_capacity(log.records.len()) };
     out.records.extend(log.records.iter().filter(|r| !matches!(r, LogRecord::Truth(_))).cloned());
     out.records.extend(poses.iter().map(|p| LogRecord::Truth(TruePose { stamp_ns: p.stamp_ns, pose_in_map: p.pose })));
     out

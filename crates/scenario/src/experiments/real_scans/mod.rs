@@ -344,10 +344,7 @@ each pass changed"
 
 /// The number of chains and kidnap trials [`run_real_scans`] runs (its progress count).
 pub fn chain_count(logs: &[LogInput], params: &RealScansParams) -> usize {
-    let with_reference = logs
-        .iter()
-        .filter(|l| l.dataset.log.records.iter().any(|r| matches!(r, mapkeeper_sensor::LogRecord::Truth(_))))
-        .count();
+    let with_reference = logs.iter().filter(|l| l.dataset.has_reference()).count();
     let localisers = params.pose_sources.iter().filter(|s| **s != PoseSourceConfig::Reference).count();
     let kidnaps = params
         .kidnaps
