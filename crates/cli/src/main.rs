@@ -90,6 +90,8 @@ enum Command {
     Render(cmd::render::Args),
     /// Turn a ROS map (map_server YAML + PGM/PNG) into a world file with storage areas and a route.
     ImportMap(cmd::import_map::Args),
+    /// Run the map updater live as a ROS 2 node (keeps Nav2's map up to date).
+    Node(cmd::node::Args),
 }
 
 fn main() -> ExitCode {
@@ -122,6 +124,7 @@ fn main() -> ExitCode {
         Command::Metrics(a) => cmd::metrics::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::ImportMap(a) => cmd::import_map::run(a),
+        Command::Node(a) => cmd::node::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

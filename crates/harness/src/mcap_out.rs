@@ -127,7 +127,7 @@ impl McapRecorder {
 }
 
 /// The value of a cell of `/updater/changes` that was `a` and is `b`.
-fn change_value(a: CellState, b: CellState) -> i8 {
+pub fn change_value(a: CellState, b: CellState) -> i8 {
     match ChangeKind::of(a, b) {
         ChangeKind::Same => CHANGE_NONE,
         ChangeKind::Added => CHANGE_ADDED,
@@ -137,7 +137,7 @@ fn change_value(a: CellState, b: CellState) -> i8 {
 }
 
 /// `/updater/step` of an updater report.
-fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
+pub fn step_message(u: &UpdaterStep) -> UpdaterStepMsg {
     let count = |kind: ChangeKind| {
         u32::try_from(u.changed_cells.iter().filter(|c| ChangeKind::of(c.from, c.to) == kind).count())
             .unwrap_or(u32::MAX)

@@ -48,6 +48,61 @@ pub struct RawScan {
     pub record_ns: Option<u64>,
 }
 
+/// The fields of a ROS `sensor_msgs/LaserScan` as the readers and the live node take them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RosScanFields {
+    /// `angle_min`, radians.
+    pub angle_min: f32,
+    /// `angle_increment`, radians.
+    pub angle_increment: f32,
+    /// `time_increment`, seconds (0: unknown).
+    pub time_increment: f32,
+    /// `range_min`, metres.
+    pub range_min: f32,
+    /// `range_max`, metres (inclusive, as ROS has it).
+    pub range_max: f32,
+    /// `ranges`, metres.
+    pub ranges: Vec<f32>,
+}
+
+impl RawScan {
+    /// A ROS scan message's fields as a raw scan: the one conversion of the bag readers and the
+    /// live node (`range_max` is inclusive in ROS, so the exclusive limit is the next float).
+    pub fn from_ros(topic: &str, frame_id: String, stamp_ns: u64, f: RosScanFields, place: String) -> RawScan {
+        RawScan {
+            topic: topic.to_string(),
+            frame_id,
+            stamp_ns,
+            angle_min_rad: f64::from(f.angle_min),
+            angle_increment_rad: f64::from(f.angle_increment),
+            range_min_m: f.range_min,
+            range_max_m: f.range_max.next_up(),
+            ranges_m: f.ranges,
+            time_increment_s: f64::from(f.time_increment),
+            place,
+            record_ns: None,
+        }
+    }
+
+    /// The scan as the estimators see it, for lidar `id` mounted at `mount` (mirrored: upside
+    /// down), its stamp unchanged; the conversion the assembler applies to every scan of a log.
+    pub fn to_laser_scan(self, id: u32, mount: Pose2, mirrored: bool) -> Result<LaserScan, String> {
+        let mut untimed = BTreeMap::new();
+        let place = self.place.clone();
+        to_scan(Path::new(""), self, id, mount, mirrored, 0, &mut untimed).map_err(|e| match e {
+            ImportError::Parse { message, .. } => message,
+            other => format!("{place}: {other}"),
+        })
+    }
+}
+
+/// The mount of lidar frame `frame` in the base frame `base` through the static transforms
+/// `edges` (each usable both ways): the planar pose, whether the lidar is upside down and its tilt
+/// from level in degrees; `None` without a chain. The assembler's rule for `/tf_static`.
+pub fn mount_from_transforms(edges: &[&RawTransform], base: &str, frame: &str) -> Option<(Pose2, bool, f64)> {
+    chain(edges, base, frame).map(|r| r.planar())
+}
+
 /// One decoded odometry message (`nav_msgs/Odometry`, CARMEN `ODOM`) or a reference pose topic.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RawOdometry {

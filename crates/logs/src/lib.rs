@@ -34,7 +34,9 @@ pub mod ros1;
 pub mod ros2;
 mod timing;
 
-pub use assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform, SCANS_TO_COME};
+pub use assemble::{
+    Assembler, RawOdometry, RawPose, RawScan, RawTransform, RosScanFields, SCANS_TO_COME, mount_from_transforms,
+};
 pub use error::ImportError;
 pub use options::{CarmenKind, ImportOptions, OdometryFrom, RATE_HZ_RANGE, StampFrom, Thinning, TimeSource};
 pub use report::{BackwardSteps, ImportReport, LidarInfo, ScanOdometrySummary, TopicCount};

@@ -12,6 +12,7 @@ pub mod log_input;
 pub mod map;
 pub mod merge;
 pub mod metrics;
+pub mod node;
 pub mod poses;
 mod progress;
 pub mod real_data;

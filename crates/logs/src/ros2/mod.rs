@@ -29,7 +29,7 @@ pub use writer::{
     write_log_mcap,
 };
 
-use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform};
+use crate::assemble::{Assembler, RawOdometry, RawPose, RawScan, RawTransform, RosScanFields};
 use crate::options::{ImportOptions, OdometryFrom, StampFrom};
 use crate::report::ImportReport;
 use crate::{ImportError, Rigid3};
@@ -448,19 +448,17 @@ impl BagReader<'_> {
             Role::Skip => {}
             Role::Scan => {
                 let s = msgs::laser_scan(data).map_err(|e| at.err(e))?;
-                self.asm.scan(RawScan {
-                    topic: topic.to_string(),
-                    frame_id: s.header.frame_id,
-                    stamp_ns: stamp(s.header.stamp_ns),
-                    angle_min_rad: f64::from(s.angle_min),
-                    angle_increment_rad: f64::from(s.angle_increment),
-                    range_min_m: s.range_min,
-                    range_max_m: s.range_max.next_up(),
-                    ranges_m: s.ranges,
-                    time_increment_s: f64::from(s.time_increment),
-                    place: format!("{prefix}message {index} (log_time {} ns)", m.log_time),
-                    record_ns,
-                });
+                let fields = RosScanFields {
+                    angle_min: s.angle_min,
+                    angle_increment: s.angle_increment,
+                    time_increment: s.time_increment,
+                    range_min: s.range_min,
+                    range_max: s.range_max,
+                    ranges: s.ranges,
+                };
+                let place = format!("{prefix}message {index} (log_time {} ns)", m.log_time);
+                let raw = RawScan::from_ros(topic, s.header.frame_id, stamp(s.header.stamp_ns), fields, place);
+                self.asm.scan(RawScan { record_ns, ..raw });
             }
             Role::Odometry => {
                 let o = msgs::odometry(data).map_err(|e| at.err(e))?;

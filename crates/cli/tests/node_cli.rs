@@ -1,0 +1,244 @@
+//! `mapkeeper node` (issue 55) without the wire: a simulated drive's bag is replayed message by
+//! message into the node's core (each message at its record time, as it would arrive), and the
+//! map the node keeps, the map a subscriber composes from its first `/map` and every
+//! `/map_updates`, and the map it saves, all equal, cell for cell, the map `mapkeeper update`
+//! makes offline from the same bag with the same poses: the robot's localiser's poses (here the
+//! bag's truth, played as `/amcl_pose`), and the node's own localiser against `update
+//! --localise`. The same through DDS, against Cyclone DDS, is `node_cyclone.rs`.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{mapkeeper, s, scratch};
+use mapkeeper_grid::map_io::{load_map, save_map};
+use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
+use mapkeeper_node::msgs::{self, from_cdr};
+use mapkeeper_node::{Input, NodeConfig, NodeCore, Output};
+use std::path::{Path, PathBuf};
+
+fn ok(args: &[&str]) -> String {
+    let o = mapkeeper(args);
+    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A 30 s drive of two lidars as a bag, and a stale map of its world: the true map with a
+/// phantom box and a missing stretch of structure near the start of the route.
+pub fn drive(dir: &Path) -> (PathBuf, PathBuf) {
+    let sim = dir.join("sim");
+    let bag = dir.join("drive.mcap");
+    ok(&["simulate", "--seconds", "30", "--seed", "6", "--out", s(&sim), "--mcap", s(&bag)]);
+    let mut map = load_map(&sim.join("ground_truth.yaml")).unwrap();
+    let tum = std::fs::read_to_string(sim.join("truth.tum")).unwrap();
+    let first: Vec<f64> =
+        tum.lines().find(|l| !l.starts_with('#')).unwrap().split_whitespace().map(|v| v.parse().unwrap()).collect();
+    let g = *map.geometry();
+    let at = |dx: f64, dy: f64| g.world_to_cell(mapkeeper_grid::Point2::new(first[1] + dx, first[2] + dy)).unwrap();
+    let c0 = at(0.0, 0.0);
+    let (mut phantom, mut removed) = (0, 0);
+    for iy in c0.iy - 60..c0.iy + 60 {
+        for ix in c0.ix - 60..c0.ix + 60 {
+            let c = CellCoord { ix, iy };
+            let d = (((ix - c0.ix).pow(2) + (iy - c0.iy).pow(2)) as f64).sqrt();
+            match map.get(c) {
+                Some(CellState::Occupied) if (ix + iy) % 3 == 0 => {
+                    map.set(c, CellState::Free);
+                    removed += 1;
+                }
+                Some(CellState::Free) if (25.0..33.0).contains(&d) && (ix - c0.ix).abs() < 6 => {
+                    map.set(c, CellState::Occupied);
+                    phantom += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(phantom > 10 && removed > 10, "phantom {phantom}, removed {removed}");
+    let stale = dir.join("stale.yaml");
+    save_map(&map, &stale).unwrap();
+    (bag, stale)
+}
+
+/// The bag's messages as the node's inputs, each with its record time; `/truth` is played as
+/// the robot's localiser's `/amcl_pose`.
+fn inputs(bag: &Path) -> Vec<(u64, Input)> {
+    let bytes = std::fs::read(bag).unwrap();
+    let mut out = Vec::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let d = &m.data[..];
+        let input = match m.channel.topic.as_str() {
+            "/lidar_0/scan" => Input::Scan { lidar: 0, msg: from_cdr(d).unwrap() },
+            "/lidar_1/scan" => Input::Scan { lidar: 1, msg: from_cdr(d).unwrap() },
+            "/odom" => Input::Odometry(from_cdr(d).unwrap()),
+            "/tf" => Input::Tf(from_cdr(d).unwrap()),
+            "/tf_static" => Input::TfStatic(from_cdr(d).unwrap()),
+            "/truth" => {
+                let p: PoseStamped = from_cdr(d).unwrap();
+                Input::Pose(msgs::PoseWithCovarianceStamped {
+                    header: p.header,
+                    pose: msgs::PoseWithCovariance { pose: p.pose, covariance: msgs::Cov36::default() },
+                })
+            }
+            _ => continue,
+        };
+        out.push((m.log_time, input));
+    }
+    out
+}
+
+#[derive(serde::Deserialize)]
+struct PoseStamped {
+    header: msgs::Header,
+    pose: msgs::Pose,
+}
+
+fn config(dir: &Path, stale: &Path, extra: &str) -> NodeConfig {
+    let text = format!(
+        "mapkeeper:\n  ros__parameters:\n    map: {}\n    scan_topics: [/lidar_0/scan, /lidar_1/scan]\n    save_dir: {}\n    map_publish_period_s: 1.0\n{extra}",
+        s(stale),
+        s(&dir.join("saved"))
+    );
+    NodeConfig::parse(&text, dir.to_path_buf()).unwrap()
+}
+
+/// Replays `inputs` into a node of `config`; returns the node and the map composed from its
+/// first `/map` and every `/map_updates`.
+fn replay(config: &NodeConfig, inputs: Vec<(u64, Input)>) -> (NodeCore, OccupancyGrid, usize) {
+    let mut node = NodeCore::start(config, 0).unwrap();
+    let (mut composed, mut updates): (Option<Vec<i8>>, usize) = (None, 0);
+    let mut apply = |outs: Vec<Output>, composed: &mut Option<Vec<i8>>| {
+        for o in outs {
+            match o {
+                Output::Map(m) if composed.is_none() => *composed = Some(m.data),
+                Output::MapUpdate(u) => {
+                    let c = composed.as_mut().unwrap();
+                    let w = node_width(config);
+                    for row in 0..u.height as usize {
+                        for col in 0..u.width as usize {
+                            c[(u.y as usize + row) * w + u.x as usize + col] = u.data[row * u.width as usize + col];
+                        }
+                    }
+                    updates += 1;
+                }
+                _ => {}
+            }
+        }
+    };
+    let mut last = 0;
+    for (t, input) in inputs {
+        node.handle(input, t);
+        last = t;
+        let (outs, _, _) = node.drain();
+        apply(outs, &mut composed);
+    }
+    node.tick(last + 10_000_000_000);
+    let (outs, logs, _) = node.drain();
+    apply(outs, &mut composed);
+    assert!(logs.iter().any(|(_, l)| l.starts_with("saved (idle)")), "{logs:?}");
+    let map = node.map().unwrap().clone();
+    let values: Vec<CellState> = composed
+        .unwrap()
+        .iter()
+        .map(|&v| match v {
+            0 => CellState::Free,
+            100 => CellState::Occupied,
+            _ => CellState::Unknown,
+        })
+        .collect();
+    (node, OccupancyGrid::from_cells(*map.geometry(), values).unwrap(), updates)
+}
+
+fn node_width(config: &NodeConfig) -> usize {
+    load_map(&config.resolve(&config.params.map).unwrap()).unwrap().geometry().width()
+}
+
+fn differing(a: &OccupancyGrid, b: &OccupancyGrid) -> usize {
+    a.cells().iter().zip(b.cells()).filter(|(x, y)| x != y).count()
+}
+
+#[test]
+fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_its_own_localiser() {
+    let dir = scratch("node", "replay");
+    let (bag, stale) = drive(&dir);
+    let before = load_map(&stale).unwrap();
+
+    // The robot's localiser's poses.
+    let printed = ok(&[
+        "update",
+        "--log",
+        s(&bag),
+        "--truth-topic",
+        "/truth",
+        "--map",
+        s(&stale),
+        "--true-poses",
+        "--out",
+        s(&dir.join("off")),
+    ]);
+    let offline = load_map(&dir.join("off/map.yaml")).unwrap();
+    let changed = differing(&before, &offline);
+    assert!(changed > 50, "the drive must change the stale map: {changed} cells; {printed}");
+    let cfg = config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n");
+    let (node, composed, updates) = replay(&cfg, inputs(&bag));
+    assert_eq!(differing(node.map().unwrap(), &offline), 0, "the node's map differs from the offline update's");
+    assert_eq!(differing(&composed, &offline), 0, "/map + /map_updates differ from the offline update's map");
+    assert!(updates > 5, "{updates} updates");
+    let saved = load_map(&dir.join("saved/map.yaml")).unwrap();
+    assert_eq!(differing(&saved, &offline), 0);
+    let counts = node.counts();
+    assert_eq!(counts.steps, 375, "{counts:?}");
+    assert_eq!(counts.input.scans, 750);
+    assert_eq!(
+        (counts.input.steps_dropped_behind, counts.input.steps_timed_out, counts.messages_refused),
+        (0, 0, 0),
+        "{counts:?}"
+    );
+
+    // The node's own localiser, started where `update --localise` starts (the first pose).
+    let printed = ok(&[
+        "update",
+        "--log",
+        s(&bag),
+        "--truth-topic",
+        "/truth",
+        "--map",
+        s(&stale),
+        "--localise",
+        "--localiser",
+        "mapkeeper-real",
+        "--out",
+        s(&dir.join("off-loc")),
+    ]);
+    let offline = load_map(&dir.join("off-loc/map.yaml")).unwrap();
+    let first = first_truth_at_first_scan(&bag);
+    let extra = format!(
+        "    pose_source: localiser\n    localiser_preset: mapkeeper-real\n    seed: 0\n    initial_pose: [{:?}, {:?}, {:?}]\n    resume: false\n",
+        first.0, first.1, first.2
+    );
+    let (node, composed, _) = replay(&config(&dir, &stale, &extra), inputs(&bag));
+    assert_eq!(
+        differing(node.map().unwrap(), &offline),
+        0,
+        "own localiser: the node's map differs from `update --localise`; {printed}"
+    );
+    assert_eq!(differing(&composed, &offline), 0);
+}
+
+/// The `/truth` pose stamped with the first scan's stamp.
+fn first_truth_at_first_scan(bag: &Path) -> (f64, f64, f64) {
+    let all = inputs(bag);
+    let t0 = all.iter().find_map(|(_, i)| match i {
+        Input::Scan { msg, .. } => msg.header.stamp.to_ns(),
+        _ => None,
+    });
+    all.iter()
+        .find_map(|(_, i)| match i {
+            Input::Pose(p) if p.header.stamp.to_ns() == t0 => {
+                let q = mapkeeper_node::core::planar(&p.pose.pose).unwrap();
+                Some((q.x, q.y, q.yaw))
+            }
+            _ => None,
+        })
+        .unwrap()
+}
