@@ -118,11 +118,13 @@ def loopback_config(max_auto_index: int = _MAX_AUTO_PARTICIPANT_INDEX) -> str:
     )
 
 
+# ruff: noqa: E402 (the imports below must come after CYCLONEDDS_URI is set)
 # Mandatory network confinement: set before cyclonedds is imported (and so before any
 # DomainParticipant exists), overriding whatever the environment says.
 os.environ["CYCLONEDDS_URI"] = loopback_config()
 
 import argparse
+import itertools
 import json
 import math
 import random
@@ -522,7 +524,7 @@ class Recorder:
     def _take(self, reader: DataReader, what: str) -> list[Any]:
         try:
             return [s for s in reader.take(N=256) if hasattr(s, "sample_info") and s.sample_info.valid_data]
-        except Exception as e:  # a sample this peer cannot decode is the node's fault
+        except Exception as e:  # noqa: BLE001 - a sample this peer cannot decode is the node's fault
             with self.lock:
                 self.errors.append(f"{what}: cannot take/decode a sample: {e}")
             return []
@@ -1002,7 +1004,8 @@ def run_fake_node(args: argparse.Namespace) -> int:
                                                            width=w, height=h, data=data))
                         if ux + w <= FAKE_W:
                             for row in range(h):
-                                grid[(uy + row) * FAKE_W + ux:(uy + row) * FAKE_W + ux + w] = data[row * w:(row + 1) * w]
+                                at = (uy + row) * FAKE_W + ux
+                                grid[at:at + w] = data[row * w:(row + 1) * w]
         if got:
             last_data = now
         if final_sent_at is None and last_data is not None and now - last_data > 1.0:
@@ -1060,7 +1063,8 @@ def _run_pair(script: Path, bag: Path, domain: int, tmp: Path, name: str, driver
     t0 = time.monotonic()
     drv = subprocess.run([sys.executable, str(script), "--bag", str(bag), "--domain", str(domain),
                           "--out", str(d_out), *driver_args],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, timeout=timeout)
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, timeout=timeout,
+                         check=False)
     wall = time.monotonic() - t0
     driver_exit_at = time.time()
     fake_json: dict[str, Any] = {}
@@ -1126,7 +1130,8 @@ def run_selftest(args: argparse.Namespace) -> int:
           and all(abs(a - b) < 1e-9 for a, b in zip(fm["origin"], FAKE_ORIGIN)), f"{fm.get('origin')}")
     check("clean: every update and map counted",
           d.get("updates_received") == f.get("updates_sent") and d.get("maps_received") == f.get("maps_sent"),
-          f"updates {d.get('updates_received')}/{f.get('updates_sent')}, maps {d.get('maps_received')}/{f.get('maps_sent')}")
+          f"updates {d.get('updates_received')}/{f.get('updates_sent')}, "
+          f"maps {d.get('maps_received')}/{f.get('maps_sent')}")
     got_ip = d.get("initialposes_received") or []
     check("clean: the node's /initialpose recorded",
           len(got_ip) == 1 and all(abs(a - b) < 1e-9 for a, b in zip(got_ip[0], FAKE_POSE)), f"{got_ip}")
@@ -1158,7 +1163,7 @@ def run_selftest(args: argparse.Namespace) -> int:
     check("faults: reorder:/lidar_0/scan:5", len(l0) > 6 and l0[4] > l0[5] and l0[3] < l0[5] and l0[4] < l0[6],
           f"{l0[:8]}")
     all_scans = sorted(s for t in info.scan_topics for s in st.get(t, []))
-    backs = [(t, i) for t in info.scan_topics for i, (a, b) in enumerate(zip(st.get(t, []), st.get(t, [])[1:]))
+    backs = [(t, i) for t in info.scan_topics for i, (a, b) in enumerate(itertools.pairwise(st.get(t, [])))
              if b < a and not (t == "/lidar_0/scan" and i == 4)]
     check("faults: stale-scan:40 (one stamp 10 scans back)", len(backs) == 1 and len(all_scans) ==
           sum(info.counts[t] for t in info.scan_topics) + 1, f"{backs}")
@@ -1167,7 +1172,7 @@ def run_selftest(args: argparse.Namespace) -> int:
     check("faults: wrong-size:7 (exactly one scan with half the ranges)", lens.count(full // 2) == 1,
           f"{Counter(lens)}")
     clocks = f.get("clocks", [])
-    drops = [(a, b) for a, b in zip(clocks, clocks[1:]) if b < a]
+    drops = [(a, b) for a, b in itertools.pairwise(clocks) if b < a]
     check("faults: clock-back:1500 (one 5 s step back)", len(drops) == 1 and drops[0][0] - drops[0][1] == 5_000_000_000,
           f"{drops}")
     check("faults: no-tf-static", not st.get("/tf_static") and "/tf_static" not in d.get("published", {}))
@@ -1189,7 +1194,8 @@ def run_selftest(args: argparse.Namespace) -> int:
     rc, d, f, err, wall = _run_pair(script, bag, base + 3, tmp, "stop", ["--rate", "10", "--inject", "stop-at:5"],
                                     "clean")
     n = d.get("published", {}).get("/odom", 0)
-    check("stop: exit 0, only the first 5 s of the bag published", rc == 0 and abs(n - 5.0 / info.seconds * n_odom) <= 2,
+    check("stop: exit 0, only the first 5 s of the bag published",
+          rc == 0 and abs(n - 5.0 / info.seconds * n_odom) <= 2,
           f"rc={rc} /odom={n}")
     check("stop: no goodbye (the fake node saw the driver leave only through its lease)",
           f.get("driver_gone_after_s") is not None and f["driver_gone_after_s"] > 3.0,
@@ -1212,6 +1218,16 @@ def run_selftest(args: argparse.Namespace) -> int:
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
+    # `--initialpose -1.5,2,0` would read as an option to argparse: glue the value on.
+    glued: list[str] = []
+    it = iter(argv)
+    for a in it:
+        if a == "--initialpose":
+            v = next(it, None)
+            glued.append(a if v is None else f"--initialpose={v}")
+        else:
+            glued.append(a)
+    argv = glued
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--bag", required=True, help="MCAP file to play")
