@@ -9,55 +9,12 @@
 
 mod common;
 
-use common::{mapkeeper, s, scratch};
-use mapkeeper_grid::map_io::{load_map, save_map};
-use mapkeeper_grid::{CellCoord, CellState, OccupancyGrid};
+use common::{node_drive as drive, ok, s, scratch};
+use mapkeeper_grid::map_io::load_map;
+use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_node::msgs::{self, from_cdr};
 use mapkeeper_node::{Input, NodeConfig, NodeCore, Output};
-use std::path::{Path, PathBuf};
-
-fn ok(args: &[&str]) -> String {
-    let o = mapkeeper(args);
-    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-/// A 30 s drive of two lidars as a bag, and a stale map of its world: the true map with a
-/// phantom box and a missing stretch of structure near the start of the route.
-pub fn drive(dir: &Path) -> (PathBuf, PathBuf) {
-    let sim = dir.join("sim");
-    let bag = dir.join("drive.mcap");
-    ok(&["simulate", "--seconds", "30", "--seed", "6", "--out", s(&sim), "--mcap", s(&bag)]);
-    let mut map = load_map(&sim.join("ground_truth.yaml")).unwrap();
-    let tum = std::fs::read_to_string(sim.join("truth.tum")).unwrap();
-    let first: Vec<f64> =
-        tum.lines().find(|l| !l.starts_with('#')).unwrap().split_whitespace().map(|v| v.parse().unwrap()).collect();
-    let g = *map.geometry();
-    let at = |dx: f64, dy: f64| g.world_to_cell(mapkeeper_grid::Point2::new(first[1] + dx, first[2] + dy)).unwrap();
-    let c0 = at(0.0, 0.0);
-    let (mut phantom, mut removed) = (0, 0);
-    for iy in c0.iy - 60..c0.iy + 60 {
-        for ix in c0.ix - 60..c0.ix + 60 {
-            let c = CellCoord { ix, iy };
-            let d = (((ix - c0.ix).pow(2) + (iy - c0.iy).pow(2)) as f64).sqrt();
-            match map.get(c) {
-                Some(CellState::Occupied) if (ix + iy) % 3 == 0 => {
-                    map.set(c, CellState::Free);
-                    removed += 1;
-                }
-                Some(CellState::Free) if (25.0..33.0).contains(&d) && (ix - c0.ix).abs() < 6 => {
-                    map.set(c, CellState::Occupied);
-                    phantom += 1;
-                }
-                _ => {}
-            }
-        }
-    }
-    assert!(phantom > 10 && removed > 10, "phantom {phantom}, removed {removed}");
-    let stale = dir.join("stale.yaml");
-    save_map(&map, &stale).unwrap();
-    (bag, stale)
-}
+use std::path::Path;
 
 /// The bag's messages as the node's inputs, each with its record time; `/truth` is played as
 /// the robot's localiser's `/amcl_pose`.

@@ -395,8 +395,8 @@ impl NodeCore {
         if !idle || self.assembly.waiting() > 0 {
             return;
         }
-        if let (true, Some(map)) = (self.publisher.dirty, self.session.map()) {
-            self.publisher.full_map(map, self.last_stamp_ns);
+        if let Some(map) = self.session.map() {
+            self.publisher.full_map(map, self.last_stamp_ns, true);
         }
         if self.save_dir.is_some() && self.unsaved() {
             self.save_logged("idle");

@@ -79,6 +79,8 @@ pub struct Publisher {
     published: OccupancyGrid,
     /// Whether the map changed since it was last published whole.
     pub dirty: bool,
+    /// Whether a step was processed since the map was last published whole.
+    pub stepped: bool,
     /// The outputs not yet taken.
     pub out: Vec<Output>,
     /// Cells changed since the start.
@@ -98,14 +100,17 @@ impl Publisher {
             last_full_ns: Some(stamp_ns),
             published: map.clone(),
             dirty: false,
+            stepped: false,
             out: vec![Output::Map(grid_message(map, &p.map_frame, stamp_ns))],
             cells_changed: 0,
         }
     }
 
-    /// Publishes `map` whole (with the changes since the last time) if it changed since.
-    pub fn full_map(&mut self, map: &OccupancyGrid, stamp_ns: u64) {
-        if !self.dirty {
+    /// Publishes `map` whole (with the changes since the last time) if it changed since, or,
+    /// with `after_steps`, if a step was processed since (the end of a drive: a late subscriber
+    /// and the drive's player see the map as it ended).
+    pub fn full_map(&mut self, map: &OccupancyGrid, stamp_ns: u64, after_steps: bool) {
+        if !(self.dirty || after_steps && self.stepped) {
             return;
         }
         let values: Vec<i8> =
@@ -115,6 +120,7 @@ impl Publisher {
         self.published.clone_from(map);
         self.last_full_ns = Some(stamp_ns);
         self.dirty = false;
+        self.stepped = false;
     }
 
     fn update_window(&mut self, map: &OccupancyGrid, cells: impl Iterator<Item = (usize, usize)>, stamp_ns: u64) {
@@ -178,6 +184,7 @@ impl Publisher {
 impl Observer for Publisher {
     fn on_step(&mut self, step: &Step, report: &SessionStep, session: &Session<'_>) {
         let t = step.frame.stamp_ns;
+        self.stepped = true;
         if let Some(u) = &report.updater {
             let m = step_message(u);
             let share =
@@ -210,7 +217,7 @@ impl Observer for Publisher {
         self.pose_outputs(step, report);
         let due = self.last_full_ns.is_none_or(|last| t >= last.saturating_add(self.period_ns) || t < last);
         if let (true, Some(map)) = (due && self.dirty, session.map()) {
-            self.full_map(map, t);
+            self.full_map(map, t, false);
         }
     }
 }

@@ -104,3 +104,47 @@ pub fn help_commands(help: &str) -> Vec<String> {
         .map(str::to_string)
         .collect()
 }
+
+/// Runs `mapkeeper` with `args`; asserts it succeeds; returns what it printed on stdout.
+pub fn ok(args: &[&str]) -> String {
+    let o = mapkeeper(args);
+    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A 30 s drive of two lidars as a bag, and a stale map of its world: the true map with a
+/// phantom box and a missing stretch of structure near the start of the route.
+pub fn node_drive(dir: &Path) -> (PathBuf, PathBuf) {
+    let sim = dir.join("sim");
+    let bag = dir.join("drive.mcap");
+    ok(&["simulate", "--seconds", "30", "--seed", "6", "--out", s(&sim), "--mcap", s(&bag)]);
+    let mut map = mapkeeper_grid::map_io::load_map(&sim.join("ground_truth.yaml")).unwrap();
+    let tum = std::fs::read_to_string(sim.join("truth.tum")).unwrap();
+    let first: Vec<f64> =
+        tum.lines().find(|l| !l.starts_with('#')).unwrap().split_whitespace().map(|v| v.parse().unwrap()).collect();
+    let g = *map.geometry();
+    let at = |dx: f64, dy: f64| g.world_to_cell(mapkeeper_grid::Point2::new(first[1] + dx, first[2] + dy)).unwrap();
+    let c0 = at(0.0, 0.0);
+    let (mut phantom, mut removed) = (0, 0);
+    for iy in c0.iy - 60..c0.iy + 60 {
+        for ix in c0.ix - 60..c0.ix + 60 {
+            let c = mapkeeper_grid::CellCoord { ix, iy };
+            let d = (((ix - c0.ix).pow(2) + (iy - c0.iy).pow(2)) as f64).sqrt();
+            match map.get(c) {
+                Some(mapkeeper_grid::CellState::Occupied) if (ix + iy) % 3 == 0 => {
+                    map.set(c, mapkeeper_grid::CellState::Free);
+                    removed += 1;
+                }
+                Some(mapkeeper_grid::CellState::Free) if (25.0..33.0).contains(&d) && (ix - c0.ix).abs() < 6 => {
+                    map.set(c, mapkeeper_grid::CellState::Occupied);
+                    phantom += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(phantom > 10 && removed > 10, "phantom {phantom}, removed {removed}");
+    let stale = dir.join("stale.yaml");
+    mapkeeper_grid::map_io::save_map(&map, &stale).unwrap();
+    (bag, stale)
+}
