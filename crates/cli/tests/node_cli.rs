@@ -12,42 +12,12 @@ mod common;
 use common::{node_drive as drive, ok, s, scratch};
 use mapkeeper_grid::map_io::load_map;
 use mapkeeper_grid::{CellState, OccupancyGrid};
-use mapkeeper_node::msgs::{self, from_cdr};
 use mapkeeper_node::{Input, NodeConfig, NodeCore, Output};
 use std::path::Path;
 
-/// The bag's messages as the node's inputs, each with its record time; `/truth` is played as
-/// the robot's localiser's `/amcl_pose`.
-fn inputs(bag: &Path) -> Vec<(u64, Input)> {
-    let bytes = std::fs::read(bag).unwrap();
-    let mut out = Vec::new();
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
-        let d = &m.data[..];
-        let input = match m.channel.topic.as_str() {
-            "/lidar_0/scan" => Input::Scan { lidar: 0, msg: from_cdr(d).unwrap() },
-            "/lidar_1/scan" => Input::Scan { lidar: 1, msg: from_cdr(d).unwrap() },
-            "/odom" => Input::Odometry(from_cdr(d).unwrap()),
-            "/tf" => Input::Tf(from_cdr(d).unwrap()),
-            "/tf_static" => Input::TfStatic(from_cdr(d).unwrap()),
-            "/truth" => {
-                let p: PoseStamped = from_cdr(d).unwrap();
-                Input::Pose(msgs::PoseWithCovarianceStamped {
-                    header: p.header,
-                    pose: msgs::PoseWithCovariance { pose: p.pose, covariance: msgs::Cov36::default() },
-                })
-            }
-            _ => continue,
-        };
-        out.push((m.log_time, input));
-    }
-    out
-}
-
-#[derive(serde::Deserialize)]
-struct PoseStamped {
-    header: msgs::Header,
-    pose: msgs::Pose,
+/// The bag's messages as the inputs of a node of `config`.
+fn inputs(bag: &Path, config: &NodeConfig) -> Vec<(u64, Input)> {
+    mapkeeper_node::replay::bag_inputs(&config.params, &std::fs::read(bag).unwrap()).unwrap()
 }
 
 fn config(dir: &Path, stale: &Path, extra: &str) -> NodeConfig {
@@ -59,16 +29,28 @@ fn config(dir: &Path, stale: &Path, extra: &str) -> NodeConfig {
     NodeConfig::parse(&text, dir.to_path_buf()).unwrap()
 }
 
-/// Replays `inputs` into a node of `config`; returns the node and the map composed from its
-/// first `/map` and every `/map_updates`.
-fn replay(config: &NodeConfig, inputs: Vec<(u64, Input)>) -> (NodeCore, OccupancyGrid, usize) {
+/// What a replay's updates were like.
+#[derive(Debug, Default)]
+struct Updates {
+    count: usize,
+    cells: usize,
+    behind_a_barrier: usize,
+}
+
+/// Replays `inputs` into a node of `config`; returns the node, the map composed from its
+/// first `/map` and every `/map_updates`, and the updates.
+fn replay(config: &NodeConfig, inputs: Vec<(u64, Input)>) -> (NodeCore, OccupancyGrid, Updates) {
     let mut node = NodeCore::start(config, 0).unwrap();
-    let (mut composed, mut updates): (Option<Vec<i8>>, usize) = (None, 0);
+    let (mut composed, mut updates): (Option<Vec<i8>>, Updates) = (None, Updates::default());
+    let mut barrier = None;
     let mut apply = |outs: Vec<Output>, composed: &mut Option<Vec<i8>>| {
         for o in outs {
             match o {
                 Output::Map(m) if composed.is_none() => *composed = Some(m.data),
+                Output::Barrier(h) => barrier = Some(h.stamp),
                 Output::MapUpdate(u) => {
+                    updates.behind_a_barrier += usize::from(barrier.take() == Some(u.header.stamp));
+                    updates.cells += u.data.len();
                     let c = composed.as_mut().unwrap();
                     let w = node_width(config);
                     for row in 0..u.height as usize {
@@ -76,7 +58,7 @@ fn replay(config: &NodeConfig, inputs: Vec<(u64, Input)>) -> (NodeCore, Occupanc
                             c[(u.y as usize + row) * w + u.x as usize + col] = u.data[row * u.width as usize + col];
                         }
                     }
-                    updates += 1;
+                    updates.count += 1;
                 }
                 _ => {}
             }
@@ -136,11 +118,16 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
     let offline = load_map(&dir.join("off/map.yaml")).unwrap();
     let changed = differing(&before, &offline);
     assert!(changed > 50, "the drive must change the stale map: {changed} cells; {printed}");
-    let cfg = config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n");
-    let (node, composed, updates) = replay(&cfg, inputs(&bag));
+    let cfg = config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n    barrier_topic: /map_source_ready\n");
+    let (node, composed, updates) = replay(&cfg, inputs(&bag, &cfg));
     assert_eq!(differing(node.map().unwrap(), &offline), 0, "the node's map differs from the offline update's");
     assert_eq!(differing(&composed, &offline), 0, "/map + /map_updates differ from the offline update's map");
-    assert!(updates > 5, "{updates} updates");
+    // Partial updates: each the changed cells' bounding box, far smaller than the grid; each
+    // behind a readiness barrier with its stamp.
+    assert!(updates.count > 5, "{updates:?}");
+    let grid_cells = offline.geometry().len();
+    assert!(updates.cells < grid_cells * updates.count / 20, "{updates:?} on a {grid_cells}-cell grid");
+    assert_eq!(updates.behind_a_barrier, updates.count, "{updates:?}");
     let saved = load_map(&dir.join("saved/map.yaml")).unwrap();
     assert_eq!(differing(&saved, &offline), 0);
     let counts = node.counts();
@@ -168,12 +155,13 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
         s(&dir.join("off-loc")),
     ]);
     let offline = load_map(&dir.join("off-loc/map.yaml")).unwrap();
-    let first = first_truth_at_first_scan(&bag);
+    let first = first_truth_at_first_scan(&bag, &config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n"));
     let extra = format!(
         "    pose_source: localiser\n    localiser_preset: mapkeeper-real\n    seed: 0\n    initial_pose: [{:?}, {:?}, {:?}]\n    resume: false\n",
         first.0, first.1, first.2
     );
-    let (node, composed, _) = replay(&config(&dir, &stale, &extra), inputs(&bag));
+    let cfg = config(&dir, &stale, &extra);
+    let (node, composed, _) = replay(&cfg, inputs(&bag, &cfg));
     assert_eq!(
         differing(node.map().unwrap(), &offline),
         0,
@@ -183,8 +171,8 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
 }
 
 /// The `/truth` pose stamped with the first scan's stamp.
-fn first_truth_at_first_scan(bag: &Path) -> (f64, f64, f64) {
-    let all = inputs(bag);
+fn first_truth_at_first_scan(bag: &Path, config: &NodeConfig) -> (f64, f64, f64) {
+    let all = inputs(bag, config);
     let t0 = all.iter().find_map(|(_, i)| match i {
         Input::Scan { msg, .. } => msg.header.stamp.to_ns(),
         _ => None,

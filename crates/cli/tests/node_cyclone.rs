@@ -243,3 +243,32 @@ fn a_mount_that_never_comes_is_reported_and_nothing_is_written() {
     let fig: Value = serde_json::from_slice(&std::fs::read(dir.join("figures.json")).unwrap()).unwrap();
     assert_eq!(fig["steps"], 0, "{fig}");
 }
+
+#[test]
+fn a_node_killed_while_it_saves_leaves_a_whole_map_and_a_memory_that_fits_it() {
+    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let Some(python) = peer_python() else { return };
+    let dir = scratch("node-cyclone", "killed");
+    let (bag, stale) = node_drive(&dir);
+    let d = domain(4);
+    // A save every 0.1 s of the drive at six times real rate: sixty a second.
+    let params = params(&dir, &stale, d, "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    save_period_s: 0.1\n");
+    for (k, after_ms) in [1700u64, 2300, 2900].into_iter().enumerate() {
+        let mut node = start_node(&dir, &params);
+        let mut peer = Command::new(&python)
+            .arg(driver())
+            .args(["--bag", s(&bag), "--out", s(&dir.join("peer.json")), "--domain", &d.to_string(), "--rate", "6", "--timeout-s", "2"])
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(after_ms));
+        node.kill().unwrap(); // SIGKILL: no handler runs
+        node.wait().unwrap();
+        peer.wait().unwrap();
+        let saved = mapkeeper_node::save::load(&dir.join("saved")).unwrap_or_else(|e| panic!("kill {k}: {e}"));
+        let saved = saved.unwrap_or_else(|| panic!("kill {k}: nothing saved"));
+        assert!(saved.map.geometry().same_as(load_map(&stale).unwrap().geometry()), "kill {k}");
+        let counts: Value = serde_json::from_slice(&std::fs::read(dir.join("saved/node.json")).unwrap()).unwrap();
+        assert!(counts["saves"].is_u64(), "kill {k}: {counts}");
+    }
+}

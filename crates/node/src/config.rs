@@ -29,6 +29,19 @@ pub enum Reliability {
     BestEffort,
 }
 
+/// How the `save_map` service's requests and replies are laid out on DDS: ROS 2's RMWs differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ServiceLayout {
+    /// The request's identity in the sample's metadata (Fast DDS, ROS 2's default RMW; RTI
+    /// Connext): DDS-RPC's enhanced mapping.
+    Enhanced,
+    /// The identity as a header inside the sample (rmw_cyclonedds).
+    Cyclone,
+    /// DDS-RPC's basic mapping.
+    Basic,
+}
+
 /// The node's parameters (`ros__parameters`); defaults in [`NodeParams::default`], documented in
 /// `docs/ros2.md`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -101,6 +114,8 @@ pub struct NodeParams {
     pub interfaces: Vec<String>,
     /// Reliability of the scan and odometry subscriptions.
     pub sensor_reliability: Reliability,
+    /// The `/<node name>/save_map` service's layout on DDS, as the callers' RMW has it.
+    pub service_layout: ServiceLayout,
 }
 
 impl Default for NodeParams {
@@ -137,6 +152,7 @@ impl Default for NodeParams {
             domain_id: 0,
             interfaces: Vec::new(),
             sensor_reliability: Reliability::BestEffort,
+            service_layout: ServiceLayout::Enhanced,
         }
     }
 }
@@ -330,7 +346,7 @@ mod tests {
     #[test]
     fn every_bad_value_is_refused_naming_the_parameter() {
         let cases = [
-            (GOOD.replace("map: maps/m1.yaml\n", ""), "mapkeeper.ros__parameters.map: missing"),
+            (GOOD.replace("    map: maps/m1.yaml\n", ""), "mapkeeper.ros__parameters.map: missing"),
             (GOOD.replace("/scan_rear]", "scan_rear]"), "scan_topics[1]: 'scan_rear' is not an absolute"),
             (GOOD.replace("/scan_rear]", "/scan_front]"), "scan_topics[1]: '/scan_front' is named twice"),
             (GOOD.replace("127.0.0.1", "localhost"), "interfaces[0]: 'localhost' is not an IPv4"),

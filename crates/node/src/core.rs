@@ -545,3 +545,94 @@ fn pose_source(config: &NodeConfig, p: &NodeParams, map: &OccupancyGrid) -> Resu
     let lost = LostPolicy::new(true, DEFAULT_LOST_WAIT_S, fp.initial_covariance());
     Ok((PoseSource::Localiser(Box::new(filter)), Some(lost), awaiting))
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::msgs::{Header, Time};
+
+    fn node(extra: &str, name: &str) -> (NodeCore, PathBuf) {
+        let dir = std::env::temp_dir().join(format!("mapkeeper-node-core-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let map = mapkeeper_testkit::rooms::ten_by_ten_centred();
+        mapkeeper_grid::map_io::save_map(&map, &dir.join("room.yaml")).unwrap();
+        let text = format!("n:\n  ros__parameters:\n    map: room.yaml\n    save_dir: saved\n{extra}");
+        let config = NodeConfig::parse(&text, dir.clone()).unwrap();
+        (NodeCore::start(&config, 0).unwrap(), dir)
+    }
+
+    fn header(sec: i32) -> Header {
+        Header { stamp: Time { sec, nanosec: 0 }, frame_id: "odom".into() }
+    }
+
+    fn pose(x: f64, q: msgs::Quaternion) -> msgs::PoseWithCovarianceStamped {
+        msgs::PoseWithCovarianceStamped {
+            header: header(1),
+            pose: msgs::PoseWithCovariance {
+                pose: msgs::Pose { position: msgs::Vector3 { x, y: 0.0, z: 0.0 }, orientation: q },
+                covariance: msgs::Cov36::default(),
+            },
+        }
+    }
+
+    fn logs(n: &mut NodeCore) -> String {
+        n.drain().1.into_iter().map(|(_, l)| l).collect::<Vec<_>>().join("\n")
+    }
+
+    #[test]
+    fn input_that_is_not_usable_is_refused_with_a_line_and_counted() {
+        let (mut n, _) = node("    pose_source: pose_topic\n", "refused");
+        let (outs, _, _) = n.drain();
+        assert!(matches!(outs[..], [Output::Map(_)]), "the map is published at start");
+        let zero = msgs::Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 0.0 };
+        n.handle(Input::Pose(pose(f64::NAN, msgs::Quaternion::default())), 1);
+        n.handle(Input::Pose(pose(1.0, zero)), 2);
+        let mut bad_stamp = pose(1.0, msgs::Quaternion::default());
+        bad_stamp.header.stamp = Time { sec: -5, nanosec: 0 };
+        n.handle(Input::Pose(bad_stamp), 3);
+        let tf = msgs::TransformStamped { header: header(1), child_frame_id: "laser".into(), transform: msgs::Pose { orientation: zero, ..Default::default() } };
+        n.handle(Input::TfStatic(msgs::TfMessage { transforms: vec![tf] }), 10_000_000_000);
+        let text = logs(&mut n);
+        assert_eq!(n.counts().messages_refused, 4, "{text}");
+        assert!(text.contains("/amcl_pose: not a pose: not used (1 like it since the last report)") || text.contains("/amcl_pose: not a pose"), "{text}");
+        assert!(text.contains("/tf_static transform that is not a pose"), "{text}");
+        assert_eq!(n.counts().steps, 0);
+        // The initial pose is the robot's localiser's business in this mode.
+        n.handle(Input::InitialPose(pose(1.0, msgs::Quaternion::default())), 11);
+        assert!(logs(&mut n).is_empty());
+    }
+
+    #[test]
+    fn a_clock_that_jumps_back_restarts_the_tracks_and_keeps_the_map() {
+        let (mut n, _) = node("    use_sim_time: true\n    pose_source: pose_topic\n", "clock");
+        n.handle(Input::Clock(msgs::Clock { clock: Time { sec: 10, nanosec: 0 } }), 1);
+        n.handle(Input::Pose(pose(1.0, msgs::Quaternion::default())), 2);
+        n.handle(Input::Clock(msgs::Clock { clock: Time { sec: 4, nanosec: 0 } }), 3);
+        let text = logs(&mut n);
+        assert!(text.contains("/clock jumped back by 6.000 s") && text.contains("the map is kept"), "{text}");
+        assert_eq!(n.counts().input.time_jumps, 1);
+    }
+
+    #[test]
+    fn the_own_localiser_waits_for_initialpose_and_the_saved_state_is_resumed() {
+        let (mut n, dir) = node("    pose_source: localiser\n", "resume");
+        assert!(logs(&mut n).contains("waiting for /initialpose"));
+        n.handle(Input::InitialPose(pose(0.5, msgs::Quaternion::from_yaw(0.3))), 1);
+        assert!(logs(&mut n).contains("/initialpose: localiser set at (0.500, 0.000, 0.300)"));
+        let saved = n.save().unwrap();
+        assert_eq!(saved.map_path, dir.join("saved/map.yaml"));
+        // A restarted node continues from the saved map; a memory of another map is refused.
+        let text = "n:\n  ros__parameters:\n    map: room.yaml\n    save_dir: saved\n    initial_pose: [0, 0, 0]\n";
+        let config = NodeConfig::parse(text, dir.clone()).unwrap();
+        let mut again = NodeCore::start(&config, 0).unwrap();
+        assert!(logs(&mut again).contains("resuming from"), "resume");
+        std::fs::write(dir.join("saved/memory.json"), r#"{"map_cells": 7, "memory": {"records": []}}"#).unwrap();
+        let e = NodeCore::start(&config, 0).unwrap_err().to_string();
+        assert!(e.contains("memory.json: a memory of a 7-cell map beside a"), "{e}");
+        std::fs::write(dir.join("saved/memory.json"), "{").unwrap();
+        let e = NodeCore::start(&config, 0).unwrap_err().to_string();
+        assert!(e.contains("memory.json: not a memory file"), "{e}");
+    }
+}

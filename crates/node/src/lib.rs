@@ -18,6 +18,7 @@ pub mod core;
 pub mod frames;
 pub mod msgs;
 pub mod outputs;
+pub mod replay;
 pub mod ros;
 pub mod save;
 

@@ -4,7 +4,7 @@
 //! clock (the binary's monotonic clock) and the stop flag (set on SIGINT / SIGTERM); on stop the
 //! map is saved.
 
-use crate::config::{NodeConfig, PoseFrom, Reliability};
+use crate::config::{NodeConfig, PoseFrom, Reliability, ServiceLayout};
 use crate::core::{Input, Level, NodeCore, NodeError};
 use crate::msgs::{self, RosType};
 use crate::outputs::Output;
@@ -12,7 +12,8 @@ use mapkeeper_common::Clock;
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::{
-    Context, Message, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription,
+    Context, Message, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server, ServiceMapping, ServiceTypeName,
+    Subscription,
     qos::{Durability, History, Reliability as Rel, WhenFull},
 };
 use serde::Serialize;
@@ -153,6 +154,20 @@ struct Outputs {
     tf: Publisher<msgs::TfMessage>,
 }
 
+type SaveServer = Server<msgs::TriggerRequest, msgs::TriggerResponse>;
+
+fn save_server(node: &mut Node, config: &NodeConfig) -> Result<SaveServer, NodeError> {
+    let mapping = match config.params.service_layout {
+        ServiceLayout::Enhanced => ServiceMapping::Enhanced,
+        ServiceLayout::Cyclone => ServiceMapping::Cyclone,
+        ServiceLayout::Basic => ServiceMapping::Basic,
+    };
+    let service = format!("/{}/save_map", config.name);
+    let q = qos(true, false, 10);
+    node.create_server(mapping, &name(&service)?, &ServiceTypeName::new("std_srvs", "Trigger"), q.clone(), q)
+        .map_err(|e| NodeError::Setup(format!("{service}: {e:?}")))
+}
+
 fn open(config: &NodeConfig) -> Result<(Node, Inputs, Outputs), NodeError> {
     let p = &config.params;
     let setup = |e: String| NodeError::Setup(e);
@@ -283,9 +298,11 @@ pub fn run(
 ) -> Result<RunFigures, NodeError> {
     let (t0, cpu0, rss0) = (clock.now_ns(), cpu_s(), rss_mib());
     let mut core = NodeCore::start(config, t0)?;
-    let (_node, mut inputs, outputs) = open(config)?;
+    let (mut node, mut inputs, outputs) = open(config)?;
+    let mut server = save_server(&mut node, config)?;
     let mut poll = Poll::new().map_err(|e| NodeError::Setup(format!("poll: {e}")))?;
     inputs.register(&poll)?;
+    poll.registry().register(&mut server, Token(7), Interest::READABLE).map_err(|e| NodeError::Setup(format!("poll: {e}")))?;
     let mut events = Events::with_capacity(64);
     let mut hist = Histogram::new();
     let (mut rss_max, mut last_sample) = (rss0, t0);
@@ -306,6 +323,7 @@ pub fn run(
             core.handle(input, now);
         }
         core.tick(clock.now_ns());
+        serve(&server, &mut core, log);
         flush(&mut core, &outputs, clock, &mut hist, log);
         if now.saturating_sub(last_sample) > 2_000_000_000 {
             rss_max = rss_max.max(rss_mib());
@@ -332,6 +350,20 @@ pub fn run(
         rss_max_mib: rss_max.max(rss_end),
         wall_s,
     })
+}
+
+/// Answers the `save_map` requests that have come: the map saved now, or why not.
+fn serve(server: &SaveServer, core: &mut NodeCore, log: &mut dyn FnMut(Level, &str)) {
+    while let Ok(Some((id, _))) = server.receive_request() {
+        let response = match core.save() {
+            Ok(s) => msgs::TriggerResponse { success: true, message: s.map_path.display().to_string() },
+            Err(e) => msgs::TriggerResponse { success: false, message: e.to_string() },
+        };
+        log(Level::Info, &format!("save_map: {}", response.message));
+        if let Err(e) = server.send_response(id, response) {
+            log(Level::Warn, &format!("save_map: the reply could not be sent: {e:?}"));
+        }
+    }
 }
 
 fn flush(

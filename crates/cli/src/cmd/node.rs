@@ -34,6 +34,12 @@ pub struct Args {
     /// Write the run's figures (latency, CPU, memory) as JSON to this file at exit.
     #[arg(long, value_name = "FILE")]
     pub figures: Option<PathBuf>,
+    /// The node's benchmark without the wire: replay this bag (ROS 2 MCAP: the parameters'
+    /// topics) into the node as fast as the machine goes, and print the CPU time per step
+    /// (median, p99, max, and the median's ratio to a reference workload timed in the same run)
+    /// and the resident memory over the drive (sampled every 60 s of it). Nothing is published.
+    #[arg(long, value_name = "BAG.mcap", conflicts_with = "check")]
+    pub replay: Option<PathBuf>,
 }
 
 /// Runs `mapkeeper node`.
@@ -56,6 +62,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             outln!("map: {} x {} cells at {} m", g.width(), g.height(), g.resolution_m());
         }
         return Ok(());
+    }
+    if let Some(bag) = &args.replay {
+        let figures = replay(&config, bag)?;
+        outln!(
+            "node --replay: {} steps over {:.0} s of drive; CPU per step median {:.3} ms (x{:.2} the reference), p99 {:.3} ms, max {:.3} ms; RSS {:.1} MiB after the first minute, {:.1} MiB at the end, max {:.1} MiB",
+            figures.steps,
+            figures.drive_s,
+            figures.step_cpu_median_ms,
+            figures.ratio_to_reference,
+            figures.step_cpu_p99_ms,
+            figures.step_cpu_max_ms,
+            figures.rss_first_minute_mib,
+            figures.rss_end_mib,
+            figures.rss_max_mib
+        );
+        return write_figures(args.figures.as_deref(), &figures);
     }
     let stop = Arc::new(AtomicBool::new(false));
     let s = Arc::clone(&stop);
@@ -86,9 +108,92 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         figures.rss_max_mib,
         figures.wall_s
     );
-    if let Some(f) = &args.figures {
-        let text = serde_json::to_vec_pretty(&figures)?;
+    write_figures(args.figures.as_deref(), &figures)
+}
+
+fn write_figures(path: Option<&std::path::Path>, figures: &impl serde::Serialize) -> anyhow::Result<()> {
+    if let Some(f) = path {
+        let text = serde_json::to_vec_pretty(figures)?;
         mapkeeper_grid::write_atomic(f, &text).with_context(|| f.display().to_string())?;
     }
     Ok(())
+}
+
+/// What `--replay` measured.
+#[derive(Debug, Default, serde::Serialize)]
+struct ReplayFigures {
+    steps: u64,
+    drive_s: f64,
+    step_cpu_median_ms: f64,
+    step_cpu_p99_ms: f64,
+    step_cpu_max_ms: f64,
+    reference_ms: f64,
+    ratio_to_reference: f64,
+    /// (drive seconds, MiB) every 60 s of the drive.
+    rss_mib: Vec<(f64, f64)>,
+    rss_first_minute_mib: f64,
+    rss_end_mib: f64,
+    rss_max_mib: f64,
+}
+
+fn rss_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok()))
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+fn reference_ms() -> f64 {
+    use super::bench::clock::{reference_workload, thread_cpu_s};
+    let mut t: Vec<f64> = (0..5)
+        .map(|_| {
+            let t0 = thread_cpu_s();
+            std::hint::black_box(reference_workload());
+            (thread_cpu_s() - t0) * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[2]
+}
+
+fn replay(config: &NodeConfig, bag: &std::path::Path) -> anyhow::Result<ReplayFigures> {
+    use super::bench::clock::thread_cpu_s;
+    let bytes = std::fs::read(bag).with_context(|| format!("--replay {}", bag.display()))?;
+    let mut core = mapkeeper_node::NodeCore::start(config, 0)?;
+    let reference_before = reference_ms();
+    let (mut per_step, mut first_t, mut last_t, mut next_sample) = (Vec::new(), None, 0u64, 60.0);
+    let mut f = ReplayFigures::default();
+    let stream = mcap::MessageStream::new(&bytes).with_context(|| format!("--replay {}", bag.display()))?;
+    for (k, m) in stream.enumerate() {
+        let m = m.with_context(|| format!("--replay {}: message {k}", bag.display()))?;
+        let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
+        let input = mapkeeper_node::replay::bag_input(&config.params, &m.channel.topic, schema, &m.data)
+            .map_err(|e| anyhow::anyhow!("--replay {}: message {k}: {e}", bag.display()))?;
+        let Some(input) = input else { continue };
+        let t0 = thread_cpu_s();
+        core.handle(input, m.log_time);
+        let (_, _, done) = core.drain();
+        let dt = thread_cpu_s() - t0;
+        if !done.is_empty() {
+            per_step.extend(std::iter::repeat_n(dt * 1e3 / done.len() as f64, done.len()));
+        }
+        last_t = m.log_time;
+        let drive_s = (last_t - *first_t.get_or_insert(last_t)) as f64 / 1e9;
+        if drive_s >= next_sample {
+            f.rss_mib.push((drive_s, rss_mib()));
+            next_sample += 60.0;
+        }
+    }
+    core.tick(last_t + 10_000_000_000);
+    per_step.sort_by(f64::total_cmp);
+    let q = |p: f64| per_step.get(((per_step.len() as f64 * p).ceil() as usize).saturating_sub(1)).copied().unwrap_or(0.0);
+    f.steps = per_step.len() as u64;
+    f.drive_s = (last_t - first_t.unwrap_or(last_t)) as f64 / 1e9;
+    (f.step_cpu_median_ms, f.step_cpu_p99_ms, f.step_cpu_max_ms) = (q(0.5), q(0.99), per_step.last().copied().unwrap_or(0.0));
+    f.reference_ms = (reference_before + reference_ms()) / 2.0;
+    f.ratio_to_reference = f.step_cpu_median_ms / f.reference_ms;
+    f.rss_end_mib = rss_mib();
+    f.rss_first_minute_mib = f.rss_mib.first().map_or(f.rss_end_mib, |s| s.1);
+    f.rss_max_mib = f.rss_mib.iter().map(|s| s.1).fold(f.rss_end_mib, f64::max);
+    Ok(f)
 }

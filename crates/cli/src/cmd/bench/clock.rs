@@ -5,7 +5,7 @@ use super::*;
 
 /// CPU seconds of the calling thread (`CLOCK_THREAD_CPUTIME_ID`: exact, not the scheduler's
 /// tick-stale /proc figure).
-pub(super) fn thread_cpu_s() -> f64 {
+pub(crate) fn thread_cpu_s() -> f64 {
     let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
     t.tv_sec as f64 + t.tv_nsec as f64 / 1e9
 }
@@ -25,7 +25,7 @@ pub(super) fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
 
 /// The reference: a fixed workload of integer sorting and dependent floating-point arithmetic,
 /// independent of the project's code, so that its time tracks the machine and its load only.
-pub(super) fn reference_workload() -> f64 {
+pub(crate) fn reference_workload() -> f64 {
     let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut v: Vec<u64> = (0..1 << 17)
         .map(|_| {

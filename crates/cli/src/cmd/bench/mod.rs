@@ -11,7 +11,7 @@
 //! grid traversal from the route, and (unless `--no-loop`) the closed loop of one whole world per
 //! updater preset of the default validation.
 
-mod clock;
+pub(crate) mod clock;
 mod print;
 mod rows;
 mod scene;
