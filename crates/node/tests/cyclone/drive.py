@@ -19,7 +19,7 @@ Usage (from the venv that ``requirements.txt`` describes)::
         [--pose-topic /amcl_pose | --no-pose] [--clock] [--initialpose X,Y,YAW]
         [--inject drop:TOPIC:K] [--inject reorder:TOPIC:N] [--inject stale-scan:N]
         [--inject wrong-size:N] [--inject clock-back:N] [--inject no-tf-static]
-        [--inject stop-at:SECONDS]
+        [--inject stop-at:SECONDS] [--call-save-map NODE_NAME]
         [--wait-node-s 20] [--wait-match-s 5] [--settle-s 3] [--timeout-s 60]
 
     python drive.py --selftest --bag drive.mcap [--rate 1.0] [--domain 0]
@@ -46,12 +46,22 @@ What it does, in order:
 5. Waits until the node is quiet: at least one full ``/map`` arrived after the last message
    was published, then neither ``/map`` nor ``/map_updates`` for ``--settle-s``; at most
    ``--timeout-s`` after the end of the bag.
+   With ``--call-save-map NODE_NAME``: then calls the node's service ``/NODE_NAME/save_map``
+   (std_srvs/srv/Trigger) the way an rmw_cyclonedds client does (see "Services" below):
+   waits up to 5 s for the node's request reader and reply writer to match (the client's
+   endpoints exist from the start, so normally they have long matched), sends one request
+   and waits up to 10 s for the reply that carries this client's guid and sequence number.
 6. Writes ``--out`` (JSON)::
 
        {"published": {topic: count}, "maps_received": n, "updates_received": n,
         "initialposes_received": [[x, y, yaw], ...],
         "final_map": GRID, "composed_map": GRID, "errors": [...],
-        "bag_seconds": s, "play_seconds": s, "injections_applied": {spec: count}}
+        "bag_seconds": s, "play_seconds": s, "injections_applied": {spec: count},
+        "save_map": {"success": bool, "message": str}}
+
+   ``save_map`` is there only with ``--call-save-map``: the reply's fields, or null when no
+   reply came (the reason is then in ``errors``).  A reply with ``success`` false is
+   recorded as it is, not as an error.
 
    GRID = ``{"width", "height", "resolution", "origin": [x, y, yaw], "data": [...]}`` with
    data row-major as on the wire.  ``final_map`` is the last full ``/map``;
@@ -83,12 +93,27 @@ to publish on it; "the N-th scan" counts the bag's scans over every scan topic, 
                         deleting no DDS entity, so no goodbye reaches the node (it must
                         notice through the lease expiring).  Exit code 0 unless errors.
 
+Services (``--call-save-map``): rmw_cyclonedds's layout, which the node speaks with its
+parameter ``service_layout: cyclone``.  Service ``/N/save_map`` is the request topic
+``rq/N/save_mapRequest`` (type ``std_srvs::srv::dds_::Trigger_Request_``) and the reply topic
+``rr/N/save_mapReply`` (``std_srvs::srv::dds_::Trigger_Response_``), both reliable, volatile,
+keep last 10.  Every sample starts with rmw_cyclonedds's 16-byte request header, then the
+``.srv`` fields, in plain CDR little endian after the encapsulation ``00 01 00 00``::
+
+    request   guid:u64 seq:i64 structure_needs_at_least_one_member:u8
+    reply     guid:u64 seq:i64 success:bool pad:3 len:u32 message bytes NUL
+
+``guid`` is this client's request writer's instance handle (as rmw_cyclonedds has it),
+``seq`` counts from 1; the server echoes both, and only a reply carrying both is taken (others
+are logged and ignored).
+
 ``--selftest`` checks this script without the node: it starts a fake node (this script with
-a hidden option, a Cyclone participant in another process) that serves ``/map`` and
-``/map_updates``, reads everything the driver sends and compares it with the bag, then runs
-the driver against it in several scenarios (clean at ``--rate``, faults at rate 10, an
-update outside the grid, a vanishing driver, no node) and prints ``selftest: N passed, M
-failed``.  Exit code 0 when all passed.
+a hidden option, a Cyclone participant in another process) that serves ``/map``,
+``/map_updates`` and ``/mapkeeper/save_map``, reads everything the driver sends and compares
+it with the bag, then runs the driver against it in several scenarios (clean at ``--rate``
+with a save_map call, faults at rate 10, an update outside the grid and a save_map server
+that answers only other clients, a vanishing driver, no node) and prints ``selftest: N
+passed, M failed``.  Exit code 0 when all passed.
 """
 
 from __future__ import annotations
@@ -182,6 +207,9 @@ QOS_INITIALPOSE_R = Qos(
     Policy.IgnoreLocal.Participant,
     _XCDR1,
 )
+
+#: Service request and reply topics (rmw_qos_profile_services_default): reliable, volatile, keep last 10.
+QOS_SERVICE = Qos(_RELIABLE, Policy.Durability.Volatile, Policy.History.KeepLast(10), _XCDR1)
 
 SCAN_T = "sensor_msgs/msg/LaserScan"
 ODOM_T = "nav_msgs/msg/Odometry"
@@ -642,6 +670,87 @@ class Publisher:
 
 
 # ----------------------------------------------------------------------------------------
+# Service client: std_srvs/srv/Trigger in rmw_cyclonedds's layout
+# ----------------------------------------------------------------------------------------
+
+
+def service_topics(service: str) -> tuple[str, str]:
+    """ROS 2 service name -> (request, reply) DDS topic names, as rmw_cyclonedds names them
+    (``/mapkeeper/save_map`` -> ``rq/mapkeeper/save_mapRequest``, ``rr/mapkeeper/save_mapReply``)."""
+    base = service.strip("/")
+    return f"rq/{base}Request", f"rr/{base}Reply"
+
+
+class TriggerClient:
+    """A std_srvs/srv/Trigger client laid out as rmw_cyclonedds's: the request header (this
+    client's guid, a sequence number) leads every request and comes back in the reply."""
+
+    def __init__(self, dp: DomainParticipant, service: str) -> None:
+        self.service = service
+        self.request_topic, self.reply_topic = service_topics(service)
+        self.writer = DataWriter(dp, Topic(dp, self.request_topic, rt.TriggerRequest), qos=QOS_SERVICE)
+        self.reader = DataReader(dp, Topic(dp, self.reply_topic, rt.TriggerResponse), qos=QOS_SERVICE)
+        # rmw_cyclonedds's cdds_request_header_t.guid is the request writer's instance handle
+        # (a uint64; the Python binding hands it out as a signed int64).
+        self.guid = int(self.writer.get_instance_handle()) & 0xFFFF_FFFF_FFFF_FFFF
+        self.seq = 0
+        self._ws = WaitSet(dp)
+        self._cond = ReadCondition(self.reader, SampleState.Any | ViewState.Any | InstanceState.Any)
+        self._ws.attach(self._cond)
+
+    def matched(self) -> tuple[bool, bool]:
+        """(the server's request reader matched, the server's reply writer matched)."""
+        return (self.writer.get_publication_matched_status().current_count > 0,
+                self.reader.get_subscription_matched_status().current_count > 0)
+
+    def call(self, match_s: float = 5.0, reply_s: float = 10.0) -> tuple[rt.TriggerResponse | None, str | None]:
+        """One call: (the reply, None) or (None, why there is none)."""
+        t0 = time.monotonic()
+        waited = False
+        while not all(self.matched()):
+            if time.monotonic() - t0 > match_s:
+                req_ok, rep_ok = self.matched()
+                missing = ([] if req_ok else [f"no reader of {self.request_topic}"]) + (
+                    [] if rep_ok else [f"no writer of {self.reply_topic}"])
+                return None, (f"{self.service}: {' and '.join(missing)} matched within {match_s:g} s "
+                              f"(is the node's service_layout cyclone?)")
+            waited = True
+            time.sleep(0.05)
+        if waited:
+            # Matched only just now on this side: give the server a moment to match us too, or
+            # a volatile endpoint there may not take the request, or send the reply, to us.
+            time.sleep(1.0)
+        self.seq += 1
+        req = rt.TriggerRequest(client_guid=self.guid, sequence_number=self.seq)
+        try:
+            self.writer.write(req)
+        except Exception as e:  # noqa: BLE001 - reported as the call's failure
+            return None, f"{self.service}: cannot send the request on {self.request_topic}: {e}"
+        log(f"{self.service}: request sent on {self.request_topic} (header guid 0x{self.guid:016x} "
+            f"seq {self.seq}; CDR {req.serialize(use_version_2=False).hex()})")
+        t_sent = time.monotonic()
+        ignored = 0
+        while time.monotonic() - t_sent < reply_s:
+            self._ws.wait(duration(milliseconds=100))
+            try:
+                samples = self.reader.take(N=64)
+            except Exception as e:  # noqa: BLE001 - a reply this peer cannot decode is the node's fault
+                return None, f"{self.service}: cannot take/decode a reply on {self.reply_topic}: {e}"
+            for s in samples:
+                if not (hasattr(s, "sample_info") and s.sample_info.valid_data):
+                    continue
+                if s.client_guid == self.guid and s.sequence_number == self.seq:
+                    log(f"{self.service}: reply after {time.monotonic() - t_sent:.3f} s: success={s.success} "
+                        f"message={s.message!r}")
+                    return s, None
+                ignored += 1
+                log(f"{self.service}: ignored a reply for guid 0x{s.client_guid:016x} "
+                    f"seq {s.sequence_number} (not ours)")
+        return None, (f"{self.service}: no reply with our guid 0x{self.guid:016x} and sequence number "
+                      f"{self.seq} on {self.reply_topic} within {reply_s:g} s ({ignored} other replies ignored)")
+
+
+# ----------------------------------------------------------------------------------------
 # The driver
 # ----------------------------------------------------------------------------------------
 
@@ -663,9 +772,11 @@ def write_result(path: Path | None, result: dict[str, Any]) -> None:
 
 
 def build_result(pub: Publisher, rec: Recorder, inj: Injections, info: BagInfo,
-                 play_seconds: float | None, extra_errors: list[str]) -> dict[str, Any]:
+                 play_seconds: float | None, extra_errors: list[str],
+                 save_map: dict[str, Any] | None | bool = False) -> dict[str, Any]:
+    """``save_map``: False leaves the key out (no call asked for); None or the reply's fields."""
     with rec.lock:
-        return {
+        result = {
             "published": dict(sorted(pub.published.items())),
             "maps_received": rec.maps_received,
             "updates_received": rec.updates_received,
@@ -677,6 +788,9 @@ def build_result(pub: Publisher, rec: Recorder, inj: Injections, info: BagInfo,
             "play_seconds": play_seconds,
             "injections_applied": {s: inj.applied.get(s, 0) for s in inj.specs},
         }
+    if save_map is not False:
+        result["save_map"] = save_map
+    return result
 
 
 def run_driver(args: argparse.Namespace) -> int:
@@ -712,6 +826,10 @@ def run_driver(args: argparse.Namespace) -> int:
         pub.add("/clock", rt.Clock, QOS_SENSOR)
     if args.initialpose is not None:
         pub.add("/initialpose", rt.PoseWithCovarianceStamped, QOS_INITIALPOSE_W)
+    # The service client's endpoints exist from the start, so discovery is long over at the call.
+    client = None
+    if args.call_save_map is not None:
+        client = TriggerClient(dp, f"/{args.call_save_map.strip('/')}/save_map")
 
     def fail(reason: str, play_seconds: float | None = None) -> int:
         write_result(out, build_result(pub, rec, inj, info, play_seconds, [reason]))
@@ -869,7 +987,16 @@ def run_driver(args: argparse.Namespace) -> int:
 
     never = [s for s in inj.specs if inj.applied.get(s, 0) == 0]
     extra = [f"injection {s} was never applied" for s in never]
-    result = build_result(pub, rec, inj, info, play_seconds, extra)
+    save_map: dict[str, Any] | None | bool = False
+    if client is not None:
+        reply, why = client.call(match_s=5.0, reply_s=10.0)
+        if reply is None:
+            save_map = None
+            extra.append(str(why))
+            log(f"save_map: {why}")
+        else:
+            save_map = {"success": bool(reply.success), "message": str(reply.message)}
+    result = build_result(pub, rec, inj, info, play_seconds, extra, save_map)
     write_result(out, result)
     log(f"received {result['maps_received']} /map, {result['updates_received']} /map_updates, "
         f"{len(result['initialposes_received'])} /initialpose")
@@ -886,6 +1013,8 @@ def run_driver(args: argparse.Namespace) -> int:
 FAKE_W, FAKE_H, FAKE_RES = 120, 80, 0.05
 FAKE_ORIGIN = (-3.0, -2.0, 0.1)
 FAKE_POSE = (1.25, -0.5, 0.3)
+FAKE_NODE_NAME = "mapkeeper"
+FAKE_SAVED = "/fake/saved/map.yaml"
 
 
 def run_fake_node(args: argparse.Namespace) -> int:
@@ -913,8 +1042,15 @@ def run_fake_node(args: argparse.Namespace) -> int:
                                      qos=reader_qos)
     readers["/clock"] = DataReader(dp, get_topic(dp, "/clock", rt.Clock), qos=reader_qos)
     readers["/initialpose"] = DataReader(dp, ip_topic, qos=QOS_INITIALPOSE_R)
+    # /mapkeeper/save_map, rmw_cyclonedds layout: replies first to other clients (a wrong
+    # sequence number, a wrong guid), then (mode clean only) to the caller.
+    rq_name, rr_name = service_topics(f"/{FAKE_NODE_NAME}/save_map")
+    save_r = DataReader(dp, Topic(dp, rq_name, rt.TriggerRequest), qos=QOS_SERVICE)
+    save_w = DataWriter(dp, Topic(dp, rr_name, rt.TriggerResponse), qos=QOS_SERVICE)
+    save_requests: list[list[int]] = []
     ws = WaitSet(dp)
-    conds = [ReadCondition(r, SampleState.Any | ViewState.Any | InstanceState.Any) for r in readers.values()]
+    conds = [ReadCondition(r, SampleState.Any | ViewState.Any | InstanceState.Any)
+             for r in [*readers.values(), save_r]]
     for c in conds:
         ws.attach(c)
 
@@ -961,6 +1097,15 @@ def run_fake_node(args: argparse.Namespace) -> int:
     while True:
         ws.wait(duration(milliseconds=50))
         now = time.monotonic()
+        for q in save_r.take(N=16):
+            if not (hasattr(q, "sample_info") and q.sample_info.valid_data):
+                continue
+            g, n = int(q.client_guid), int(q.sequence_number)
+            save_requests.append([g, n, int(q.structure_needs_at_least_one_member)])
+            save_w.write(rt.TriggerResponse(client_guid=g, sequence_number=n + 1, success=True, message="decoy seq"))
+            save_w.write(rt.TriggerResponse(client_guid=g ^ 1, sequence_number=n, success=True, message="decoy guid"))
+            if mode == "clean":
+                save_w.write(rt.TriggerResponse(client_guid=g, sequence_number=n, success=True, message=FAKE_SAVED))
         got = False
         for t, r in readers.items():
             for s in r.take(N=500):
@@ -1035,6 +1180,7 @@ def run_fake_node(args: argparse.Namespace) -> int:
         "updates_sent": updates_sent,
         "grid": grid,
         "driver_gone_at": gone_at,
+        "save_requests": save_requests,
     }
     write_result(Path(args.out), report)
     return EXIT_OK
@@ -1101,8 +1247,17 @@ def run_selftest(args: argparse.Namespace) -> int:
     print(f"selftest: bag {bag} ({info.seconds:.2f} s), work dir {tmp}", flush=True)
     base = args.domain
 
+    # 0. The service layout, byte for byte (rmw_cyclonedds: uint64 guid, int64 seq, then the fields).
+    req = rt.TriggerRequest(client_guid=0xF1E2D3C4B5A69788, sequence_number=1).serialize(use_version_2=False)
+    check("layout: Trigger request CDR", req.hex() == "00010000" "8897a6b5c4d3e2f1" "0100000000000000" "00", req.hex())
+    rep = rt.TriggerResponse(client_guid=0xF1E2D3C4B5A69788, sequence_number=1, success=True,
+                             message="ab").serialize(use_version_2=False)
+    check("layout: Trigger response CDR",
+          rep.hex() == "00010000" "8897a6b5c4d3e2f1" "0100000000000000" "01000000" "03000000" "616200", rep.hex())
+
     # A. Clean run at --rate: counts, exact data, composition, real rate.
-    rc, d, f, err, _ = _run_pair(script, bag, base, tmp, "clean", ["--rate", str(args.rate)], "clean")
+    rc, d, f, err, _ = _run_pair(script, bag, base, tmp, "clean",
+                                 ["--rate", str(args.rate), "--call-save-map", FAKE_NODE_NAME], "clean")
     check("clean: exit 0", rc == 0, err.strip().splitlines()[-1] if err.strip() else "")
     check("clean: published counts equal the bag's", d.get("published") == expected_pub,
           f"{d.get('published')} vs {expected_pub}")
@@ -1139,6 +1294,12 @@ def run_selftest(args: argparse.Namespace) -> int:
     ps = d.get("play_seconds") or 0.0
     check(f"clean: real rate (bag {info.seconds:.2f} s at rate {args.rate:g})",
           abs(ps - want) <= 0.05 * want + 0.3, f"played in {ps:.2f} s, want {want:.2f} s")
+    check("clean: save_map reply recorded", d.get("save_map") == {"success": True, "message": FAKE_SAVED},
+          f"{d.get('save_map')}")
+    sreq = f.get("save_requests") or []
+    check("clean: one save_map request, header guid != 0 and seq 1, placeholder byte 0",
+          len(sreq) == 1 and sreq[0][0] != 0 and sreq[0][1:] == [1, 0], f"{sreq}")
+    check("clean: the two replies to other clients ignored", err.count("(not ours)") == 2)
     check("clean: the driver said goodbye at exit (the fake node saw it leave within 1 s)",
           f.get("driver_gone_after_s") is not None and f["driver_gone_after_s"] < 1.0,
           f"{f.get('driver_gone_after_s')}")
@@ -1183,12 +1344,18 @@ def run_selftest(args: argparse.Namespace) -> int:
     check("faults: our own /initialpose not recorded as received", len(d.get("initialposes_received", [])) == 1)
     check("faults: rate 10", abs((d.get("play_seconds") or 0) - info.seconds / 10) <= 0.05 * info.seconds / 10 + 0.3,
           f"{d.get('play_seconds')}")
+    check("faults: no save_map key without --call-save-map", "save_map" not in d)
 
-    # C. An update outside the grid: an error, exit 2.
-    rc, d, f, err, _ = _run_pair(script, bag, base + 2, tmp, "oob", ["--rate", "20"], "oob")
+    # C. An update outside the grid: an error, exit 2.  Its save_map server answers other
+    # clients only: no reply for us within 10 s, an error, save_map null.
+    rc, d, f, err, _ = _run_pair(script, bag, base + 2, tmp, "oob",
+                                 ["--rate", "20", "--call-save-map", FAKE_NODE_NAME], "oob")
     errs = d.get("errors", [])
     check("oob: exit 2 with the update recorded as outside the grid",
           rc == 2 and any("outside" in e for e in errs) and "outside" in err, f"rc={rc} {errs}")
+    check("oob: save_map null and 'no reply' in errors when only other clients are answered",
+          "save_map" in d and d["save_map"] is None
+          and any("no reply with our guid" in e and "2 other replies ignored" in e for e in errs), f"{errs}")
 
     # D. stop-at: vanishes without goodbye.
     rc, d, f, err, wall = _run_pair(script, bag, base + 3, tmp, "stop", ["--rate", "10", "--inject", "stop-at:5"],
@@ -1240,6 +1407,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--initialpose", type=parse_initialpose, metavar="X,Y,YAW",
                    help="publish this /initialpose before playing")
     p.add_argument("--inject", action="append", default=[], metavar="SPEC", help="fault injection (repeatable)")
+    p.add_argument("--call-save-map", metavar="NODE_NAME",
+                   help="once the node is quiet, call /NODE_NAME/save_map (rmw_cyclonedds layout)")
     p.add_argument("--wait-node-s", type=float, default=20.0, help="how long to wait for the node (default 20)")
     p.add_argument("--wait-match-s", type=float, default=5.0,
                    help="how long to wait for the node's readers to match (default 5)")
@@ -1258,6 +1427,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         p.error(str(e))
     if not (a.selftest or a.fake_node) and not a.out:
         p.error("--out is required")
+    if a.call_save_map is not None and not a.call_save_map.strip("/"):
+        p.error("--call-save-map wants a node name")
     return a
 
 

@@ -14,13 +14,27 @@ All structs are ``final`` (the default here and in ROS 2), serialized as XCDR1 /
 (encapsulation ``CDR_LE``) when the writer's DataRepresentation QoS asks for XCDR1 only,
 which ``drive.py`` does.
 
+Services (``std_srvs/srv/Trigger``) are laid out as rmw_cyclonedds lays them out (the only
+layout this peer speaks): request type ``<package>::srv::dds_::<Name>_Request_`` on the DDS
+topic ``rq/<service>Request``, reply type ``<package>::srv::dds_::<Name>_Response_`` on
+``rr/<service>Reply``, and every sample starts with rmw_cyclonedds's request header
+(``cdds_request_header_t``: ``uint64 guid``, ``int64 seq``, native order, i.e. little endian
+here) before the ``.srv`` fields.  The header is modelled as two ordinary leading members, so
+the CDR is::
+
+    Trigger_Request_   guid:8 seq:8 structure_needs_at_least_one_member:1            (17 bytes)
+    Trigger_Response_  guid:8 seq:8 success:1 pad:3 message_length:4 message... NUL
+
+(after the 4-byte encapsulation header ``00 01 00 00``).  The server echoes the header
+unchanged in its reply; the client keeps the replies whose header is its own.
+
 Importing this module does not start DDS; it only needs ``cyclonedds.idl``.
 """
 
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float32, float64, int8, int32, sequence, uint32
+from cyclonedds.idl.types import array, float32, float64, int8, int32, int64, sequence, uint8, uint32, uint64
 
 
 def _zeros36() -> list[float]:
@@ -198,6 +212,34 @@ class Clock(IdlStruct, typename="rosgraph_msgs::msg::dds_::Clock_"):
     clock: Time = field(default_factory=Time)
 
 
+# --- std_srvs (rmw_cyclonedds service layout: request header first) -------------------
+
+
+@dataclass
+class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
+    """std_srvs/srv/Trigger request as rmw_cyclonedds sends it.
+
+    ``client_guid`` and ``sequence_number`` are rmw_cyclonedds's ``cdds_request_header_t``
+    (``guid``: the client's request writer's instance handle; ``seq``: 1, 2, ...); then the
+    placeholder byte ROS 2 gives the empty request.
+    """
+
+    client_guid: uint64 = 0
+    sequence_number: int64 = 0
+    structure_needs_at_least_one_member: uint8 = 0
+
+
+@dataclass
+class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
+    """std_srvs/srv/Trigger response as rmw_cyclonedds sends it: the request's header echoed,
+    then ``bool success``, ``string message``."""
+
+    client_guid: uint64 = 0
+    sequence_number: int64 = 0
+    success: bool = False
+    message: str = ""
+
+
 __all__ = [
     "Clock",
     "Header",
@@ -216,6 +258,8 @@ __all__ = [
     "Time",
     "Transform",
     "TransformStamped",
+    "TriggerRequest",
+    "TriggerResponse",
     "Twist",
     "TwistWithCovariance",
     "Vector3",
