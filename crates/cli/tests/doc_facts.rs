@@ -78,8 +78,10 @@ const NOT_IN_REPO: [(&str, &str); 2] = [
 
 /// Flags of other tools written in the docs, with the tool (none is a flag of the binary; a
 /// tool that is a file of the repository must contain the flag).
-const FOREIGN_FLAGS: [(&str, &str); 24] = [
+const FOREIGN_FLAGS: [(&str, &str); 26] = [
     ("--release", "cargo"),
+    ("--selftest", "crates/node/tests/cyclone/drive.py"),
+    ("--bag", "crates/node/tests/cyclone/drive.py"),
     ("--workspace", "cargo"),
     ("--locked", "cargo"),
     ("--test", "cargo"),

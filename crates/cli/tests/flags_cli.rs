@@ -297,6 +297,10 @@ const FLAGS: &[Flag] = &[
     other("update", "--out", Path),
     ok("metrics", "--unknown-value", Real, &["0"], "unknown cells counted as free"),
     num("metrics", "--opdf-window-m", Real),
+    other("node", "--params", Path),
+    num("node", "--seconds", Real),
+    other("node", "--figures", Path),
+    other("node", "--replay", Path),
     other("render", "--out", Path),
     other("render", "--diff", Path),
     num("render", "--scale", Count),
@@ -434,6 +438,7 @@ fn placeholders(cmd: &str, base: &Path, out: &Path) -> Vec<String> {
         "metrics" => vec![p("a.yaml"), p("b.yaml")],
         "render" => vec![p("m.yaml"), "-o".into(), o],
         "import-map" => vec![p("m.yaml"), "--out".into(), o],
+        "node" => vec!["--params".into(), p("node.yaml")],
         _ => panic!("command {cmd} has no placeholders in flags_cli.rs: add them"),
     };
     v

@@ -118,7 +118,11 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
     let offline = load_map(&dir.join("off/map.yaml")).unwrap();
     let changed = differing(&before, &offline);
     assert!(changed > 50, "the drive must change the stale map: {changed} cells; {printed}");
-    let cfg = config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n    barrier_topic: /map_source_ready\n");
+    let cfg = config(
+        &dir,
+        &stale,
+        "    pose_source: pose_topic\n    pose_topic: /truth\n    barrier_topic: /map_source_ready\n",
+    );
     let (node, composed, updates) = replay(&cfg, inputs(&bag, &cfg));
     assert_eq!(differing(node.map().unwrap(), &offline), 0, "the node's map differs from the offline update's");
     assert_eq!(differing(&composed, &offline), 0, "/map + /map_updates differ from the offline update's map");
@@ -155,7 +159,8 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
         s(&dir.join("off-loc")),
     ]);
     let offline = load_map(&dir.join("off-loc/map.yaml")).unwrap();
-    let first = first_truth_at_first_scan(&bag, &config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n"));
+    let first =
+        first_truth_at_first_scan(&bag, &config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n"));
     let extra = format!(
         "    pose_source: localiser\n    localiser_preset: mapkeeper-real\n    seed: 0\n    initial_pose: [{:?}, {:?}, {:?}]\n    resume: false\n",
         first.0, first.1, first.2

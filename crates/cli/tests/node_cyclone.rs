@@ -139,8 +139,16 @@ fn over_cyclone_dds_at_real_rate_the_node_publishes_the_offline_updates_map() {
     let offline = load_map(&dir.join("off/map.yaml")).unwrap();
     let want = cells(&offline);
     let d = domain(0);
-    let node = start_node(&dir, &params(&dir, &stale, d, "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n"));
-    let (passed, v, printed) = play(&python, &dir, &bag, d, &["--rate", "1"]);
+    let node = start_node(
+        &dir,
+        &params(
+            &dir,
+            &stale,
+            d,
+            "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    service_layout: cyclone\n",
+        ),
+    );
+    let (passed, v, printed) = play(&python, &dir, &bag, d, &["--rate", "1", "--call-save-map", "mapkeeper"]);
     let log = stop_node(&dir, node);
     assert!(passed, "the peer failed: {printed}\nnode: {log}");
     println!("peer: {printed}\nnode: {log}");
@@ -155,6 +163,10 @@ fn over_cyclone_dds_at_real_rate_the_node_publishes_the_offline_updates_map() {
         assert_eq!(differing(&grid(m), &want), 0, "{name} differs from `mapkeeper update`'s map");
     }
     assert!(v["updates_received"].as_u64().unwrap() > 5, "{v}");
+    // The save_map service, called the way rmw_cyclonedds lays a request out.
+    assert_eq!(v["save_map"]["success"], true, "{}", v["save_map"]);
+    assert!(v["save_map"]["message"].as_str().unwrap().ends_with("saved/map.yaml"), "{}", v["save_map"]);
+    assert!(log.contains("save_map: "), "{log}");
     assert!(differing(&cells(&load_map(&stale).unwrap()), &want) > 50, "the drive must change the map");
     assert_eq!(differing(&cells(&load_map(&dir.join("saved/map.yaml")).unwrap()), &want), 0, "the saved map");
     let fig: Value = serde_json::from_slice(&std::fs::read(dir.join("figures.json")).unwrap()).unwrap();
@@ -252,12 +264,24 @@ fn a_node_killed_while_it_saves_leaves_a_whole_map_and_a_memory_that_fits_it() {
     let (bag, stale) = node_drive(&dir);
     let d = domain(4);
     // A save every 0.1 s of the drive at six times real rate: sixty a second.
-    let params = params(&dir, &stale, d, "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    save_period_s: 0.1\n");
+    let params =
+        params(&dir, &stale, d, "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    save_period_s: 0.1\n");
     for (k, after_ms) in [1700u64, 2300, 2900].into_iter().enumerate() {
         let mut node = start_node(&dir, &params);
         let mut peer = Command::new(&python)
             .arg(driver())
-            .args(["--bag", s(&bag), "--out", s(&dir.join("peer.json")), "--domain", &d.to_string(), "--rate", "6", "--timeout-s", "2"])
+            .args([
+                "--bag",
+                s(&bag),
+                "--out",
+                s(&dir.join("peer.json")),
+                "--domain",
+                &d.to_string(),
+                "--rate",
+                "6",
+                "--timeout-s",
+                "2",
+            ])
             .stderr(Stdio::null())
             .spawn()
             .unwrap();

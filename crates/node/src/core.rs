@@ -592,11 +592,19 @@ mod tests {
         let mut bad_stamp = pose(1.0, msgs::Quaternion::default());
         bad_stamp.header.stamp = Time { sec: -5, nanosec: 0 };
         n.handle(Input::Pose(bad_stamp), 3);
-        let tf = msgs::TransformStamped { header: header(1), child_frame_id: "laser".into(), transform: msgs::Pose { orientation: zero, ..Default::default() } };
+        let tf = msgs::TransformStamped {
+            header: header(1),
+            child_frame_id: "laser".into(),
+            transform: msgs::Pose { orientation: zero, ..Default::default() },
+        };
         n.handle(Input::TfStatic(msgs::TfMessage { transforms: vec![tf] }), 10_000_000_000);
         let text = logs(&mut n);
         assert_eq!(n.counts().messages_refused, 4, "{text}");
-        assert!(text.contains("/amcl_pose: not a pose: not used (1 like it since the last report)") || text.contains("/amcl_pose: not a pose"), "{text}");
+        assert!(
+            text.contains("/amcl_pose: not a pose: not used (1 like it since the last report)")
+                || text.contains("/amcl_pose: not a pose"),
+            "{text}"
+        );
         assert!(text.contains("/tf_static transform that is not a pose"), "{text}");
         assert_eq!(n.counts().steps, 0);
         // The initial pose is the robot's localiser's business in this mode.

@@ -543,7 +543,12 @@ mod tests {
         let mut wrong = fields(21);
         wrong.angle_increment = 0.2;
         let e = a.scan(0, "lidar_0".into(), 200 * MS, 1.0, wrong, 0).unwrap_err();
-        assert!(e.to_string().contains("21 ranges where angle_min -1.0000, angle_max 1.0000 and angle_increment 0.200000 rad make 11"), "{e}");
+        assert!(
+            e.to_string().contains(
+                "21 ranges where angle_min -1.0000, angle_max 1.0000 and angle_increment 0.200000 rad make 11"
+            ),
+            "{e}"
+        );
         let e = a.scan(1, "lidar_9".into(), 200 * MS, 1.0, fields(21), 0).unwrap_err();
         assert!(e.to_string().contains("no mount for frame 'lidar_9'"), "{e}");
         let mut nan = fields(21);

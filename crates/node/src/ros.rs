@@ -12,8 +12,8 @@ use mapkeeper_common::Clock;
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::{
-    Context, Message, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server, ServiceMapping, ServiceTypeName,
-    Subscription,
+    Context, Message, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server, ServiceMapping,
+    ServiceTypeName, Subscription,
     qos::{Durability, History, Reliability as Rel, WhenFull},
 };
 use serde::Serialize;
@@ -302,7 +302,9 @@ pub fn run(
     let mut server = save_server(&mut node, config)?;
     let mut poll = Poll::new().map_err(|e| NodeError::Setup(format!("poll: {e}")))?;
     inputs.register(&poll)?;
-    poll.registry().register(&mut server, Token(7), Interest::READABLE).map_err(|e| NodeError::Setup(format!("poll: {e}")))?;
+    poll.registry()
+        .register(&mut server, Token(7), Interest::READABLE)
+        .map_err(|e| NodeError::Setup(format!("poll: {e}")))?;
     let mut events = Events::with_capacity(64);
     let mut hist = Histogram::new();
     let (mut rss_max, mut last_sample) = (rss0, t0);

@@ -29,7 +29,7 @@ pub struct Args {
     #[arg(long)]
     pub check: bool,
     /// Stop after this many seconds (a bounded run, for tests and benchmarks).
-    #[arg(long, value_name = "S", value_parser = super::positive_up_to(1e7, "s"))]
+    #[arg(long, value_name = "S", value_parser = super::positive_up_to(1e7, "s"), allow_hyphen_values = true)]
     pub seconds: Option<f64>,
     /// Write the run's figures (latency, CPU, memory) as JSON to this file at exit.
     #[arg(long, value_name = "FILE")]
@@ -139,7 +139,11 @@ struct ReplayFigures {
 fn rss_mib() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
-        .and_then(|s| s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok()))
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmRSS:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        })
         .map_or(0.0, |kb| kb / 1024.0)
 }
 
@@ -186,10 +190,12 @@ fn replay(config: &NodeConfig, bag: &std::path::Path) -> anyhow::Result<ReplayFi
     }
     core.tick(last_t + 10_000_000_000);
     per_step.sort_by(f64::total_cmp);
-    let q = |p: f64| per_step.get(((per_step.len() as f64 * p).ceil() as usize).saturating_sub(1)).copied().unwrap_or(0.0);
+    let q =
+        |p: f64| per_step.get(((per_step.len() as f64 * p).ceil() as usize).saturating_sub(1)).copied().unwrap_or(0.0);
     f.steps = per_step.len() as u64;
     f.drive_s = (last_t - first_t.unwrap_or(last_t)) as f64 / 1e9;
-    (f.step_cpu_median_ms, f.step_cpu_p99_ms, f.step_cpu_max_ms) = (q(0.5), q(0.99), per_step.last().copied().unwrap_or(0.0));
+    (f.step_cpu_median_ms, f.step_cpu_p99_ms, f.step_cpu_max_ms) =
+        (q(0.5), q(0.99), per_step.last().copied().unwrap_or(0.0));
     f.reference_ms = (reference_before + reference_ms()) / 2.0;
     f.ratio_to_reference = f.step_cpu_median_ms / f.reference_ms;
     f.rss_end_mib = rss_mib();
