@@ -145,10 +145,12 @@ fn over_cyclone_dds_at_real_rate_the_node_publishes_the_offline_updates_map() {
             &dir,
             &stale,
             d,
-            "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    service_layout: cyclone\n",
+            // With sim time: the peer sends /clock before the messages, as a simulator or a bag
+            // player does (the node stamps everything with sensor time: the map is the same).
+            "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    service_layout: cyclone\n    use_sim_time: true\n",
         ),
     );
-    let (passed, v, printed) = play(&python, &dir, &bag, d, &["--rate", "1", "--call-save-map", "mapkeeper"]);
+    let (passed, v, printed) = play(&python, &dir, &bag, d, &["--rate", "1", "--clock", "--call-save-map", "mapkeeper"]);
     let log = stop_node(&dir, node);
     assert!(passed, "the peer failed: {printed}\nnode: {log}");
     println!("peer: {printed}\nnode: {log}");

@@ -67,6 +67,26 @@ pub enum Input {
     Clock(msgs::Clock),
 }
 
+impl Input {
+    /// The stamp that orders a batch of inputs taken from several topics at once: the header's
+    /// (a transform message's first transform's; the clock's time); 0 for the static transforms
+    /// and `/initialpose`, which go first.
+    pub fn order_ns(&self) -> u64 {
+        let h = match self {
+            Input::Scan { msg, .. } => &msg.header,
+            Input::Odometry(o) => &o.header,
+            Input::Tf(t) => match t.transforms.first() {
+                Some(f) => &f.header,
+                None => return 0,
+            },
+            Input::Pose(p) => &p.header,
+            Input::Clock(c) => return c.clock.to_ns().unwrap_or(0),
+            Input::TfStatic(_) | Input::InitialPose(_) => return 0,
+        };
+        h.stamp.to_ns().unwrap_or(0)
+    }
+}
+
 /// What the node has done so far.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct NodeCounts {
@@ -99,8 +119,6 @@ pub struct NodeCore {
     awaiting_pose: bool,
     assembly: Assembly,
     publisher: Publisher,
-    start_map: OccupancyGrid,
-    start_memory: mapkeeper_updater::StructureMemory,
     save_dir: Option<PathBuf>,
     last_save_stamp: Option<u64>,
     cells_at_save: u64,
@@ -163,7 +181,7 @@ impl NodeCore {
             UpdaterParams::validate,
         )
         .map_err(|e| setup(format!("updater_params: {e}")))?;
-        let updater = MapUpdater::with_memory(map.clone(), uparams, memory.clone())
+        let updater = MapUpdater::with_memory(map.clone(), uparams, memory)
             .map_err(|e| setup(format!("updater: {e}")))?;
         let (pose, lost, awaiting_pose) = pose_source(config, &p, &map)?;
         let mut session = Session::new(pose, Some(updater), None, &NO_CLOCK);
@@ -192,8 +210,6 @@ impl NodeCore {
             lost,
             awaiting_pose,
             assembly,
-            start_map: map,
-            start_memory: memory,
             save_dir,
             last_save_stamp: None,
             cells_at_save: 0,
@@ -258,8 +274,11 @@ impl NodeCore {
     }
 
     fn scan(&mut self, lidar: usize, msg: msgs::LaserScan, now_ns: u64) {
+        let Some(topic) = self.params.scan_topics.get(lidar).cloned() else {
+            self.refuse("scan_lidar", now_ns, format!("a scan of lidar {lidar}: there are {} scan topics", self.params.scan_topics.len()));
+            return;
+        };
         let Some(t) = self.stamp_of(&msg.header, "scan", now_ns) else { return };
-        let topic = self.params.scan_topics.get(lidar).cloned().unwrap_or_default();
         let fields = RosScanFields {
             angle_min: msg.angle_min,
             angle_increment: msg.angle_increment,
@@ -339,7 +358,11 @@ impl NodeCore {
         let odom = self.assembly.odometry.at_or_before(u64::MAX).unwrap_or(p);
         match self.session.set_estimate(p, cov) {
             Ok(()) => {
-                self.session.reset_updater_reference(p, odom);
+                // Mid-run, the updater's last good pose moves with the estimate (as the Lost
+                // policy's hand-over does); before the first step there is none to move.
+                if self.counts.steps > 0 {
+                    self.session.reset_updater_reference(p, odom);
+                }
                 self.awaiting_pose = false;
                 self.logs.push((
                     Level::Info,
@@ -458,11 +481,9 @@ impl NodeCore {
         let (Some(u), Some(map)) = (self.session.updater(), self.session.map()) else {
             return Err(NodeError::Save("the session has no updater".into()));
         };
-        let memory = if self.start_memory.is_empty() && map == &self.start_map {
-            self.start_memory.clone()
-        } else {
-            u.next_memory()
-        };
+        // The memory the next run starts with, computed from this run's start: saves within
+        // one run do not compound.
+        let memory = u.next_memory();
         let counts = self.counts();
         let saved = save::store(&dir, map, &memory, &counts).map_err(NodeError::Save)?;
         self.last_save_stamp = Some(self.last_stamp_ns);

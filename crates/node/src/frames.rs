@@ -341,7 +341,8 @@ impl Assembly {
 
     fn add_scan(&mut self, scan: LaserScan, now_ns: u64) {
         let joins = self.open.as_ref().is_some_and(|g| {
-            scan.stamp_ns.saturating_sub(g.first_ns) <= self.window_ns
+            scan.stamp_ns >= g.first_ns
+                && scan.stamp_ns - g.first_ns <= self.window_ns
                 && g.scans.iter().all(|s| s.lidar_id != scan.lidar_id)
         });
         if joins {
@@ -406,7 +407,11 @@ impl Assembly {
     /// or it waited `max_wait_s`. A step whose pose cannot be had is dropped (counted) and the
     /// next one is tried.
     pub fn next_step(&mut self, now_ns: u64) -> Option<ReadyStep> {
-        if self.open.as_ref().is_some_and(|g| now_ns.saturating_sub(g.arrived_ns) > self.window_ns) {
+        // A step still missing a lidar's scan closes when a scan that does not fit it arrives
+        // (as offline), when every lidar is in it, or after `max_wait_s` without news (a lidar
+        // that stopped): never after the synchronisation window alone, which delivery jitter
+        // exceeds and which would split a step the offline replay keeps whole.
+        if self.open.as_ref().is_some_and(|g| now_ns.saturating_sub(g.arrived_ns) >= self.max_wait_ns) {
             self.close_open();
         }
         loop {
@@ -514,6 +519,21 @@ mod tests {
         // The rear lidar is upside down on /tf_static: its angles are mirrored.
         assert_eq!(s.frame.scans[1].angle_increment_rad, -f64::from(fields(21).angle_increment));
         assert_eq!(s.frame.scans[1].lidar_in_robot.x, -0.3);
+    }
+
+    #[test]
+    fn a_late_second_scan_joins_its_step_and_a_silent_lidar_closes_it_after_the_wait() {
+        let mut a = assembly(2, PoseTrack::None);
+        a.odometry(500 * MS, Pose2::IDENTITY).unwrap();
+        scan(&mut a, 0, 100 * MS, 0).unwrap();
+        // The rear scan, stamped 5 ms later, arrives 120 ms later (delivery jitter).
+        assert!(a.next_step(119 * MS).is_none());
+        scan(&mut a, 1, 105 * MS, 120 * MS).unwrap();
+        assert_eq!(a.next_step(121 * MS).unwrap().frame.scans.len(), 2);
+        // The rear lidar falls silent: the front scan goes alone after max_wait_s.
+        scan(&mut a, 0, 180 * MS, 200 * MS).unwrap();
+        assert!(a.next_step(699 * MS).is_none());
+        assert_eq!(a.next_step(700 * MS).unwrap().frame.scans.len(), 1);
     }
 
     #[test]

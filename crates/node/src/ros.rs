@@ -248,8 +248,17 @@ impl Inputs {
         Ok(())
     }
 
-    /// Everything that has arrived, transforms and odometry before the scans of the same batch.
+    /// Everything that has arrived, in stamp order across topics (a batch holds whatever came
+    /// since the last poll: taken topic by topic, a lidar's next scan would come before the
+    /// other lidar's scan of the same step and split it); at one stamp, transforms and odometry
+    /// before the scans.
     fn drain(&self) -> Vec<Input> {
+        let mut v = self.take_all();
+        v.sort_by_key(Input::order_ns);
+        v
+    }
+
+    fn take_all(&self) -> Vec<Input> {
         let mut v = Vec::new();
         if let Some(s) = &self.clock {
             take(s, &mut v, Input::Clock);
