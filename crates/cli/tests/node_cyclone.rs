@@ -150,7 +150,8 @@ fn over_cyclone_dds_at_real_rate_the_node_publishes_the_offline_updates_map() {
             "    pose_source: pose_topic\n    pose_topic: /amcl_pose\n    service_layout: cyclone\n    use_sim_time: true\n",
         ),
     );
-    let (passed, v, printed) = play(&python, &dir, &bag, d, &["--rate", "1", "--clock", "--call-save-map", "mapkeeper"]);
+    let (passed, v, printed) =
+        play(&python, &dir, &bag, d, &["--rate", "1", "--clock", "--call-save-map", "mapkeeper"]);
     let log = stop_node(&dir, node);
     assert!(passed, "the peer failed: {printed}\nnode: {log}");
     println!("peer: {printed}\nnode: {log}");

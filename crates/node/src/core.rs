@@ -67,26 +67,6 @@ pub enum Input {
     Clock(msgs::Clock),
 }
 
-impl Input {
-    /// The stamp that orders a batch of inputs taken from several topics at once: the header's
-    /// (a transform message's first transform's; the clock's time); 0 for the static transforms
-    /// and `/initialpose`, which go first.
-    pub fn order_ns(&self) -> u64 {
-        let h = match self {
-            Input::Scan { msg, .. } => &msg.header,
-            Input::Odometry(o) => &o.header,
-            Input::Tf(t) => match t.transforms.first() {
-                Some(f) => &f.header,
-                None => return 0,
-            },
-            Input::Pose(p) => &p.header,
-            Input::Clock(c) => return c.clock.to_ns().unwrap_or(0),
-            Input::TfStatic(_) | Input::InitialPose(_) => return 0,
-        };
-        h.stamp.to_ns().unwrap_or(0)
-    }
-}
-
 /// What the node has done so far.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct NodeCounts {
@@ -181,8 +161,8 @@ impl NodeCore {
             UpdaterParams::validate,
         )
         .map_err(|e| setup(format!("updater_params: {e}")))?;
-        let updater = MapUpdater::with_memory(map.clone(), uparams, memory)
-            .map_err(|e| setup(format!("updater: {e}")))?;
+        let updater =
+            MapUpdater::with_memory(map.clone(), uparams, memory).map_err(|e| setup(format!("updater: {e}")))?;
         let (pose, lost, awaiting_pose) = pose_source(config, &p, &map)?;
         let mut session = Session::new(pose, Some(updater), None, &NO_CLOCK);
         session.set_deskew(true);
@@ -275,7 +255,11 @@ impl NodeCore {
 
     fn scan(&mut self, lidar: usize, msg: msgs::LaserScan, now_ns: u64) {
         let Some(topic) = self.params.scan_topics.get(lidar).cloned() else {
-            self.refuse("scan_lidar", now_ns, format!("a scan of lidar {lidar}: there are {} scan topics", self.params.scan_topics.len()));
+            self.refuse(
+                "scan_lidar",
+                now_ns,
+                format!("a scan of lidar {lidar}: there are {} scan topics", self.params.scan_topics.len()),
+            );
             return;
         };
         let Some(t) = self.stamp_of(&msg.header, "scan", now_ns) else { return };

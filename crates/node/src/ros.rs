@@ -214,10 +214,12 @@ fn open(config: &NodeConfig) -> Result<(Node, Inputs, Outputs), NodeError> {
     Ok((node, inputs, outputs))
 }
 
-fn take<M: Message + 'static>(s: &Subscription<M>, into: &mut Vec<Input>, wrap: impl Fn(M) -> Input) {
+/// Takes what has arrived on `s`, each with the time this process received it (RustDDS's
+/// reception stamp; 0 where it has none).
+fn take<M: Message + 'static>(s: &Subscription<M>, into: &mut Vec<(i64, Input)>, wrap: impl Fn(M) -> Input) {
     for _ in 0..1000 {
         match s.take() {
-            Ok(Some((m, _))) => into.push(wrap(m)),
+            Ok(Some((m, info))) => into.push((info.received_timestamp().map_or(0, |t| t.to_nanos()), wrap(m))),
             Ok(None) => return,
             // A sample that does not decode (a peer with another definition) is dropped; DDS
             // goes on.
@@ -248,17 +250,18 @@ impl Inputs {
         Ok(())
     }
 
-    /// Everything that has arrived, in stamp order across topics (a batch holds whatever came
-    /// since the last poll: taken topic by topic, a lidar's next scan would come before the
-    /// other lidar's scan of the same step and split it); at one stamp, transforms and odometry
-    /// before the scans.
-    fn drain(&self) -> Vec<Input> {
+    /// Everything that has arrived, in the order this process received it across topics (a
+    /// batch holds whatever came since the last poll: taken topic by topic, a lidar's next scan
+    /// would come before the other lidar's scan of the same step and split it; by stamps, a
+    /// clock that jumped back would be hidden among the samples before the jump).
+    fn drain(&self) -> (Vec<Input>, bool) {
         let mut v = self.take_all();
-        v.sort_by_key(Input::order_ns);
-        v
+        let unstamped = v.iter().any(|(received, _)| *received == 0);
+        v.sort_by_key(|(received, _)| *received);
+        (v.into_iter().map(|(_, i)| i).collect(), unstamped)
     }
 
-    fn take_all(&self) -> Vec<Input> {
+    fn take_all(&self) -> Vec<(i64, Input)> {
         let mut v = Vec::new();
         if let Some(s) = &self.clock {
             take(s, &mut v, Input::Clock);
@@ -316,7 +319,7 @@ pub fn run(
         .map_err(|e| NodeError::Setup(format!("poll: {e}")))?;
     let mut events = Events::with_capacity(64);
     let mut hist = Histogram::new();
-    let (mut rss_max, mut last_sample) = (rss0, t0);
+    let (mut rss_max, mut last_sample, mut warned_unstamped) = (rss0, t0, false);
     log(
         Level::Info,
         &format!(
@@ -330,7 +333,12 @@ pub fn run(
     while !stop.load(Ordering::Relaxed) {
         let _ = poll.poll(&mut events, Some(Duration::from_millis(10)));
         let now = clock.now_ns();
-        for input in inputs.drain() {
+        let (batch, unstamped) = inputs.drain();
+        if unstamped && !warned_unstamped {
+            log(Level::Warn, "a sample without a reception stamp: a batch of it is taken in topic order");
+            warned_unstamped = true;
+        }
+        for input in batch {
             core.handle(input, now);
         }
         core.tick(clock.now_ns());
