@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{node_drive as drive, ok, s, scratch};
+use common::{node_drive as drive, node_offline_update, s, scratch};
 use mapkeeper_grid::map_io::load_map;
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use mapkeeper_node::{Input, NodeConfig, NodeCore, Output};
@@ -103,19 +103,7 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
     let before = load_map(&stale).unwrap();
 
     // The robot's localiser's poses.
-    let printed = ok(&[
-        "update",
-        "--log",
-        s(&bag),
-        "--truth-topic",
-        "/truth",
-        "--map",
-        s(&stale),
-        "--true-poses",
-        "--out",
-        s(&dir.join("off")),
-    ]);
-    let offline = load_map(&dir.join("off/map.yaml")).unwrap();
+    let (offline, printed) = node_offline_update(&bag, &stale, &dir.join("off"), &["--true-poses"]);
     let changed = differing(&before, &offline);
     assert!(changed > 50, "the drive must change the stale map: {changed} cells; {printed}");
     let cfg = config(
@@ -144,21 +132,8 @@ fn the_node_keeps_the_map_update_makes_offline_with_the_robots_poses_and_with_it
     );
 
     // The node's own localiser, started where `update --localise` starts (the first pose).
-    let printed = ok(&[
-        "update",
-        "--log",
-        s(&bag),
-        "--truth-topic",
-        "/truth",
-        "--map",
-        s(&stale),
-        "--localise",
-        "--localiser",
-        "mapkeeper-real",
-        "--out",
-        s(&dir.join("off-loc")),
-    ]);
-    let offline = load_map(&dir.join("off-loc/map.yaml")).unwrap();
+    let (offline, printed) =
+        node_offline_update(&bag, &stale, &dir.join("off-loc"), &["--localise", "--localiser", "mapkeeper-real"]);
     let first =
         first_truth_at_first_scan(&bag, &config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n"));
     let extra = format!(

@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::{node_drive, ok, s, scratch};
+use common::{node_drive, node_offline_update, s, scratch};
 use mapkeeper_grid::CellState;
 use mapkeeper_grid::map_io::load_map;
 use serde_json::Value;
@@ -124,19 +124,7 @@ fn over_cyclone_dds_at_real_rate_the_node_publishes_the_offline_updates_map() {
     let Some(python) = peer_python() else { return };
     let dir = scratch("node-cyclone", "equal");
     let (bag, stale) = node_drive(&dir);
-    ok(&[
-        "update",
-        "--log",
-        s(&bag),
-        "--truth-topic",
-        "/truth",
-        "--map",
-        s(&stale),
-        "--true-poses",
-        "--out",
-        s(&dir.join("off")),
-    ]);
-    let offline = load_map(&dir.join("off/map.yaml")).unwrap();
+    let (offline, _) = node_offline_update(&bag, &stale, &dir.join("off"), &["--true-poses"]);
     let want = cells(&offline);
     let d = domain(0);
     let node = start_node(

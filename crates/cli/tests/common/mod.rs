@@ -148,3 +148,17 @@ pub fn node_drive(dir: &Path) -> (PathBuf, PathBuf) {
     mapkeeper_grid::map_io::save_map(&map, &stale).unwrap();
     (bag, stale)
 }
+
+/// `mapkeeper update` of a node drive's bag (`node_drive`) on `map`, into `out`, the poses given by
+/// `poses` (`--true-poses`, or `--localise --localiser NAME`); the updated map and what it printed.
+pub fn node_offline_update(
+    bag: &Path,
+    map: &Path,
+    out: &Path,
+    poses: &[&str],
+) -> (mapkeeper_grid::OccupancyGrid, String) {
+    let mut args = vec!["update", "--log", s(bag), "--truth-topic", "/truth", "--map", s(map), "--out", s(out)];
+    args.extend_from_slice(poses);
+    let printed = ok(&args);
+    (mapkeeper_grid::map_io::load_map(&out.join("map.yaml")).unwrap(), printed)
+}
