@@ -78,10 +78,11 @@ const NOT_IN_REPO: [(&str, &str); 2] = [
 
 /// Flags of other tools written in the docs, with the tool (none is a flag of the binary; a
 /// tool that is a file of the repository must contain the flag).
-const FOREIGN_FLAGS: [(&str, &str); 26] = [
+const FOREIGN_FLAGS: [(&str, &str); 27] = [
     ("--release", "cargo"),
     ("--selftest", "crates/node/tests/cyclone/drive.py"),
     ("--bag", "crates/node/tests/cyclone/drive.py"),
+    ("--no-pose", "crates/node/tests/cyclone/drive.py"),
     ("--workspace", "cargo"),
     ("--locked", "cargo"),
     ("--test", "cargo"),
