@@ -167,3 +167,56 @@ fn first_truth_at_first_scan(bag: &Path, config: &NodeConfig) -> (f64, f64, f64)
         })
         .unwrap()
 }
+
+/// The robot's localiser goes wrong (its pose 1.5 m off in x and in y from 15 s on, as a kidnapped
+/// AMCL's would be), on the true map: the node's check says Lost, pose updating finds the robot,
+/// and the pose goes out on `/initialpose` to re-seed the localiser, near where the robot truly
+/// is. (At 1 m off in x alone, along an aisle, the check says Suspend and nothing goes out.)
+#[test]
+fn a_pose_that_pose_updating_recovers_goes_out_on_initialpose() {
+    let dir = scratch("node", "initialpose");
+    let (bag, _) = drive(&dir);
+    let cfg = config(
+        &dir,
+        &dir.join("sim/ground_truth.yaml"),
+        "    pose_source: pose_topic\n    pose_topic: /truth\n    resume: false\n",
+    );
+    let all = inputs(&bag, &cfg);
+    let truth: Vec<(u64, mapkeeper_grid::Pose2)> = all
+        .iter()
+        .filter_map(|(_, i)| match i {
+            Input::Pose(p) => Some((p.header.stamp.to_ns()?, mapkeeper_node::core::planar(&p.pose.pose)?)),
+            _ => None,
+        })
+        .collect();
+    let t0 = truth[0].0;
+    let wrong: Vec<(u64, Input)> = all
+        .into_iter()
+        .map(|(t, i)| match i {
+            Input::Pose(mut p) if p.header.stamp.to_ns().unwrap() > t0 + 15_000_000_000 => {
+                p.pose.pose.position.x += 1.5;
+                p.pose.pose.position.y += 1.5;
+                (t, Input::Pose(p))
+            }
+            other => (t, other),
+        })
+        .collect();
+    let mut node = NodeCore::start(&cfg, 0).unwrap();
+    let mut sent = Vec::new();
+    for (t, input) in wrong {
+        node.handle(input, t);
+        sent.extend(node.drain().0.into_iter().filter_map(|o| match o {
+            Output::InitialPose(p) => Some(p),
+            _ => None,
+        }));
+    }
+    assert!(!sent.is_empty(), "no /initialpose from {:?}", node.counts());
+    for p in &sent {
+        let at = p.header.stamp.to_ns().unwrap();
+        let k = truth.partition_point(|(s, _)| *s < at).min(truth.len() - 1);
+        let got = mapkeeper_node::core::planar(&p.pose.pose).unwrap();
+        let d = got.distance(&truth[k].1);
+        assert!(d < 0.3, "a recovered pose {d:.2} m from the truth: {got:?} vs {:?}", truth[k].1);
+        assert!(p.pose.covariance.0[0] > 0.0 && p.pose.covariance.0[35] > 0.0, "a covariance with it");
+    }
+}
