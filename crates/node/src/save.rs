@@ -4,7 +4,6 @@
 //! after its image and the memory after the map: a node killed at any moment leaves a whole map,
 //! and a memory that fits it (a memory is checked against the map when it is read back).
 
-use crate::core::NodeCounts;
 use mapkeeper_grid::OccupancyGrid;
 use mapkeeper_updater::StructureMemory;
 use serde::{Deserialize, Serialize};
@@ -35,8 +34,13 @@ struct MemoryFile {
     memory: StructureMemory,
 }
 
-/// Writes the state to `dir` (created if needed).
-pub fn store(dir: &Path, map: &OccupancyGrid, memory: &StructureMemory, counts: &NodeCounts) -> Result<Saved, String> {
+/// Writes the state to `dir` (created if needed); `counts` (the node's) go to `node.json`.
+pub fn store(
+    dir: &Path,
+    map: &OccupancyGrid,
+    memory: &StructureMemory,
+    counts: &impl Serialize,
+) -> Result<Saved, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
     let map_path = dir.join("map.yaml");
     mapkeeper_grid::map_io::save_map(map, &map_path).map_err(|e| e.to_string())?;
