@@ -12,7 +12,7 @@ mod common;
 use common::{node_drive as drive, node_offline_update, s, scratch};
 use mapkeeper_grid::map_io::load_map;
 use mapkeeper_grid::{CellState, OccupancyGrid};
-use mapkeeper_node::{Input, NodeConfig, NodeCore, Output};
+use mapkeeper_node::{Input, NodeConfig, NodeCore, Output, msgs};
 use std::path::Path;
 
 /// The bag's messages as the inputs of a node of `config`.
@@ -219,4 +219,48 @@ fn a_pose_that_pose_updating_recovers_goes_out_on_initialpose() {
         assert!(d < 0.3, "a recovered pose {d:.2} m from the truth: {got:?} vs {:?}", truth[k].1);
         assert!(p.pose.covariance.0[0] > 0.0 && p.pose.covariance.0[35] > 0.0, "a covariance with it");
     }
+}
+
+/// `pose_source: tf`: the robot's localiser gives `map → odom` on `/tf` (here the truth composed
+/// with the inverse odometry at the same stamps), the node composes it with the odometry at each
+/// step, and its map matches the offline update's at the true poses.
+#[test]
+fn with_map_to_odom_on_tf_the_node_keeps_the_map_of_the_true_poses() {
+    let dir = scratch("node", "tf");
+    let (bag, stale) = drive(&dir);
+    let (offline, _) = node_offline_update(&bag, &stale, &dir.join("off"), &["--true-poses"]);
+    let topic = config(&dir, &stale, "    pose_source: pose_topic\n    pose_topic: /truth\n    resume: false\n");
+    let all = inputs(&bag, &topic);
+    let odom: std::collections::BTreeMap<u64, mapkeeper_grid::Pose2> = all
+        .iter()
+        .filter_map(|(_, i)| match i {
+            Input::Odometry(o) => Some((o.header.stamp.to_ns()?, mapkeeper_node::core::planar(&o.pose.pose)?)),
+            _ => None,
+        })
+        .collect();
+    let as_tf: Vec<(u64, Input)> = all
+        .into_iter()
+        .filter_map(|(t, i)| match i {
+            Input::Pose(p) => {
+                let stamp = p.header.stamp.to_ns()?;
+                let map_odom = mapkeeper_node::core::planar(&p.pose.pose)?.compose(&odom.get(&stamp)?.inverse());
+                let tf = msgs::TransformStamped {
+                    header: msgs::Header { stamp: p.header.stamp, frame_id: "map".into() },
+                    child_frame_id: "odom".into(),
+                    transform: mapkeeper_node::outputs::pose_message(map_odom),
+                };
+                Some((t, Input::Tf(msgs::TfMessage { transforms: vec![tf] })))
+            }
+            other => Some((t, other)),
+        })
+        .collect();
+    let cfg = config(&dir, &stale, "    pose_source: tf\n    resume: false\n");
+    let (node, composed, _) = replay(&cfg, as_tf);
+    assert_eq!(node.counts().steps, 375, "{:?}", node.counts());
+    let d = differing(node.map().unwrap(), &offline);
+    let changed = differing(&load_map(&stale).unwrap(), &offline);
+    // The composed pose differs from the true pose by rounding only (~1e-16 m).
+    assert!(d * 200 <= changed, "{d} cells differ of the {changed} the offline update changed");
+    assert_eq!(differing(&composed, node.map().unwrap()), 0);
+    println!("tf: {d} cells differ from the offline map at the true poses, of {changed} changed");
 }
