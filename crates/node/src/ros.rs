@@ -91,7 +91,7 @@ fn cpu_s() -> f64 {
 }
 
 /// This process's resident memory, MiB, from `/proc/self/status`; 0 elsewhere.
-fn rss_mib() -> f64 {
+pub fn rss_mib() -> f64 {
     let Ok(s) = std::fs::read_to_string("/proc/self/status") else { return 0.0 };
     s.lines()
         .find_map(|l| l.strip_prefix("VmRSS:"))

@@ -136,17 +136,6 @@ struct ReplayFigures {
     rss_max_mib: f64,
 }
 
-fn rss_mib() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find_map(|l| l.strip_prefix("VmRSS:"))
-                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        })
-        .map_or(0.0, |kb| kb / 1024.0)
-}
-
 fn reference_ms() -> f64 {
     use super::bench::clock::{reference_workload, thread_cpu_s};
     let mut t: Vec<f64> = (0..5)
@@ -184,7 +173,7 @@ fn replay(config: &NodeConfig, bag: &std::path::Path) -> anyhow::Result<ReplayFi
         last_t = m.log_time;
         let drive_s = (last_t - *first_t.get_or_insert(last_t)) as f64 / 1e9;
         if drive_s >= next_sample {
-            f.rss_mib.push((drive_s, rss_mib()));
+            f.rss_mib.push((drive_s, mapkeeper_node::ros::rss_mib()));
             next_sample += 60.0;
         }
     }
@@ -198,7 +187,7 @@ fn replay(config: &NodeConfig, bag: &std::path::Path) -> anyhow::Result<ReplayFi
         (q(0.5), q(0.99), per_step.last().copied().unwrap_or(0.0));
     f.reference_ms = (reference_before + reference_ms()) / 2.0;
     f.ratio_to_reference = f.step_cpu_median_ms / f.reference_ms;
-    f.rss_end_mib = rss_mib();
+    f.rss_end_mib = mapkeeper_node::ros::rss_mib();
     f.rss_first_minute_mib = f.rss_mib.first().map_or(f.rss_end_mib, |s| s.1);
     f.rss_max_mib = f.rss_mib.iter().map(|s| s.1).fold(f.rss_end_mib, f64::max);
     Ok(f)
