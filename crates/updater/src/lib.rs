@@ -24,6 +24,7 @@
 //! | `additions/free_pass.rs` | project addition: cells free in `M_{i-1}` got only "changed" votes, so new obstacles came out 2-4 cells thick |
 //! | `additions/shift_check.rs` | project addition (`mapkeeper` on alarm steps, `mapkeeper-shift` on every step): the change count cannot tell a wrong pose from a stale map; a nearby pose that fits better can |
 //! | `additions/registration.rs` | project addition: a yaw error of a fraction of a degree (AMCL on a stale map) is written into the map and erodes fixed walls; each step's pose is refined against `M_{i-1}` first, and a poor or ambiguous fit writes nothing |
+//! | `additions/surface_evidence.rs` | project addition (issue 53): the classifier is blind within D_th of the map's structure, so `M_1`'s thick faces, items moved a little and eroded faces stayed; per-cell trust-weighted hit/pass evidence over the last part of each beam, carried across worlds |
 //! | `additions/structure_memory.rs` | project addition: long-standing structure was as easy to remove as yesterday's box, and an eroded wall face never came back; a cross-world memory of young cells and scars |
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
@@ -99,6 +100,7 @@ pub mod additions {
     pub mod removal_gates;
     pub mod shift_check;
     pub mod structure_memory;
+    pub mod surface_evidence;
 }
 
 /// Support code shared by the modules of both: the per-beam value type and the walk along a
@@ -122,6 +124,7 @@ pub use additions::pose_tolerance::{PoseSigma, StepTolerance, ToleranceParams};
 pub use additions::registration::{Refusal, Registration, RegistrationParams};
 pub use additions::shift_check::ShiftResult;
 pub use additions::structure_memory::{CellRecord, MemoryParams, StructureMemory};
+pub use additions::surface_evidence::{CellEvidence, EvidenceParams};
 pub use error::UpdaterError;
 pub use paper::cell_update::CellChange;
 pub use paper::gating::GateReason;

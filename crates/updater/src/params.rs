@@ -11,6 +11,7 @@ use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
+use crate::additions::surface_evidence::EvidenceParams;
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::mapper::{MapperError, MapperParams};
 use serde::{Deserialize, Serialize};
@@ -311,6 +312,10 @@ pub struct UpdaterParams {
     /// The cross-world memory (a `mapkeeper` addition; see the `structure_memory` module).
     /// Default off.
     pub memory: MemoryParams,
+    /// Surface evidence across worlds (a `mapkeeper` addition, issue 53; see the
+    /// `surface_evidence` module). Default off (not written when off with its defaults).
+    #[serde(skip_serializing_if = "EvidenceParams::is_default_off")]
+    pub evidence: EvidenceParams,
     /// Tolerances that follow the step's pose uncertainty (a `mapkeeper` addition; see the
     /// `pose_tolerance` module). Default off.
     pub tolerance: ToleranceParams,
@@ -424,6 +429,7 @@ impl UpdaterParams {
             global_search: GlobalSearchParams::default(),
             registration: RegistrationParams::default(),
             memory: MemoryParams::default(),
+            evidence: EvidenceParams::default(),
             tolerance: ToleranceParams::default(),
             log_odds: MapperParams::default(),
         }
@@ -438,6 +444,8 @@ impl UpdaterParams {
     /// nearby pose fits better: a right pose in a stale world), and when pose updating's local
     /// search finds no pose, a global search over the whole map and every heading. Each is
     /// switchable by its own field; `tests/additions.rs` shows the failure each addition prevents.
+    /// The surface evidence across worlds (issue 53) is off: under a real localiser it moves
+    /// faces (`docs/updater.md`, "Surface evidence").
     pub fn mapkeeper() -> Self {
         Self {
             registration: RegistrationParams { enabled: true, ..RegistrationParams::default() },
@@ -564,6 +572,7 @@ impl UpdaterParams {
         self.global_search.validate()?;
         self.registration.validate()?;
         self.memory.validate(self.buffer_size, self.change_threshold)?;
+        self.evidence.validate()?;
         self.tolerance.validate()?;
         self.log_odds.validate().map_err(log_odds_refusal)?;
         Ok(())

@@ -11,6 +11,7 @@ use crate::additions::registration::{Refusal, Registrar, Registration};
 use crate::additions::removal_gates::RemovalGates;
 use crate::additions::shift_check::ShiftResult;
 use crate::additions::structure_memory::StructureMemory;
+use crate::additions::surface_evidence::SurfaceEvidence;
 use crate::paper::beam_classifier::{BeamClass, BeamClassifier};
 use crate::paper::cell_update::{CellChange, CellUpdater};
 use crate::paper::changed_cells::evaluate_changed_beam_cast;
@@ -255,6 +256,13 @@ pub struct MapUpdater {
     registrar: Option<Registrar>,
     /// The cross-world memory of `M_{i-1}` (empty: every occupied cell established).
     memory: StructureMemory,
+    /// The surface evidence, carried in with the memory and updated by each written step (when
+    /// on).
+    evidence: SurfaceEvidence,
+    /// The pose spread of the step being processed (σ_xy m, σ_yaw rad), as the surface evidence
+    /// weighs it: registration's fit when it accepted, else the caller's, else unknown (+∞, or 0
+    /// with `evidence.trust_unreported_pose`).
+    step_spread: (f64, f64),
     /// The pose uncertainty the caller handed over for the next step (the localiser's).
     pose_sigma: Option<PoseSigma>,
     /// The margins of the step being processed.
@@ -295,6 +303,11 @@ impl MapUpdater {
                 initial_map.geometry().len()
             )));
         }
+        let evidence = if params.evidence.enabled {
+            SurfaceEvidence::from_records(memory.evidence())
+        } else {
+            SurfaceEvidence::default()
+        };
         let memory = if params.memory.enabled { memory } else { StructureMemory::default() };
         let registrar = params.registration.enabled.then(|| Registrar::new(&initial_map, &params.registration));
         let log_odds = if params.method == UpdateMethod::LogOdds {
@@ -310,6 +323,8 @@ impl MapUpdater {
             shift_field,
             registrar,
             memory,
+            evidence,
+            step_spread: (f64::INFINITY, f64::INFINITY),
             pose_sigma: None,
             step_tol: StepTolerance::NONE,
             current: initial_map.clone(),
@@ -359,11 +374,17 @@ impl MapUpdater {
     /// The memory to hand to the next world together with [`MapUpdater::map`] (empty when the
     /// memory is off).
     pub fn next_memory(&self) -> StructureMemory {
-        if self.params.memory.enabled {
+        let memory = if self.params.memory.enabled {
             self.memory.next(self.base.map(), &self.current, &self.params.memory)
         } else {
             StructureMemory::default()
-        }
+        };
+        if self.params.evidence.enabled { memory.with_evidence(self.evidence.records()) } else { memory }
+    }
+
+    /// Cells holding surface evidence (0 when that addition is off).
+    pub fn evidence_cells(&self) -> usize {
+        self.evidence.len()
     }
 
     /// Number of cells that hold a rolling buffer.
@@ -382,6 +403,7 @@ impl MapUpdater {
         size_of::<Self>()
             + self.buffers.state_bytes()
             + self.memory.state_bytes()
+            + self.evidence.state_bytes()
             + self.log_odds.as_ref().map_or(0, |l| l.state_bytes())
     }
 
@@ -422,6 +444,7 @@ impl MapUpdater {
             + self.cell_updater.scratch_bytes()
             + self.pose_updater.scratch_bytes()
             + self.registrar.as_ref().map_or(0, Registrar::scratch_bytes)
+            + self.evidence.scratch_bytes()
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
@@ -442,7 +465,10 @@ impl MapUpdater {
         let registration = self.register(robot_in_map, scans);
         // The pose the step is classified, checked and written at: the refined one if accepted.
         let pose = registration.filter(Registration::accepted).map_or(robot_in_map, |r| r.pose);
-        self.step_tol = StepTolerance::new(self.step_sigma(registration.as_ref()), &self.params.tolerance);
+        let sigma = self.step_sigma(registration.as_ref());
+        self.step_tol = StepTolerance::new(sigma, &self.params.tolerance);
+        let unreported = if self.params.evidence.trust_unreported_pose { 0.0 } else { f64::INFINITY };
+        self.step_spread = sigma.map_or((unreported, unreported), |s| (s.xy_m, s.yaw_rad));
         let counts = self.classifier.classify(&self.base, &pose, scans, &self.params, &self.step_tol);
         self.stats.invalid_beams += counts.n_invalid as u64;
         self.stats.invalid_scans += counts.invalid_scans as u64;
@@ -676,7 +702,7 @@ impl MapUpdater {
                 evaluate_changed_beam_cast(&self.base, &beam, how, gates, &mut self.votes);
             }
         }
-        if !self.memory.is_empty() {
+        if !self.memory.is_empty() && !self.params.evidence.enabled {
             self.stats.heal_votes += self.heal_votes() as u64;
         }
         ensure_buffers(&mut self.votes, &mut self.vote_scratch, self.base.map().geometry().width(), &mut self.buffers);
@@ -715,6 +741,15 @@ impl MapUpdater {
             (&self.params, &|index| self.memory.is_established(index)),
             changes,
         );
+        if self.params.evidence.enabled {
+            let (beams, lidars) = (&self.classifier.beams, &self.classifier.lidars);
+            let spread = self.step_spread;
+            let maps = (self.base.map(), &mut self.current);
+            let memory = &self.memory;
+            let established = |index| memory.is_established(index);
+            let rules: (_, &dyn Fn(u32) -> bool) = (&self.params.evidence, &established);
+            self.evidence.step(beams, lidars, spread, maps, rules, changes);
+        }
     }
 
     /// The memory's healing rule: a beam without detected change whose hit point falls in a

@@ -21,6 +21,7 @@
 //! scar; nothing for the cells that never changed. Records are kept sorted by cell index, so the
 //! memory is deterministic and serialisable.
 
+use crate::additions::surface_evidence::CellEvidence;
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
@@ -93,9 +94,13 @@ pub enum CellRecord {
 
 /// The cross-world memory of one map: records of young and scarred cells, sorted by index.
 /// The default (empty) memory says every occupied cell is established (a surveyed `M_1`).
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StructureMemory {
     records: Vec<(u32, CellRecord)>,
+    /// The surface evidence of the cells in question (`additions/surface_evidence.rs`), sorted
+    /// by cell index; empty (and not written) when that addition is off.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    evidence: Vec<(u32, CellEvidence)>,
 }
 
 impl StructureMemory {
@@ -124,7 +129,7 @@ impl StructureMemory {
 
     /// Whether there is no record.
     pub fn is_empty(&self) -> bool {
-        self.records.is_empty()
+        self.records.is_empty() && self.evidence.is_empty()
     }
 
     /// The records, sorted by cell index.
@@ -135,11 +140,29 @@ impl StructureMemory {
     /// Heap bytes of the records.
     pub fn state_bytes(&self) -> usize {
         self.records.capacity() * size_of::<(u32, CellRecord)>()
+            + self.evidence.capacity() * size_of::<(u32, CellEvidence)>()
+    }
+
+    /// The surface evidence carried with the map, sorted by cell index.
+    pub fn evidence(&self) -> &[(u32, CellEvidence)] {
+        &self.evidence
+    }
+
+    /// The same memory with `evidence` (sorted by cell index) as its surface evidence.
+    pub fn with_evidence(mut self, evidence: Vec<(u32, CellEvidence)>) -> Self {
+        self.evidence = evidence;
+        self
+    }
+
+    /// The same memory without its young and scar records (the structure rules off).
+    pub fn without_records(mut self) -> Self {
+        self.records = Vec::new();
+        self
     }
 
     /// The largest cell index recorded, if any (to check the memory fits a map).
     pub fn max_index(&self) -> Option<u32> {
-        self.records.last().map(|r| r.0)
+        self.records.last().map(|r| r.0).max(self.evidence.last().map(|r| r.0))
     }
 
     /// The memory handed to the next world: `prior` = `M_{i-1}` (the map this memory belongs
@@ -183,7 +206,7 @@ impl StructureMemory {
             }
         }
         out.shrink_to_fit();
-        StructureMemory { records: out }
+        StructureMemory { records: out, evidence: Vec::new() }
     }
 }
 
