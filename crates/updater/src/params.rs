@@ -11,7 +11,7 @@ use crate::additions::pose_tolerance::ToleranceParams;
 use crate::additions::registration::RegistrationParams;
 use crate::additions::shift_check::{ShiftCheckParams, ShiftWhen};
 use crate::additions::structure_memory::MemoryParams;
-use crate::additions::surface_evidence::EvidenceParams;
+use evidence::EvidenceParams;
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::mapper::{MapperError, MapperParams};
 use serde::{Deserialize, Serialize};
@@ -774,6 +774,7 @@ pub mod inf_as_text {
     }
 }
 
+pub(crate) mod evidence;
 mod legacy;
 mod removal;
 pub use removal::RemovalParams;

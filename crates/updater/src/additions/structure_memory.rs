@@ -21,7 +21,6 @@
 //! scar; nothing for the cells that never changed. Records are kept sorted by cell index, so the
 //! memory is deterministic and serialisable.
 
-use crate::additions::surface_evidence::CellEvidence;
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellState, OccupancyGrid};
 use serde::{Deserialize, Serialize};
@@ -73,6 +72,28 @@ impl MemoryParams {
             ));
         }
         Ok(())
+    }
+}
+
+/// The weighted flags of one cell: ended in it (`hit`) and crossed it (`pass`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CellEvidence {
+    /// Weighted "ended here" flags.
+    pub hit: f32,
+    /// Weighted "crossed" flags.
+    pub pass: f32,
+}
+
+impl CellEvidence {
+    /// Total weight.
+    pub fn weight(&self) -> f32 {
+        self.hit + self.pass
+    }
+
+    /// Hit share (0 with no weight).
+    pub fn share(&self) -> f32 {
+        let w = self.weight();
+        if w > 0.0 { self.hit / w } else { 0.0 }
     }
 }
 
