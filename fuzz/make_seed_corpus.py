@@ -297,12 +297,30 @@ max_inlier_rmse_m = 0.03
 min_constraint = 0.08
 max_shift_m = 0.3
 max_turn_rad = 0.05235987755982989
+pull_to_centres = false
 
 [memory]
 enabled = false
 established_after_worlds = 3
 established_removal_threshold = 9
 scar_worlds = 30
+
+[evidence]
+enabled = false
+band_m = 0.15
+max_sigma_m = 0.05
+min_xy_sigma_m = 0.01
+min_yaw_sigma_deg = 0.1
+min_incidence_deg = 10.0
+planarity_m = 0.02
+surface_margin_m = 0.0
+min_weight = 60.0
+grow_established = true
+trust_unreported_pose = false
+occupied_share = 0.6
+free_share = 0.1
+max_weight = 500.0
+drop_margin = 0.05
 
 [log_odds]
 l_occ = 0.85

@@ -343,11 +343,12 @@ impl<'de> Deserialize<'de> for UpdaterParams {
 }
 
 /// The names accepted by [`UpdaterParams::preset`].
-pub const PRESET_NAMES: [&str; 9] = [
+pub const PRESET_NAMES: [&str; 10] = [
     "paper",
     "paper-strict",
     "authors",
     "mapkeeper",
+    "mapkeeper-3",
     "mapkeeper-no-registration",
     "mapkeeper-shift",
     "always-update",
@@ -435,7 +436,25 @@ impl UpdaterParams {
         }
     }
 
-    /// The project's recommended variant: [`UpdaterParams::mapkeeper_no_registration`] (the
+    /// The project's recommended variant (issue 53): the third release's `mapkeeper`
+    /// ([`UpdaterParams::mapkeeper_3`]) plus the surface evidence across worlds (each cell
+    /// within the last 0.15 m of a beam decided by the trust-weighted share of the beams that
+    /// ended in it, over many passes and worlds: `M_1`'s thick faces, items moved a few
+    /// centimetres and eroded faces corrected where the robot sees them), with registration
+    /// scoring points against occupied cells' centres (the flat-bottomed cost left the pose
+    /// free by a face's thickness, and the evidence wrote faces at that pose a cell off). The
+    /// evidence replaces the scar rule's heal votes; the established-structure rule of the
+    /// paper's buffers stays. Each addition is switchable by its own field.
+    pub fn mapkeeper() -> Self {
+        let m3 = Self::mapkeeper_3();
+        Self {
+            evidence: EvidenceParams { enabled: true, ..EvidenceParams::default() },
+            registration: RegistrationParams { pull_to_centres: true, ..m3.registration },
+            ..m3
+        }
+    }
+
+    /// The third release's `mapkeeper`, kept for comparison: [`UpdaterParams::mapkeeper_no_registration`] (the
     /// additions of the second release) plus registration before writing (each step's pose
     /// refined against `M_{i-1}` with its own scans, nothing written when the fit is poor or
     /// ambiguous) and the cross-world memory (established structure needs more evidence to go, a
@@ -444,9 +463,7 @@ impl UpdaterParams {
     /// nearby pose fits better: a right pose in a stale world), and when pose updating's local
     /// search finds no pose, a global search over the whole map and every heading. Each is
     /// switchable by its own field; `tests/additions.rs` shows the failure each addition prevents.
-    /// The surface evidence across worlds (issue 53) is off: under a real localiser it moves
-    /// faces (`docs/updater.md`, "Surface evidence").
-    pub fn mapkeeper() -> Self {
+    pub fn mapkeeper_3() -> Self {
         Self {
             registration: RegistrationParams { enabled: true, ..RegistrationParams::default() },
             memory: MemoryParams { enabled: true, ..MemoryParams::default() },
@@ -530,6 +547,7 @@ impl UpdaterParams {
             "mapkeeper-no-registration" => Ok(Self::mapkeeper_no_registration()),
             "authors" => Ok(Self::authors()),
             "mapkeeper" => Ok(Self::mapkeeper()),
+            "mapkeeper-3" => Ok(Self::mapkeeper_3()),
             "mapkeeper-shift" => Ok(Self::mapkeeper_shift()),
             "always-update" => Ok(Self::always_update()),
             "no-update" => Ok(Self::no_update()),

@@ -11,9 +11,10 @@ use common::digest::{SCENARIOS, scenario_digest};
 /// Digests in the order of `SCENARIOS`. The first five were recorded when the presets were split
 /// into `paper`, `authors` and `mapkeeper` and the localisation check began to run on every scan,
 /// and are unchanged by the third release's renaming (`paper` → `paper-strict`, `mapkeeper` →
-/// `mapkeeper-no-registration`); the last three are the third release's `paper` (read fairly)
-/// and `mapkeeper` (with registration and the memory).
-const EXPECTED: [u64; 8] = [
+/// `mapkeeper-no-registration`); the next three are the third release's `paper` (read fairly)
+/// and `mapkeeper` (with registration and the memory; now `mapkeeper-3`, its digests unchanged);
+/// the last two issue 53's `mapkeeper` (the surface evidence, registration to cell centres).
+const EXPECTED: [u64; 10] = [
     0x9c49_f2bb_3f6e_a6d1,
     0x890d_cce4_f42e_7a3e,
     0xa7c7_2f67_f5b7_0449,
@@ -22,6 +23,8 @@ const EXPECTED: [u64; 8] = [
     0xdff9_9e3f_61a4_18d4,
     0x2810_5493_d062_5a99,
     0x9b38_6f3b_798e_e3d8,
+    0xb96f_4b31_26db_2edc,
+    0xc74d_e0a6_30e6_f977,
 ];
 
 #[test]

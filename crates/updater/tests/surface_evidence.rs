@@ -20,10 +20,20 @@ fn hall() -> OccupancyGrid {
 
 /// `mapkeeper` without registration (the poses here are exact or deliberately wrong), with the
 /// surface evidence on or off; a step with no reported uncertainty is trusted when `trust`.
+/// One drive past a face gives each cell at most 140 flags, so the tests decide after 4 (the
+/// preset's 60 integrate over several passes and worlds) with a free share of 0.3.
 fn params(evidence: bool, trust: bool) -> UpdaterParams {
+    let defaults = UpdaterParams::mapkeeper().evidence;
     UpdaterParams {
         registration: mapkeeper_updater::RegistrationParams::default(),
-        evidence: EvidenceParams { enabled: evidence, trust_unreported_pose: trust, ..EvidenceParams::default() },
+        evidence: EvidenceParams {
+            enabled: evidence,
+            trust_unreported_pose: trust,
+            min_weight: 4.0,
+            max_weight: 20.0,
+            free_share: 0.3,
+            ..defaults
+        },
         ..UpdaterParams::mapkeeper()
     }
 }

@@ -28,7 +28,8 @@ pub struct EvidenceParams {
     /// A crossed cell counts as free only if its centre lies this much more than its half-extent
     /// in front of the fitted surface, metres. Default 0.
     pub surface_margin_m: f64,
-    /// Weighted flags a record needs before it decides the cell. Default 4.
+    /// Weighted flags a record needs before it decides the cell. Default 60 (decisions integrate
+    /// over several passes and worlds: registration's error is correlated within a pass).
     pub min_weight: f64,
     /// Whether a face of established structure (see the structure memory) may grow by a cell;
     /// `false`: only cells beside young structure (items added in the last worlds) are added,
@@ -41,9 +42,9 @@ pub struct EvidenceParams {
     pub trust_unreported_pose: bool,
     /// Hit share at which a cell becomes occupied. Default 0.6.
     pub occupied_share: f64,
-    /// Hit share at which an occupied cell becomes free. Default 0.3.
+    /// Hit share at which an occupied cell becomes free. Default 0.1.
     pub free_share: f64,
-    /// Weighted flags a record holds at most (older ones fade). Default 20.
+    /// Weighted flags a record holds at most (older ones fade). Default 500.
     pub max_weight: f64,
     /// A record that agrees with its cell's state within this share of certainty is dropped.
     /// Default 0.05.
@@ -61,12 +62,12 @@ impl Default for EvidenceParams {
             min_incidence_deg: 10.0,
             planarity_m: 0.02,
             surface_margin_m: 0.0,
-            min_weight: 4.0,
+            min_weight: 60.0,
             grow_established: true,
             trust_unreported_pose: false,
             occupied_share: 0.6,
-            free_share: 0.3,
-            max_weight: 20.0,
+            free_share: 0.1,
+            max_weight: 500.0,
             drop_margin: 0.05,
         }
     }
