@@ -12,8 +12,8 @@ use common::digest::{SCENARIOS, scenario_digest};
 /// into `paper`, `authors` and `mapkeeper` and the localisation check began to run on every scan,
 /// and are unchanged by the third release's renaming (`paper` → `paper-strict`, `mapkeeper` →
 /// `mapkeeper-no-registration`); the next three are the third release's `paper` (read fairly)
-/// and `mapkeeper` (with registration and the memory; now `mapkeeper-3`, its digests unchanged);
-/// the last two issue 53's `mapkeeper` (the surface evidence, registration to cell centres).
+/// and `mapkeeper` (with registration and the memory); the last two issue 53's
+/// `mapkeeper-evidence` (the surface evidence, registration to cell centres).
 const EXPECTED: [u64; 10] = [
     0x9c49_f2bb_3f6e_a6d1,
     0x890d_cce4_f42e_7a3e,

@@ -1,9 +1,9 @@
 //! The third release's `mapkeeper` additions at the updater's level (issue 27 items 1 and 2):
 //! registration before writing fixes a yawed pose and refuses what it cannot fix, and each rule
-//! of the cross-world memory prevents the failure it is named after. They run `mapkeeper-3` (the
-//! third release's `mapkeeper`): with issue 53's surface evidence on, the scar rule's heal votes
-//! are off, and in this grid world, whose faces all lie on cell boundaries, registration to cell
-//! centres leaves a coherent half-cell bias (`docs/updater.md`, "Surface evidence").
+//! of the cross-world memory prevents the failure it is named after. They run `mapkeeper`, not
+//! `mapkeeper-evidence`: with issue 53's surface evidence on, the scar rule's heal votes are off,
+//! and in this grid world, whose faces all lie on cell boundaries, registration to cell centres
+//! leaves a coherent half-cell bias (`docs/updater.md`, "Surface evidence").
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -48,7 +48,7 @@ fn registration_fixes_a_yawed_pose_before_writing() {
         "the scene must erode without registration: {}",
         changed(&world, plain.map())
     );
-    let mut keeper = MapUpdater::new(world.clone(), UpdaterParams::mapkeeper_3()).unwrap();
+    let mut keeper = MapUpdater::new(world.clone(), UpdaterParams::mapkeeper()).unwrap();
     let outcomes = drive(&mut keeper, &world, 2.0, 140);
     assert_eq!(changed(&world, keeper.map()), 0);
     let s = keeper.stats().registration;
@@ -64,7 +64,7 @@ fn registration_fixes_a_yawed_pose_before_writing() {
 #[test]
 fn registration_refuses_a_bare_corridor_and_writes_nothing() {
     let world = room(60.0, 3.0, 0.05);
-    let mut up = MapUpdater::new(world.clone(), UpdaterParams::mapkeeper_3()).unwrap();
+    let mut up = MapUpdater::new(world.clone(), UpdaterParams::mapkeeper()).unwrap();
     let mut refused_degenerate = 0;
     for k in 0..40 {
         let truth = Pose2::new(25.0 + 0.06 * k as f64, 1.5, 0.0);
@@ -122,12 +122,12 @@ fn established_structure_needs_more_flags_to_be_removed() {
     let rack = CellCoord::new((6.55 / 0.05) as i32, (3.85 / 0.05) as i32);
     assert_eq!(map.get(rack), Some(CellState::Occupied));
     // Steps until the ordinary threshold removes the face cell.
-    let off = UpdaterParams { memory: Default::default(), ..UpdaterParams::mapkeeper_3() };
+    let off = UpdaterParams { memory: Default::default(), ..UpdaterParams::mapkeeper() };
     let steps = (4..80).find(|&n| {
         pass(&map, &world, off.clone(), StructureMemory::default(), n).map().get(rack) == Some(CellState::Free)
     });
     let steps = steps.expect("the rack face is removed with the memory off");
-    let on = UpdaterParams::mapkeeper_3();
+    let on = UpdaterParams::mapkeeper();
     let established = pass(&map, &world, on.clone(), StructureMemory::default(), steps);
     assert_eq!(established.map().get(rack), Some(CellState::Occupied), "established: not yet after {steps} steps");
     // Young: the rack came into the map in the last world (M_{i-2} lacked it).
@@ -150,7 +150,7 @@ fn a_scarred_wall_face_hit_again_comes_back() {
         assert_eq!(eroded.get(*c), Some(CellState::Occupied));
         eroded.set(*c, CellState::Free);
     }
-    let on = UpdaterParams::mapkeeper_3();
+    let on = UpdaterParams::mapkeeper();
     // The memory of the world that eroded it: those cells were established structure.
     let memory = StructureMemory::default().next(&world, &eroded, &on.memory);
     assert_eq!(memory.len(), face.len());

@@ -18,12 +18,12 @@ fn hall() -> OccupancyGrid {
     m
 }
 
-/// `mapkeeper` without registration (the poses here are exact or deliberately wrong), with the
+/// `mapkeeper-evidence` without registration (the poses here are exact or deliberately wrong), with the
 /// surface evidence on or off; a step with no reported uncertainty is trusted when `trust`.
 /// One drive past a face gives each cell at most 140 flags, so the tests decide after 4 (the
 /// preset's 60 integrate over several passes and worlds) with a free share of 0.3.
 fn params(evidence: bool, trust: bool) -> UpdaterParams {
-    let defaults = UpdaterParams::mapkeeper().evidence;
+    let defaults = UpdaterParams::mapkeeper_evidence().evidence;
     UpdaterParams {
         registration: mapkeeper_updater::RegistrationParams::default(),
         evidence: EvidenceParams {
@@ -34,7 +34,7 @@ fn params(evidence: bool, trust: bool) -> UpdaterParams {
             free_share: 0.3,
             ..defaults
         },
-        ..UpdaterParams::mapkeeper()
+        ..UpdaterParams::mapkeeper_evidence()
     }
 }
 

@@ -54,23 +54,24 @@ fn presets_validate_and_differ_as_listed() {
     assert!(m.registration.enabled && m.memory.enabled);
     assert!(m.shift_check.enabled && m.shift_check.when == ShiftWhen::OnAlarm);
     assert!(m.global_search.enabled && !p.global_search.enabled && !r.global_search.enabled);
-    // `mapkeeper` is `mapkeeper-3` with the surface evidence and registration to cell centres.
-    let m3 = UpdaterParams::mapkeeper_3();
-    assert!(m.evidence.enabled && !m3.evidence.enabled && m.registration.pull_to_centres);
-    assert!(!m3.registration.pull_to_centres);
+    // `mapkeeper-evidence` is `mapkeeper` with the surface evidence and registration to cell
+    // centres.
+    let e = UpdaterParams::mapkeeper_evidence();
+    assert!(e.evidence.enabled && !m.evidence.enabled && e.registration.pull_to_centres);
+    assert!(!m.registration.pull_to_centres);
     let back = UpdaterParams {
-        evidence: m3.evidence,
-        registration: RegistrationParams { pull_to_centres: false, ..m.registration },
-        ..m.clone()
+        evidence: m.evidence,
+        registration: RegistrationParams { pull_to_centres: false, ..e.registration },
+        ..e.clone()
     };
-    assert_eq!(back, m3);
+    assert_eq!(back, m);
     let n = UpdaterParams::mapkeeper_no_registration();
     let without = UpdaterParams {
         registration: n.registration,
         memory: n.memory,
         shift_check: n.shift_check,
         global_search: n.global_search,
-        ..m3.clone()
+        ..m.clone()
     };
     assert_eq!(without, n);
     // `mapkeeper-shift` is `mapkeeper` with the shift check on every step.

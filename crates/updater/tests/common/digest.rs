@@ -28,8 +28,7 @@ pub struct Scenario {
 /// The pinned scenarios. The first five are those of the second release, with its `paper` and
 /// `mapkeeper` presets under their names of today (`paper-strict`, `mapkeeper-no-registration`):
 /// their digests did not change when the presets were renamed. The next three are the third
-/// release's `paper` and `mapkeeper` (now `mapkeeper-3`, bit-identical), the last two issue 53's
-/// `mapkeeper`.
+/// release's `paper` and `mapkeeper`, the last two issue 53's `mapkeeper-evidence`.
 pub const SCENARIOS: [Scenario; 10] = [
     Scenario {
         name: "paper-strict, exact poses, one lap",
@@ -68,20 +67,6 @@ pub const SCENARIOS: [Scenario; 10] = [
     },
     Scenario { name: "paper, pose errors", preset: "paper", map_origin: Pose2::IDENTITY, steps: 320, pose_error: true },
     Scenario {
-        name: "mapkeeper-3, pose errors",
-        preset: "mapkeeper-3",
-        map_origin: Pose2::IDENTITY,
-        steps: 320,
-        pose_error: true,
-    },
-    Scenario {
-        name: "mapkeeper-3, rotated map origin, pose errors",
-        preset: "mapkeeper-3",
-        map_origin: Pose2::new(-3.0, 2.0, 0.3),
-        steps: 320,
-        pose_error: true,
-    },
-    Scenario {
         name: "mapkeeper, pose errors",
         preset: "mapkeeper",
         map_origin: Pose2::IDENTITY,
@@ -91,6 +76,20 @@ pub const SCENARIOS: [Scenario; 10] = [
     Scenario {
         name: "mapkeeper, rotated map origin, pose errors",
         preset: "mapkeeper",
+        map_origin: Pose2::new(-3.0, 2.0, 0.3),
+        steps: 320,
+        pose_error: true,
+    },
+    Scenario {
+        name: "mapkeeper-evidence, pose errors",
+        preset: "mapkeeper-evidence",
+        map_origin: Pose2::IDENTITY,
+        steps: 320,
+        pose_error: true,
+    },
+    Scenario {
+        name: "mapkeeper-evidence, rotated map origin, pose errors",
+        preset: "mapkeeper-evidence",
         map_origin: Pose2::new(-3.0, 2.0, 0.3),
         steps: 320,
         pose_error: true,

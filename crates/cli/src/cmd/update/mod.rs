@@ -70,7 +70,7 @@ pub struct Args {
     #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::seed, allow_hyphen_values = true)]
     pub seed: u64,
     /// Parameter preset: mapkeeper (default: the recommended one), paper (§4 read fairly),
-    /// paper-strict, authors, mapkeeper-3 (the third release's), mapkeeper-no-registration, mapkeeper-shift, always-update,
+    /// paper-strict, authors, mapkeeper-evidence (issue 53's surface evidence), mapkeeper-no-registration, mapkeeper-shift, always-update,
     /// no-update, log-odds (docs/updater.md).
     #[arg(long, value_name = "NAME", default_value = "mapkeeper")]
     pub preset: String,

@@ -43,7 +43,7 @@ pub struct Args {
     /// (t(0.975, 1) = 12.7). The default, 1, keeps the main job near 3.5 minutes on two cores.
     #[arg(long, value_name = "K", default_value_t = 1, value_parser = crate::cmd::count_in(1, crate::cmd::MAX_SEEDS), allow_hyphen_values = true)]
     pub seeds: usize,
-    /// One updater preset: paper, paper-strict, authors, mapkeeper, mapkeeper-3, mapkeeper-no-registration, mapkeeper-shift,
+    /// One updater preset: paper, paper-strict, authors, mapkeeper, mapkeeper-evidence, mapkeeper-no-registration, mapkeeper-shift,
     /// always-update, no-update, log-odds (results
     /// in OUT itself). Without --preset or --presets: the sweep paper,mapkeeper.
     #[arg(long)]
