@@ -11,8 +11,9 @@
 //! - **Eroded faces** (the third release's scars): a wall face cell freed by a pose error that
 //!   a beam ends on again.
 //!
-//! **Experimental, off in every preset**: exact at true poses, it loses under registration
-//! before writing (faces migrate a cell at a time: `docs/updater.md`, "Surface evidence").
+//! **On in the preset `mapkeeper-evidence` only**, with registration to cell centres (with the
+//! flat-bottomed registration faces migrate a cell at a time). Better than `mapkeeper` in the
+//! simulator, worse on the real logs, so not the default: `docs/updater.md`, "Surface evidence".
 //!
 //! This module keeps, per cell of that band, the evidence every trusted step gave about it,
 //! carried from world to world with `M_i` (in [`crate::StructureMemory`]), and decides the cell

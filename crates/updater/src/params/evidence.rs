@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct EvidenceParams {
-    /// Use it (the rules of the module docs). Default `false` (`mapkeeper` `true`).
+    /// Use it (the rules of the module docs). Default `false` (`mapkeeper-evidence` `true`).
     pub enabled: bool,
     /// The band before a beam's end whose cells get its passes, metres. Default 0.15.
     pub band_m: f64,
