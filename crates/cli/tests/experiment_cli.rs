@@ -164,8 +164,15 @@ fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
     }
     let csv = std::fs::read_to_string(out.join("trials.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 3);
+    // Three trials on each of the three maps (W_1's, the chain's M_{k-1}, G_{k-1}).
+    assert_eq!(rows.len(), 9);
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let maps: Vec<&str> = v["by_map"].as_array().unwrap().iter().map(|m| m["map"].as_str().unwrap()).collect();
+    assert_eq!(maps, ["w1", "chain", "truth"]);
+    assert_eq!(&v["by_map"][0], k, "kidnap_robot is the first map's summary");
+    for m in &maps {
+        assert_eq!(rows.iter().filter(|r| r[1] == *m).count(), 3, "{m}");
+    }
     for r in &rows {
         assert_eq!(r.len(), header.len(), "{r:?}");
         let at = |c: &str| r[header.iter().position(|h| *h == c).unwrap()].parse::<u64>().unwrap();
@@ -173,13 +180,19 @@ fn kidnap_robot_moves_the_robot_and_accounts_for_every_trial() {
         assert!(at("reference_lost_well_localised") <= at("reference_lost_right_pose"), "{r:?}");
         assert!(at("reference_lost_right_pose") <= at("reference_lost"), "{r:?}");
         assert!(at("reference_steps_well_localised") <= at("reference_steps") && at("reference_steps") > 0, "{r:?}");
+        assert!(at("handovers_held") <= at("handovers_right"), "{r:?}");
     }
-    for r in rows.iter().filter(|r| r[7] == "true") {
+    let col = |r: &Vec<&str>, c: &str| r[header.iter().position(|h| *h == c).unwrap()].to_string();
+    for r in rows.iter().filter(|r| col(r, "applied") == "true") {
         // The robot really moved, by 0.5-3 m, and the localiser (told nothing) was wrong after it.
-        let d: f64 = r[8].parse().unwrap();
+        let d: f64 = col(r, "applied_displacement_m").parse().unwrap();
         assert!((0.49..=3.01).contains(&d), "{r:?}");
-        assert_eq!(r[9], "true", "a moved robot is said Lost: {r:?}");
+        assert_eq!(col(r, "detected"), "true", "a moved robot is said Lost: {r:?}");
     }
+    let o = mapkeeper(&["experiment", "kidnap-robot", "--quick", "--maps", "chain,w2", "--out", s(&dir.join("y"))]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("--maps") && e.contains("unknown map \"w2\""), "{e}");
     let o = mapkeeper(&["experiment", "kidnap-robot", "--quick", "--preset", "nope", "--out", s(&dir.join("x"))]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--preset"), "{}", String::from_utf8_lossy(&o.stderr));

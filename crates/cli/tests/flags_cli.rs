@@ -109,6 +109,7 @@ const FLAGS: &[Flag] = &[
     ok("experiment kidnap-robot", "--seed", Count, SEED_OK, SEED_WHY),
     other("experiment kidnap-robot", "--preset", Name),
     other("experiment kidnap-robot", "--localiser", Name),
+    other("experiment kidnap-robot", "--maps", Names),
     other("experiment kidnap-robot", "--params", Path),
     other("experiment kidnap-robot", "--out", Path),
     num("experiment kidnap-robot", "--jobs", Count),

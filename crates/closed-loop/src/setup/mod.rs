@@ -5,6 +5,7 @@
 //! the trial runner is [`crate::trials`]. No experiment imports another: what two of them need
 //! lives here or in `mapkeeper-scenario`'s `experiments` module.
 
+pub mod chain;
 pub mod params;
 
 use crate::ExperimentError;
@@ -15,6 +16,7 @@ use crate::worlds::mapping::build_initial_map;
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::{GridGeometry, OccupancyGrid, Point2, Pose2};
 use mapkeeper_sim::{Route, StartPose, World, ground_truth_map};
+use mapkeeper_updater::StructureMemory;
 use params::{InitialMapKind, RecoveryParams, SuccessCriterion};
 
 /// The worlds and maps every experiment shares.
@@ -122,6 +124,9 @@ pub struct Drive<'a> {
     pub map: &'a OccupancyGrid,
     /// G_k, the ground truth of W_k.
     pub truth: &'a OccupancyGrid,
+    /// The updater's cross-world memory that came with [`Drive::map`] (a chain's map,
+    /// [`chain::ChainMap`]); `None`: a surveyed or stale map, every occupied cell established.
+    pub memory: Option<&'a StructureMemory>,
 }
 
 impl Setup {
@@ -137,20 +142,20 @@ impl Setup {
     ) -> Result<Drive<'a>, ExperimentError> {
         let (w, truth) = self.world(world)?;
         let (start, route) = tour_from(tour, position_m, length_m);
-        Ok(Drive { world: with_start(w, start), route, start, map, truth })
+        Ok(Drive { world: with_start(w, start), route, start, map, truth, memory: None })
     }
 }
 
 impl Drive<'_> {
-    /// The closed loop's inputs: the chain and the baseline both on [`Drive::map`], no
-    /// cross-world memory (a surveyed or stale map: every occupied cell established).
+    /// The closed loop's inputs: the chain and the baseline both on [`Drive::map`], with
+    /// [`Drive::memory`].
     pub fn inputs(&self) -> RunInputs<'_> {
         RunInputs {
             world: &self.world,
             route: &self.route,
             prev_map: self.map,
             baseline_map: self.map,
-            prev_memory: None,
+            prev_memory: self.memory,
         }
     }
 

@@ -306,8 +306,9 @@ pub fn kidnap_claims(k: &crate::experiments::kidnap_robot::KidnapRobotSummary) -
     let (verdict, why) = rate_verdict(k.recovered_rate_pose_updating, 0.9, 0.5, "recovered by pose updating");
     let mut claims = vec![Claim {
         claim: format!(
-            "§4.6: pose updating recovers the robot's pose after it is lost (a kidnap); preset `{}`",
-            k.preset
+            "§4.6: pose updating recovers the robot's pose after it is lost (a kidnap); preset `{}`, on {}",
+            k.preset,
+            k.map.label()
         ),
         result: format!(
             "{} trials: {:.1} % by pose updating, {:.1} % by the filter itself, {:.1} % failed",
@@ -329,8 +330,9 @@ pub fn kidnap_claims(k: &crate::experiments::kidnap_robot::KidnapRobotSummary) -
     };
     claims.push(Claim {
         claim: format!(
-            "§4.2, §4.6: a well-localised robot in a stale world is not declared Lost; preset `{}`",
-            k.preset
+            "§4.2, §4.6: a well-localised robot in a stale world is not declared Lost; preset `{}`, on {}",
+            k.preset,
+            k.map.label()
         ),
         result: format!(
             "the paired runs without a kidnap: Lost while well localised in {:.1} % of them (Lost at all in {:.1} %, \

@@ -16,17 +16,19 @@ pub mod summary;
 use crate::experiments::ExperimentError;
 use crate::experiments::scores::Scores;
 use crate::experiments::scores::scores;
-use mapkeeper_closed_loop::controls::{RobotKidnap, TimelineSample, TrackSample};
-use mapkeeper_closed_loop::setup::params::RecoveryParams;
+use mapkeeper_closed_loop::controls::{KidnapRecord, RobotKidnap, TimelineSample, TrackSample};
+use mapkeeper_closed_loop::setup::chain::ChainMap;
+use mapkeeper_closed_loop::setup::params::{RecoveryParams, SuccessCriterion};
 use mapkeeper_closed_loop::setup::{Setup, prepare, recovery_time};
 use mapkeeper_closed_loop::trials::{Trials, run_trials};
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::{CellState, OccupancyGrid, Point2, Pose2, wrap_angle};
 use mapkeeper_sim::World;
 use mapkeeper_sim::seeds::stream_rng;
-use mapkeeper_updater::UpdaterParams;
+use mapkeeper_updater::{StructureMemory, UpdaterParams};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
 use std::f64::consts::PI;
 pub use summary::{KidnapBin, KidnapRobotSummary, summarise_robot_kidnap};
 
@@ -65,6 +67,65 @@ pub struct KidnapRobotParams {
     pub well_localised_max_error_m: f64,
     /// …and its heading error at most this, radians. Default 2° (0.0349).
     pub well_localised_max_yaw_rad: f64,
+    /// The maps the robot localises on (and the updater starts from), each trial run on each,
+    /// reported side by side. Default all three: `w1`, `chain`, `truth` ([`KidnapMap`]).
+    pub maps: Vec<KidnapMap>,
+}
+
+/// The map the robot localises on in W_k when it is kidnapped (`[kidnap_robot] maps`,
+/// `--maps`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum KidnapMap {
+    /// The map of W_1 (`[recovery] initial_map`: G_1 by default), k − 1 worlds stale: the
+    /// harshest case, and the suite's only one before issue 54.
+    W1,
+    /// M_{k-1}: the map the preset's updater kept through W_2 … W_{k-1} from M_1, with its
+    /// cross-world memory, as `validate` runs the chain with the same seed (the lifelong
+    /// setting: the robot's map kept current by the updater under test).
+    Chain,
+    /// G_{k-1}, the true map of the world before: a perfect updater's map.
+    Truth,
+}
+
+impl KidnapMap {
+    /// Every map, in report order.
+    pub const ALL: [KidnapMap; 3] = [KidnapMap::W1, KidnapMap::Chain, KidnapMap::Truth];
+
+    /// `w1`, `chain` or `truth` (as serialised).
+    pub fn name(self) -> &'static str {
+        match self {
+            KidnapMap::W1 => "w1",
+            KidnapMap::Chain => "chain",
+            KidnapMap::Truth => "truth",
+        }
+    }
+
+    /// How a report names it: `W_1's map`, `M_{k-1} (chain)`, `G_{k-1} (truth)`.
+    pub fn label(self) -> &'static str {
+        match self {
+            KidnapMap::W1 => "W_1's map",
+            KidnapMap::Chain => "M_{k-1} (chain)",
+            KidnapMap::Truth => "G_{k-1} (truth)",
+        }
+    }
+
+    /// A comma-separated list of names (`w1,chain,truth`), each once, at least one; the
+    /// error says which name is unknown or repeated.
+    pub fn parse_list(s: &str) -> Result<Vec<KidnapMap>, String> {
+        let mut out = Vec::new();
+        for name in s.split(',').map(str::trim) {
+            let m = KidnapMap::ALL
+                .into_iter()
+                .find(|m| m.name() == name)
+                .ok_or_else(|| format!("unknown map {name:?} (expected w1, chain or truth)"))?;
+            if out.contains(&m) {
+                return Err(format!("map {name:?} given twice"));
+            }
+            out.push(m);
+        }
+        Ok(out)
+    }
 }
 
 impl Default for KidnapRobotParams {
@@ -84,6 +145,7 @@ impl Default for KidnapRobotParams {
             free_radius_m: 0.5,
             well_localised_max_error_m: 0.05,
             well_localised_max_yaw_rad: 2f64.to_radians(),
+            maps: KidnapMap::ALL.to_vec(),
         }
     }
 }
@@ -142,6 +204,15 @@ impl KidnapRobotParams {
             )));
         }
         crate::experiments::check_turn("kidnap_robot.max_yaw_rad", self.max_yaw_rad)?;
+        if self.maps.is_empty() {
+            return Err(ExperimentError::from(ParamError::rule("kidnap_robot.maps", "needs at least one map")));
+        }
+        if let Some(m) = self.maps.iter().enumerate().find_map(|(i, m)| self.maps[..i].contains(m).then_some(m)) {
+            return Err(ExperimentError::from(ParamError::rule(
+                "kidnap_robot.maps",
+                format!("map {:?} given twice", m.name()),
+            )));
+        }
         if self.free_radius_m > MAX_FREE_RADIUS_M {
             return Err(ExperimentError::from(ParamError::rule(
                 "kidnap_robot.free_radius_m",
@@ -225,11 +296,14 @@ pub fn kidnap_target(g: &OccupancyGrid, from: Pose2, d: &RobotKidnapDraw, min_m:
     None
 }
 
-/// One trial.
+/// One trial on one map.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RobotKidnapTrial {
     /// The draw.
     pub draw: RobotKidnapDraw,
+    /// The map the robot localised on.
+    #[serde(default = "first_world_map")]
+    pub map: KidnapMap,
     /// The robot was moved (a free target was found and the time reached).
     pub applied: bool,
     /// The displacement applied, metres.
@@ -256,6 +330,13 @@ pub struct RobotKidnapTrial {
     /// reach in this world at all.
     #[serde(default)]
     pub reference_final_error_m: Option<f64>,
+    /// Right poses (under the success criterion) pose updating handed over after the kidnap.
+    #[serde(default)]
+    pub handovers_right: usize,
+    /// …of them held: the localiser's error stayed under the criterion at every scan tick from
+    /// the handover to the end of the run.
+    #[serde(default)]
+    pub handovers_held: usize,
     /// Poses from pose updating after the kidnap.
     pub pose_recoveries: usize,
     /// …of them wrong (error above the criterion).
@@ -286,6 +367,10 @@ pub struct RobotKidnapTrial {
     pub kidnap_scores: Scores,
 }
 
+fn first_world_map() -> KidnapMap {
+    KidnapMap::W1
+}
+
 fn warehouse() -> String {
     "warehouse".into()
 }
@@ -302,8 +387,11 @@ pub struct KidnapRobotResults {
     pub world: String,
     /// Wall time (set by the caller).
     pub wall_time_s: f64,
-    /// The summary.
+    /// The summary on the first map of `params.maps` (W_1's by default).
     pub kidnap_robot: KidnapRobotSummary,
+    /// The summary on each map of `params.maps`, in that order.
+    #[serde(default)]
+    pub by_map: Vec<KidnapRobotSummary>,
     /// The trials.
     #[serde(skip)]
     pub trials: Vec<RobotKidnapTrial>,
@@ -313,25 +401,39 @@ pub struct KidnapRobotResults {
     pub recovery: RecoveryParams,
 }
 
+/// The map (and the memory that came with it) trial `d` localises on with `m`.
+fn trial_map<'a>(
+    trials: &'a RobotKidnapTrials<'_>,
+    m: KidnapMap,
+    d: &RobotKidnapDraw,
+) -> Result<(&'a OccupancyGrid, Option<&'a StructureMemory>), ExperimentError> {
+    let before = d.world - 1;
+    match m {
+        KidnapMap::W1 => Ok((trials.setup.initial_map(trials.recovery.initial_map), None)),
+        KidnapMap::Truth => Ok((trials.setup.world(before)?.1, None)),
+        KidnapMap::Chain => match trials.chain.get(&before) {
+            Some(c) => Ok((&c.map, Some(&c.memory))),
+            None => Err(ExperimentError::InvalidParam(ParamError::rule(
+                "kidnap_robot.maps",
+                format!("the chain's M_{before} was not run"),
+            ))),
+        },
+    }
+}
+
 fn run_trial(
-    setup: &Setup,
-    recovery: &RecoveryParams,
-    p: &KidnapRobotParams,
-    updater: &UpdaterParams,
+    trials: &RobotKidnapTrials<'_>,
     d: RobotKidnapDraw,
-    seed: u64,
+    m: KidnapMap,
 ) -> Result<RobotKidnapTrial, ExperimentError> {
+    let (setup, recovery, p, seed) = (&trials.setup, trials.recovery, trials.p, trials.seed);
     let c = &recovery.success;
-    let drive = setup.drive(
-        d.world,
-        setup.initial_map(recovery.initial_map),
-        &recovery.tour,
-        d.tour_position_m,
-        p.route_length_m,
-    )?;
+    let (map, memory) = trial_map(trials, m, &d)?;
+    let mut drive = setup.drive(d.world, map, &recovery.tour, d.tour_position_m, p.route_length_m)?;
+    drive.memory = memory;
     let g = drive.truth;
     let mut rp = recovery.runner.clone();
-    rp.updater = updater.clone();
+    rp.updater = trials.updater.clone();
     rp.max_sim_time_s = d.kidnap_s + p.recovery_window_s + c.hold_s;
     rp.record_trajectories = true;
     rp.record_timeline = true;
@@ -347,6 +449,7 @@ fn run_trial(
     let target = from.and_then(|f| kidnap_target(g, f, &d, p.min_displacement_m, p.free_radius_m));
     let mut out = RobotKidnapTrial {
         draw: d,
+        map: m,
         applied: false,
         applied_displacement_m: None,
         detected: false,
@@ -357,6 +460,8 @@ fn run_trial(
         recovery_s: None,
         pose_found_s: None,
         reference_final_error_m: final_chain_error(reference.trajectories.as_ref()),
+        handovers_right: 0,
+        handovers_held: 0,
         pose_recoveries: 0,
         wrong_pose_recoveries: 0,
         final_error_m: None,
@@ -379,13 +484,20 @@ fn run_trial(
     let Some(rec) = run.kidnap.as_ref() else { return Ok(out) };
     out.applied = true;
     out.applied_displacement_m = Some(from.distance(&to));
+    score_kidnap(&mut out, rec, c, p.recovery_window_s);
+    Ok(out)
+}
+
+/// What the kidnapped run's record says: detection, recovery (when, by what), the handovers
+/// and the final error.
+fn score_kidnap(out: &mut RobotKidnapTrial, rec: &KidnapRecord, c: &SuccessCriterion, window_s: f64) {
     out.detected = rec.first_lost_s.is_some();
     out.detection_delay_s = rec.first_lost_s.map(|t| t - rec.at_s);
     // The first sample is the kidnap tick itself, scored against the pose before the move.
     let track = rec.track.get(1..).unwrap_or_default();
     let t_r = recovery_time(track, c);
     out.recovery_s = t_r.map(|t| t - rec.at_s);
-    let within = out.recovery_s.is_some_and(|t| t <= p.recovery_window_s + 1e-9);
+    let within = out.recovery_s.is_some_and(|t| t <= window_s + 1e-9);
     let by_pose = rec.recoveries.first().is_some_and(|r| t_r.is_some_and(|t| r.t_s <= t + 1e-9));
     out.recovered_pose_updating = within && by_pose;
     out.recovered_filter = within && !by_pose;
@@ -397,11 +509,23 @@ fn run_trial(
         (Some(lost), Some(r)) => Some((r.t_s - lost).max(0.0)),
         _ => None,
     };
+    (out.handovers_right, out.handovers_held) = handovers(&rec.recoveries, track, c);
     out.pose_recoveries = rec.recoveries.len();
     out.wrong_pose_recoveries =
         rec.recoveries.iter().filter(|s| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad).count();
     out.final_error_m = track.last().map(|s| s.error_m);
-    Ok(out)
+}
+
+/// The right handovers among `recoveries` (poses pose updating handed over, with their true
+/// error) and those held: after which every later sample of `track` (the localiser's error at
+/// each scan tick; the sample of the handover's own tick is the estimate before it) is under
+/// the criterion to the end.
+fn handovers(recoveries: &[TrackSample], track: &[TrackSample], c: &SuccessCriterion) -> (usize, usize) {
+    let good = |s: &TrackSample| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad;
+    let last_bad = track.iter().rev().find(|s| !good(s)).map(|s| s.t_s);
+    let right: Vec<&TrackSample> = recoveries.iter().filter(|r| good(r)).collect();
+    let held = right.iter().filter(|r| last_bad.is_none_or(|t| t <= r.t_s + 1e-9)).count();
+    (right.len(), held)
 }
 
 /// Lost verdicts of a timeline given at steps where `at` holds (the localiser's error then).
@@ -424,31 +548,50 @@ struct RobotKidnapTrials<'a> {
     seed: u64,
     setup: Setup,
     updater: UpdaterParams,
+    /// M_{k-1} (and its memory) for every k a trial drew, when `p.maps` has `chain`.
+    chain: BTreeMap<usize, ChainMap>,
 }
 
 impl Trials for RobotKidnapTrials<'_> {
-    type Job = RobotKidnapDraw;
+    type Job = (RobotKidnapDraw, KidnapMap);
     type Outcome = RobotKidnapTrial;
     type Summary = KidnapRobotResults;
 
-    fn draw(&self) -> Vec<RobotKidnapDraw> {
-        let tour_len = self.recovery.tour.length_m();
-        (0..self.p.trials).map(|t| draw_robot_kidnap(self.p, tour_len, self.seed, t)).collect()
+    fn draw(&self) -> Vec<(RobotKidnapDraw, KidnapMap)> {
+        let draws = robot_kidnap_draws(self.p, self.recovery, self.seed);
+        self.p.maps.iter().flat_map(|&m| draws.iter().map(move |&d| (d, m))).collect()
     }
 
-    fn run(&self, d: RobotKidnapDraw, progress: &(dyn Fn() + Sync)) -> Result<RobotKidnapTrial, ExperimentError> {
-        let r = run_trial(&self.setup, self.recovery, self.p, &self.updater, d, self.seed);
+    fn run(
+        &self,
+        (d, m): (RobotKidnapDraw, KidnapMap),
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<RobotKidnapTrial, ExperimentError> {
+        let r = run_trial(self, d, m);
         progress();
         r
     }
 
     fn summarise(&self, trials: Vec<RobotKidnapTrial>) -> Result<KidnapRobotResults, ExperimentError> {
+        let by_map: Vec<KidnapRobotSummary> = self
+            .p
+            .maps
+            .iter()
+            .map(|&m| {
+                let on: Vec<RobotKidnapTrial> = trials.iter().filter(|t| t.map == m).cloned().collect();
+                summarise_robot_kidnap(&self.p.preset, m, &on)
+            })
+            .collect();
         Ok(KidnapRobotResults {
             tool: format!("mapkeeper-scenario {}", env!("CARGO_PKG_VERSION")),
             seed: self.seed,
             world: warehouse(),
             wall_time_s: 0.0,
-            kidnap_robot: summarise_robot_kidnap(&self.p.preset, &trials),
+            kidnap_robot: by_map
+                .first()
+                .cloned()
+                .unwrap_or_else(|| summarise_robot_kidnap(&self.p.preset, KidnapMap::W1, &[])),
+            by_map,
             trials,
             params: self.p.clone(),
             recovery: self.recovery.clone(),
@@ -467,14 +610,24 @@ pub fn run_kidnap_robot(
     p.validate()?;
     let mut rp = recovery.clone();
     rp.kidnap.stale_max_world = rp.kidnap.stale_max_world.max(p.max_world);
-    let trials = RobotKidnapTrials {
-        recovery,
-        p,
-        seed,
-        setup: prepare(w1, &rp, seed)?,
-        updater: UpdaterParams::preset(&p.preset)?,
+    let setup = prepare(w1, &rp, seed)?;
+    let updater = UpdaterParams::preset(&p.preset)?;
+    let chain = if p.maps.contains(&KidnapMap::Chain) {
+        let keep: BTreeSet<usize> = robot_kidnap_draws(p, recovery, seed).iter().map(|d| d.world - 1).collect();
+        let mut runner = recovery.runner.clone();
+        runner.updater = updater.clone();
+        setup.chain_maps(&runner, seed, &keep)?
+    } else {
+        BTreeMap::new()
     };
+    let trials = RobotKidnapTrials { recovery, p, seed, setup, updater, chain };
     run_trials(&trials, progress)
+}
+
+/// Every trial's draw (the same on every map).
+fn robot_kidnap_draws(p: &KidnapRobotParams, recovery: &RecoveryParams, seed: u64) -> Vec<RobotKidnapDraw> {
+    let tour_len = recovery.tour.length_m();
+    (0..p.trials).map(|t| draw_robot_kidnap(p, tour_len, seed, t)).collect()
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The files of an `experiment kidnap-robot` folder: `summary.json`, `trials.csv`, `report.md`
 //! (`docs/recovery.md`, "Real kidnaps").
 
-use crate::experiments::kidnap_robot::KidnapRobotResults;
+use crate::experiments::kidnap_robot::{KidnapRobotResults, KidnapRobotSummary};
 use crate::results::ResultsError;
 use mapkeeper_grid::StagedDir;
 use std::fmt::Write as _;
@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 /// The columns of `trials.csv`, in order.
 pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "trial",
+    "map",
     "world",
     "tour_position_m",
     "kidnap_s",
@@ -25,6 +26,8 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "recovery_s",
     "pose_found_s",
     "reference_final_error_m",
+    "handovers_right",
+    "handovers_held",
     "pose_recoveries",
     "wrong_pose_recoveries",
     "final_error_m",
@@ -53,8 +56,9 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
+            t.map.name(),
             d.world,
             d.tour_position_m,
             d.kidnap_s,
@@ -71,6 +75,8 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             opt(t.recovery_s),
             opt(t.pose_found_s),
             opt(t.reference_final_error_m),
+            t.handovers_right,
+            t.handovers_held,
             t.pose_recoveries,
             t.wrong_pose_recoveries,
             opt(t.final_error_m),
@@ -90,17 +96,18 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
     s
 }
 
-/// `report.md`.
+/// `report.md`: the maps side by side, then each map's table, its bins and its claims.
 pub fn report_md(r: &KidnapRobotResults) -> String {
     let k = &r.kidnap_robot;
     let p = &r.params;
     let mut o = String::new();
     let _ = writeln!(o, "# Real kidnaps: the robot moved, odometry blind\n");
+    let maps: Vec<&str> = p.maps.iter().map(|m| m.label()).collect();
     let _ = writeln!(
         o,
-        "World `{}`, seed {}, preset `{}`, localiser `{}`, {} trials in W_{}-W_{} on the map of W_1 ({:?}); the robot is moved \
-         {:.1}-{:.1} m and up to ±{:.0}° at {:.0}-{:.0} s into a drive; recovered = the localiser's error under {:.2} m \
-         and {:.1}° from some time within {:.0} s of the kidnap to the end. Wall time {:.1} s.\n",
+        "World `{}`, seed {}, preset `{}`, localiser `{}`, {} trials in W_{}-W_{}, each on {} (W_1's map: {}); the \
+         robot is moved {:.1}-{:.1} m and up to ±{:.0}° at {:.0}-{:.0} s into a drive; recovered = the localiser's error \
+         under {:.2} m and {:.1}° from some time within {:.0} s of the kidnap to the end. Wall time {:.1} s.\n",
         r.world,
         r.seed,
         k.preset,
@@ -108,7 +115,8 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         k.trials,
         p.min_world,
         p.max_world,
-        r.recovery.initial_map,
+        maps.join(", "),
+        r.recovery.initial_map.name(),
         p.min_displacement_m,
         p.max_displacement_m,
         p.max_yaw_rad.to_degrees(),
@@ -119,7 +127,67 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         p.recovery_window_s,
         r.wall_time_s
     );
-    let pc = |v: f64| format!("{:.1} %", 100.0 * v);
+    side_by_side(&mut o, r);
+    for s in &r.by_map {
+        let _ = writeln!(o, "\n## On {}\n", s.map.label());
+        map_section(&mut o, r, s);
+    }
+    o
+}
+
+fn pc(v: f64) -> String {
+    format!("{:.1} %", 100.0 * v)
+}
+
+fn secs(v: Option<f64>) -> String {
+    v.map_or_else(|| "–".into(), |v| format!("{v:.2} s"))
+}
+
+/// A row of the side-by-side table: its label and its value on one map.
+type Row = (&'static str, fn(&KidnapRobotSummary) -> String);
+
+/// The headline figures, one column per map.
+fn side_by_side(o: &mut String, r: &KidnapRobotResults) {
+    let rows: [Row; 9] = [
+        ("recovered (pose updating + filter)", |s| pc(s.recovered_rate_pose_updating + s.recovered_rate_filter)),
+        ("a right pose handed over within 5 s of stopping", |s| pc(s.pose_found_5s_rate)),
+        ("right handovers held to the end", |s| {
+            s.handover_held_rate.map_or_else(|| "–".into(), |v| format!("{} of {}", pc(v), s.handovers_right))
+        }),
+        ("time to hand over, median / p90", |s| {
+            format!("{} / {}", secs(s.median_pose_found_s), secs(s.p90_pose_found_s))
+        }),
+        ("time to recover, median / p90", |s| format!("{} / {}", secs(s.median_recovery_s), secs(s.p90_recovery_s))),
+        ("trials with a wrong pose", |s| pc(s.wrong_recovery_rate)),
+        ("runs without kidnap with a Lost: any / right / well localised", |s| {
+            format!(
+                "{} / {} / {}",
+                pc(s.false_lost_rate),
+                pc(s.false_lost_right_pose_rate),
+                pc(s.false_lost_well_localised_rate)
+            )
+        }),
+        ("map damage CC / MS / OPDF (points)", |s| {
+            format!("{:.2} / {:.2} / {:.2}", s.map_damage.cc, s.map_damage.ms, s.map_damage.opdf)
+        }),
+        ("reference runs ending ≥ 0.2 m off", |s| pc(s.reference_off_rate)),
+    ];
+    let _ = write!(o, "| |");
+    for s in &r.by_map {
+        let _ = write!(o, " {} |", s.map.label());
+    }
+    let _ = writeln!(o, "\n|---|{}", "---|".repeat(r.by_map.len()));
+    for (label, f) in rows {
+        let _ = write!(o, "| {label} |");
+        for s in &r.by_map {
+            let _ = write!(o, " {} |", f(s));
+        }
+        o.push('\n');
+    }
+}
+
+/// One map's table, bins and claims.
+fn map_section(o: &mut String, r: &KidnapRobotResults, k: &KidnapRobotSummary) {
     let _ = writeln!(o, "| | |\n|---|---|");
     let _ = writeln!(o, "| trials moved (a free target found) | {} of {} |", k.applied, k.trials);
     let _ = writeln!(o, "| said Lost after the kidnap | {} |", pc(k.detected_rate));
@@ -134,12 +202,17 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         pc(k.pose_found_rate),
         pc(k.pose_found_5s_rate)
     );
-    let secs = |v: Option<f64>| v.map_or_else(|| "–".into(), |v| format!("{v:.2} s"));
+    let _ = writeln!(
+        o,
+        "| right handovers / held to the end | {} / {} |",
+        k.handovers_right,
+        k.handover_held_rate.map_or_else(|| "–".into(), pc)
+    );
     let _ =
         writeln!(o, "| time to recover, median / p90 | {} / {} |", secs(k.median_recovery_s), secs(k.p90_recovery_s));
     let _ = writeln!(
         o,
-        "| stopping to the first right pose, median / p90 | {} / {} |",
+        "| time to hand over (stopping to the first right pose), median / p90 | {} / {} |",
         secs(k.median_pose_found_s),
         secs(k.p90_pose_found_s)
     );
@@ -150,34 +223,38 @@ pub fn report_md(r: &KidnapRobotResults) -> String {
         pc(k.recovered_rate_reference_held),
         k.trials_reference_held
     );
-    false_lost_row(&mut o, r);
+    false_lost_row(o, r, k);
     let _ = writeln!(
         o,
         "| map damage CC / MS / OPDF (points, mean) | {:.2} / {:.2} / {:.2} (OPDF max {:.2}) |",
         k.map_damage.cc, k.map_damage.ms, k.map_damage.opdf, k.map_damage_opdf_max
     );
     let _ = writeln!(o, "| poses from pose updating / wrong | {} / {} |", k.pose_recoveries, k.wrong_pose_recoveries);
-    let _ = writeln!(o, "\n| trials moved | recovered | wrong pose | not recovered |\n|---|---|---|---|");
+    let _ = writeln!(
+        o,
+        "\n| trials moved | recovered | wrong pose | not recovered | right pose within 5 s | right handovers held |\n\
+         |---|---|---|---|---|---|"
+    );
     for b in k.by_turn.iter().chain(&k.by_displacement).chain(&k.by_world) {
         let _ = writeln!(
             o,
-            "| {} ({}) | {} | {} | {} |",
+            "| {} ({}) | {} | {} | {} | {} | {} of {} |",
             b.label,
             b.trials,
             b.recovered,
             b.wrong,
-            b.trials.saturating_sub(b.recovered)
+            b.trials.saturating_sub(b.recovered),
+            b.handed_over_5s,
+            b.handovers_held,
+            b.handovers_right
         );
     }
     o.push('\n');
     o.push_str(&crate::results::claims::claims_md(&crate::results::claims::kidnap_claims(k)));
-    o
 }
 
 /// The row of the runs without kidnap that said Lost, split by how far off the localiser was.
-fn false_lost_row(o: &mut String, r: &KidnapRobotResults) {
-    let k = &r.kidnap_robot;
-    let pc = |v: f64| format!("{:.1} %", 100.0 * v);
+fn false_lost_row(o: &mut String, r: &KidnapRobotResults, k: &KidnapRobotSummary) {
     let _ = writeln!(
         o,
         "| runs without kidnap with a Lost: any / while the localiser was right (< {:.2} m, < {:.0}°) / while it was \

@@ -1,7 +1,7 @@
 //! The summary of an `experiment kidnap-robot` run (`summary.json` `kidnap_robot`): rates,
 //! times, damage and the outcome by turn, displacement and world age.
 
-use super::RobotKidnapTrial;
+use super::{KidnapMap, RobotKidnapTrial};
 use crate::experiments::scores::Scores;
 use crate::stats::{frac, mean, median, percentile};
 use serde::{Deserialize, Serialize};
@@ -11,6 +11,9 @@ use serde::{Deserialize, Serialize};
 pub struct KidnapRobotSummary {
     /// Updater preset.
     pub preset: String,
+    /// The map the robot localised on.
+    #[serde(default = "super::first_world_map")]
+    pub map: KidnapMap,
     /// Trials drawn.
     pub trials: usize,
     /// Trials in which the robot was moved (the rates are over these).
@@ -84,6 +87,13 @@ pub struct KidnapRobotSummary {
     /// Those trials.
     #[serde(default)]
     pub trials_reference_held: usize,
+    /// Right poses pose updating handed over after the kidnaps.
+    #[serde(default)]
+    pub handovers_right: usize,
+    /// The share of them held: the localiser stayed under the success criterion from the
+    /// handover to the end of the run. `None` without a right handover.
+    #[serde(default)]
+    pub handover_held_rate: Option<f64>,
     /// Recovered / wrong / not, by the turn of the kidnap (≤ 45°, 45-90°, > 90°).
     #[serde(default)]
     pub by_turn: Vec<KidnapBin>,
@@ -106,6 +116,15 @@ pub struct KidnapBin {
     pub recovered: usize,
     /// Trials with a wrong pose from pose updating.
     pub wrong: usize,
+    /// Trials with a right pose handed over within 5 s of the robot stopping.
+    #[serde(default)]
+    pub handed_over_5s: usize,
+    /// Right handovers in the bin's trials, and those held to the end.
+    #[serde(default)]
+    pub handovers_right: usize,
+    /// See `handovers_right`.
+    #[serde(default)]
+    pub handovers_held: usize,
 }
 
 fn bins(a: &[&RobotKidnapTrial], edges: &[(String, f64, f64)], key: fn(&RobotKidnapTrial) -> f64) -> Vec<KidnapBin> {
@@ -118,6 +137,9 @@ fn bins(a: &[&RobotKidnapTrial], edges: &[(String, f64, f64)], key: fn(&RobotKid
                 trials: t.len(),
                 recovered: t.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).count(),
                 wrong: t.iter().filter(|t| t.wrong_pose_recoveries > 0).count(),
+                handed_over_5s: t.iter().filter(|t| t.pose_found_s.is_some_and(|s| s <= 5.0)).count(),
+                handovers_right: t.iter().map(|t| t.handovers_right).sum(),
+                handovers_held: t.iter().map(|t| t.handovers_held).sum(),
             }
         })
         .collect()
@@ -129,13 +151,14 @@ fn ratio(a: u64, b: u64) -> Option<f64> {
 }
 
 /// Summary of the trials.
-pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> KidnapRobotSummary {
+pub fn summarise_robot_kidnap(preset: &str, map: KidnapMap, trials: &[RobotKidnapTrial]) -> KidnapRobotSummary {
     let a: Vec<&RobotKidnapTrial> = trials.iter().filter(|t| t.applied).collect();
     let dmg = |f: fn(&Scores) -> f64| mean(a.iter().map(|t| f(&t.reference_scores) - f(&t.kidnap_scores)));
     let held: Vec<&&RobotKidnapTrial> =
         a.iter().filter(|t| t.reference_final_error_m.is_some_and(|e| e < 0.2)).collect();
     KidnapRobotSummary {
         preset: preset.to_string(),
+        map,
         trials: trials.len(),
         applied: a.len(),
         recovered_rate_pose_updating: frac(a.iter().map(|t| t.recovered_pose_updating)),
@@ -172,6 +195,11 @@ pub fn summarise_robot_kidnap(preset: &str, trials: &[RobotKidnapTrial]) -> Kidn
         p90_recovery_s: percentile(
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
             0.9,
+        ),
+        handovers_right: a.iter().map(|t| t.handovers_right).sum(),
+        handover_held_rate: ratio(
+            a.iter().map(|t| t.handovers_held as u64).sum(),
+            a.iter().map(|t| t.handovers_right as u64).sum(),
         ),
         by_turn: bins(
             &a,

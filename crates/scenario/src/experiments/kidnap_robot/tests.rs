@@ -80,6 +80,7 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
     let sc = Scores { cc: 80.0, ms: 70.0, opdf: 90.0 };
     let trial = |k: usize, recovered: bool, reference_final_error_m: f64, lost: [u64; 3]| RobotKidnapTrial {
         draw: draw_robot_kidnap(&KidnapRobotParams::default(), 70.0, 1, k),
+        map: KidnapMap::Chain,
         applied: true,
         applied_displacement_m: Some(1.0),
         detected: true,
@@ -90,6 +91,8 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
         recovery_s: recovered.then_some(2.0),
         pose_found_s: recovered.then_some(1.0),
         reference_final_error_m: Some(reference_final_error_m),
+        handovers_right: usize::from(recovered) + 1,
+        handovers_held: usize::from(recovered),
         pose_recoveries: usize::from(recovered),
         wrong_pose_recoveries: 0,
         final_error_m: Some(0.05),
@@ -110,8 +113,13 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
         trial(2, true, 0.3, [5, 2, 0]),
         trial(3, false, 0.3, [4, 0, 0]),
     ];
-    let s = summarise_robot_kidnap("mapkeeper", &t);
+    let s = summarise_robot_kidnap("mapkeeper", KidnapMap::Chain, &t);
+    assert_eq!(s.map, KidnapMap::Chain);
     assert_eq!(s.trials_reference_held, 2);
+    // Six right handovers, two held.
+    assert_eq!((s.handovers_right, s.handover_held_rate), (6, Some(2.0 / 6.0)));
+    let held: usize = s.by_turn.iter().map(|b| b.handovers_held).sum();
+    assert_eq!(held, 2);
     assert!((s.recovered_rate_reference_held - 0.5).abs() < 1e-12);
     assert!((s.reference_off_rate - 0.5).abs() < 1e-12);
     assert!((s.false_lost_rate - 0.75).abs() < 1e-12);
@@ -120,4 +128,38 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
     // One Lost step among 4 × 40 well-localised steps of 4 × 100.
     assert_eq!(s.false_lost_well_localised_step_rate, Some(1.0 / 160.0));
     assert_eq!(s.reference_well_localised_share, Some(0.4));
+}
+
+#[test]
+fn a_handover_is_held_only_if_the_localiser_stays_right_to_the_end() {
+    let c = SuccessCriterion::default();
+    let s = |t_s: f64, error_m: f64| TrackSample { t_s, error_m, yaw_error_rad: 0.0 };
+    // Handed over right at 2 s and at 6 s; wrong at 4 s; the localiser drifts off at 5 s.
+    let recoveries = [s(2.0, 0.05), s(4.0, 0.8), s(6.0, 0.05)];
+    let track: Vec<TrackSample> = (0..20)
+        .map(|i| {
+            let t = f64::from(i) * 0.5;
+            s(t, if t < 2.0 || (5.0..=6.0).contains(&t) { 1.0 } else { 0.1 })
+        })
+        .collect();
+    // Right: 2 s and 6 s. Held: only 6 s (the track is bad at 5-6 s, after the first).
+    assert_eq!(handovers(&recoveries, &track, &c), (2, 1));
+    // The handover's own tick carries the estimate before it: not held against it.
+    let good_after: Vec<TrackSample> = track.iter().map(|x| s(x.t_s, if x.t_s <= 2.0 { 1.0 } else { 0.1 })).collect();
+    assert_eq!(handovers(&recoveries[..1], &good_after, &c), (1, 1));
+    assert_eq!(handovers(&[], &track, &c), (0, 0));
+}
+
+#[test]
+fn maps_are_parsed_and_checked_by_name() {
+    assert_eq!(KidnapMap::parse_list("w1, chain,truth"), Ok(KidnapMap::ALL.to_vec()));
+    assert!(KidnapMap::parse_list("chain,map").unwrap_err().contains("unknown map \"map\""));
+    assert!(KidnapMap::parse_list("truth,truth").unwrap_err().contains("given twice"));
+    let p = KidnapRobotParams { maps: vec![], ..KidnapRobotParams::default() };
+    assert!(p.validate().unwrap_err().to_string().contains("kidnap_robot.maps"));
+    let p = KidnapRobotParams { maps: vec![KidnapMap::Chain, KidnapMap::Chain], ..KidnapRobotParams::default() };
+    let e = p.validate().unwrap_err().to_string();
+    assert!(e.contains("kidnap_robot.maps") && e.contains("\"chain\" given twice"), "{e}");
+    let names: Vec<String> = KidnapMap::ALL.iter().map(|m| serde_json::to_string(m).unwrap()).collect();
+    assert_eq!(names, ["\"w1\"", "\"chain\"", "\"truth\""]);
 }
