@@ -22,7 +22,7 @@ use crate::sim_source::{SimSource, Simulated};
 use mapkeeper_common::ParamError;
 use mapkeeper_grid::{OccupancyGrid, Pose2};
 use mapkeeper_harness::jobs::map::{EstimateMapper, ThreadedEstimateMapper};
-use mapkeeper_harness::{Baseline, Control, LocScore, Observer, PoseSource, Session, UpdaterWork};
+use mapkeeper_harness::{Baseline, Control, HandoverHold, LocScore, Observer, PoseSource, Session, UpdaterWork};
 pub use mapkeeper_harness::{Clock, ErrorSample, LocStats, NoClock, Trajectories};
 use mapkeeper_localiser::{FilterParams, Localiser};
 use mapkeeper_sim::seeds::{stream_rng, stream_seed};
@@ -65,6 +65,10 @@ pub struct RunnerParams {
     /// The longest a Lost episode waits for a recovered pose before the robot resumes without
     /// one (a give-up), seconds of simulated time. Default 2.
     pub lost_wait_s: f64,
+    /// Hold a handed-over pose with the updater's registration for a while
+    /// ([`mapkeeper_harness::HandoverHold`]). Default off (not written then).
+    #[serde(default, skip_serializing_if = "HandoverHold::is_off")]
+    pub handover_hold: HandoverHold,
     /// The run ends after this much simulated time even if the route is not done, seconds.
     /// Default 300.
     pub max_sim_time_s: f64,
@@ -200,6 +204,7 @@ impl Default for RunnerParams {
             run_baseline: true,
             stop_on_lost: true,
             lost_wait_s: mapkeeper_harness::DEFAULT_LOST_WAIT_S,
+            handover_hold: HandoverHold::default(),
             max_sim_time_s: 300.0,
             record_trajectories: false,
             kidnap: None,
@@ -266,6 +271,7 @@ impl RunnerParams {
         if !(self.max_sim_time_s.is_finite() && self.max_sim_time_s > 0.0) {
             return Err(ParamError::new("max_sim_time_s", self.max_sim_time_s, "must be finite and > 0 s").into());
         }
+        self.handover_hold.validate()?;
         if let Some(k) = &self.kidnap {
             k.validate()?;
         }
@@ -526,7 +532,7 @@ pub fn run_world_with(
     let mut timeline = TimelineRecorder::default();
     let mut kidnap = params.kidnap.map(KidnapControl::new).or(params.robot_kidnap.map(KidnapControl::robot));
     let mut pose_error = params.pose_error.map(PoseErrorControl::new);
-    let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov);
+    let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov).with_hold(params.handover_hold);
     let mut oracle = PoseOracle::new(&params.updater_poses, seed, label);
     let mut given = GivenPoseError::default();
     let mut fresh = fresh_mapper(params, prev_map, options.parallel_fresh_map)?;

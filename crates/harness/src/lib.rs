@@ -33,7 +33,7 @@ pub mod source;
 
 pub use driver::{Control, Observer, run, step_once};
 pub use error::HarnessError;
-pub use lost::{DEFAULT_LOST_WAIT_S, LostCounts, LostEnd, LostEpisode, LostPolicy};
+pub use lost::{DEFAULT_LOST_WAIT_S, HandoverHold, LostCounts, LostEnd, LostEpisode, LostPolicy};
 /// The injected clock (`mapkeeper_common::clock`).
 pub use mapkeeper_common::clock;
 /// Parameter files (`mapkeeper_common::params`).

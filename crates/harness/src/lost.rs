@@ -14,6 +14,53 @@ use serde::{Deserialize, Serialize};
 /// seconds (the default of the simulated runs and of the replay).
 pub const DEFAULT_LOST_WAIT_S: f64 = 2.0;
 
+/// Holding a handed-over pose (issue 54 item 1): for `hold_s` after pose updating hands a
+/// pose over, every step whose registration before writing (`mapkeeper`'s
+/// `registration.enabled`) accepts a correction of at least `min_shift_m` or `min_turn_rad`
+/// re-seeds the chain localiser at the refined pose, with the fit's own uncertainty (floored as
+/// a handover's is). The failure it prevents: a filter re-seeded at the right pose in a stale
+/// world drifts back past 0.2 m or 5° within seconds (its particles follow the changed
+/// structure), while the scan still fits the map's unchanged surfaces at the right pose. Off
+/// (`hold_s` = 0) by default; without registration it does nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HandoverHold {
+    /// How long after a handover registration may correct the localiser, seconds; 0: off.
+    /// Default 0.
+    pub hold_s: f64,
+    /// Smallest accepted correction that re-seeds, metres. Default 0.05.
+    pub min_shift_m: f64,
+    /// …or the smallest turn, radians. Default 1° (0.01745).
+    pub min_turn_rad: f64,
+}
+
+impl Default for HandoverHold {
+    fn default() -> Self {
+        Self { hold_s: 0.0, min_shift_m: 0.05, min_turn_rad: 1f64.to_radians() }
+    }
+}
+
+impl HandoverHold {
+    /// Whether it is off (`hold_s` = 0).
+    pub fn is_off(&self) -> bool {
+        self.hold_s <= 0.0
+    }
+
+    /// Checks every field: finite and ≥ 0; the error names the field (`handover_hold.<field>`).
+    pub fn validate(&self) -> Result<(), mapkeeper_common::ParamError> {
+        for (name, v) in [
+            ("handover_hold.hold_s", self.hold_s),
+            ("handover_hold.min_shift_m", self.min_shift_m),
+            ("handover_hold.min_turn_rad", self.min_turn_rad),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(mapkeeper_common::ParamError::new(name, v, "must be finite and ≥ 0"));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// How a Lost episode ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -71,6 +118,14 @@ pub struct LostCounts {
     pub give_ups: u64,
     /// Time the robot stood stopped for Lost, nanoseconds of simulated time.
     pub stopped_ns: u64,
+    /// Re-seedings of the localiser by registration while holding a handed-over pose
+    /// ([`HandoverHold`]; not written when 0).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub hold_corrections: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 impl LostCounts {
@@ -88,6 +143,7 @@ impl LostCounts {
             cleared: self.cleared + o.cleared,
             give_ups: self.give_ups + o.give_ups,
             stopped_ns: self.stopped_ns + o.stopped_ns,
+            hold_corrections: self.hold_corrections + o.hold_corrections,
         }
     }
 }
@@ -123,6 +179,9 @@ pub struct LostPolicy {
     last_stamp_ns: u64,
     counts: LostCounts,
     episodes: Vec<LostEpisode>,
+    hold: HandoverHold,
+    /// The stamp of the last handover, nanoseconds.
+    handed_over_ns: Option<u64>,
 }
 
 impl LostPolicy {
@@ -139,7 +198,38 @@ impl LostPolicy {
             last_stamp_ns: 0,
             counts: LostCounts::default(),
             episodes: Vec::new(),
+            hold: HandoverHold::default(),
+            handed_over_ns: None,
         }
+    }
+
+    /// The same policy, holding each handed-over pose with registration as `hold` says
+    /// (checked by the caller: [`HandoverHold::validate`]).
+    pub fn with_hold(mut self, hold: HandoverHold) -> Self {
+        self.hold = hold;
+        self
+    }
+
+    /// Within `hold_s` of the last handover, a step whose registration accepted a correction
+    /// past the thresholds re-seeds the localiser at the refined pose.
+    fn hold_step(&mut self, step: &Step, report: &SessionStep, session: &mut Session<'_>) -> Result<(), HarnessError> {
+        let Some(t0) = self.handed_over_ns else { return Ok(()) };
+        let stamp_ns = step.frame.stamp_ns;
+        if self.hold.is_off() || stamp_ns.saturating_sub(t0) as f64 > self.hold.hold_s * 1e9 {
+            return Ok(());
+        }
+        let Some(u) = report.updater.as_ref() else { return Ok(()) };
+        let Some(reg) = u.registration.as_ref().filter(|r| r.accepted()) else { return Ok(()) };
+        if u.verdict == Some(Verdict::Lost)
+            || (reg.shift_m < self.hold.min_shift_m && reg.turn_rad.abs() < self.hold.min_turn_rad)
+        {
+            return Ok(());
+        }
+        let (sxy, syaw) = (reg.xy_sigma_m * reg.xy_sigma_m, reg.yaw_sigma_rad * reg.yaw_sigma_rad);
+        let cov = [[sxy, 0.0, 0.0], [0.0, sxy, 0.0], [0.0, 0.0, syaw]];
+        self.adopt(step, session, reg.pose, &cov)?;
+        self.counts.hold_corrections += 1;
+        Ok(())
     }
 
     /// The counts and the episodes (in order) so far; an episode still open is closed as
@@ -195,6 +285,9 @@ impl Control for LostPolicy {
     ) -> Result<(), HarnessError> {
         let stamp_ns = step.frame.stamp_ns;
         self.last_stamp_ns = stamp_ns;
+        if self.open.is_none() {
+            self.hold_step(step, report, session)?;
+        }
         let u = report.updater.as_ref();
         let verdict = u.and_then(|u| u.verdict);
         let mut robot = robot;
@@ -222,6 +315,7 @@ impl Control for LostPolicy {
         let end = match (recovery, verdict) {
             (Some(PoseRecovery::Recovered { pose_in_map, covariance, .. }), _) => {
                 self.adopt(step, session, *pose_in_map, covariance)?;
+                self.handed_over_ns = Some(stamp_ns);
                 Some(LostEnd::Recovered)
             }
             (_, Some(Verdict::Update | Verdict::Suspend)) => Some(LostEnd::Cleared),
@@ -286,8 +380,33 @@ mod tests {
             .map(|e| serde_json::to_string(e).unwrap())
             .collect();
         assert_eq!(serialised, ["\"recovered\"", "\"cleared\"", "\"gave-up\"", "\"run-ended\""]);
-        let c =
-            LostCounts { episodes: 2, attempts: 3, recoveries: 1, cleared: 0, give_ups: 1, stopped_ns: 2_000_000_000 };
+        let c = LostCounts {
+            episodes: 2,
+            attempts: 3,
+            recoveries: 1,
+            cleared: 0,
+            give_ups: 1,
+            stopped_ns: 2_000_000_000,
+            hold_corrections: 0,
+        };
         assert_eq!(c.to_string(), "2 episodes, 3 attempts, recovered/cleared/gave up 1/0/1, stopped 2.0 s");
+    }
+
+    #[test]
+    fn the_hold_is_off_by_default_and_its_fields_are_checked_by_name() {
+        let h = HandoverHold::default();
+        assert!(h.is_off() && h.validate().is_ok());
+        assert!(!HandoverHold { hold_s: 5.0, ..h }.is_off());
+        for (bad, name) in [
+            (HandoverHold { hold_s: f64::NAN, ..h }, "handover_hold.hold_s"),
+            (HandoverHold { min_shift_m: -0.1, ..h }, "handover_hold.min_shift_m"),
+            (HandoverHold { min_turn_rad: f64::INFINITY, ..h }, "handover_hold.min_turn_rad"),
+        ] {
+            let e = bad.validate().expect_err("refused").to_string();
+            assert!(e.contains(name), "{e}");
+        }
+        // Not written when 0: the run records of the runs without a hold are unchanged.
+        let json = serde_json::to_string(&LostCounts::default()).unwrap();
+        assert!(!json.contains("hold_corrections"), "{json}");
     }
 }

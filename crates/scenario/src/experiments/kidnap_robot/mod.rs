@@ -330,6 +330,11 @@ pub struct RobotKidnapTrial {
     /// reach in this world at all.
     #[serde(default)]
     pub reference_final_error_m: Option<f64>,
+    /// Whether the run without kidnap kept its localiser under the success criterion at every
+    /// scan tick from the kidnap's time to the end: what a handover can be held to at most in
+    /// this world on this map (`None`: no pose recorded there).
+    #[serde(default)]
+    pub reference_held: Option<bool>,
     /// Right poses (under the success criterion) pose updating handed over after the kidnap.
     #[serde(default)]
     pub handovers_right: usize,
@@ -460,6 +465,7 @@ fn run_trial(
         recovery_s: None,
         pose_found_s: None,
         reference_final_error_m: final_chain_error(reference.trajectories.as_ref()),
+        reference_held: held_from(reference.trajectories.as_ref(), at_ns, c),
         handovers_right: 0,
         handovers_held: 0,
         pose_recoveries: 0,
@@ -531,6 +537,27 @@ fn handovers(recoveries: &[TrackSample], track: &[TrackSample], c: &SuccessCrite
 /// Lost verdicts of a timeline given at steps where `at` holds (the localiser's error then).
 fn lost_where(timeline: &[TimelineSample], at: impl Fn(&TimelineSample) -> bool) -> u64 {
     timeline.iter().filter(|t| t.verdict == mapkeeper_updater::Verdict::Lost && at(t)).count() as u64
+}
+
+/// Whether the chain localiser of `t` was under the criterion `c` at every pose it gave from
+/// `from_ns` on (each against the latest true pose at or before its stamp); `None` without
+/// trajectories or a pose there.
+fn held_from(t: Option<&mapkeeper_harness::Trajectories>, from_ns: u64, c: &SuccessCriterion) -> Option<bool> {
+    let t = t?;
+    let mut k = 0;
+    let mut any = false;
+    for s in t.chain.iter().filter(|s| s.stamp_ns >= from_ns) {
+        while k + 1 < t.truth.len() && t.truth[k + 1].stamp_ns <= s.stamp_ns {
+            k += 1;
+        }
+        let truth = t.truth.get(k)?.pose;
+        any = true;
+        let yaw = wrap_angle(s.pose.yaw - truth.yaw).abs();
+        if s.pose.distance(&truth) >= c.max_error_m || yaw >= c.max_yaw_error_rad {
+            return Some(false);
+        }
+    }
+    any.then_some(true)
 }
 
 /// The chain localiser's error at its last pose, against the truth at the same stamp.

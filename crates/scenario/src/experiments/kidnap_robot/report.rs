@@ -26,6 +26,7 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "recovery_s",
     "pose_found_s",
     "reference_final_error_m",
+    "reference_held",
     "handovers_right",
     "handovers_held",
     "pose_recoveries",
@@ -56,7 +57,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
             t.map.name(),
             d.world,
@@ -75,6 +76,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             opt(t.recovery_s),
             opt(t.pose_found_s),
             opt(t.reference_final_error_m),
+            t.reference_held.map_or_else(String::new, |b| b.to_string()),
             t.handovers_right,
             t.handovers_held,
             t.pose_recoveries,
@@ -148,11 +150,14 @@ type Row = (&'static str, fn(&KidnapRobotSummary) -> String);
 
 /// The headline figures, one column per map.
 fn side_by_side(o: &mut String, r: &KidnapRobotResults) {
-    let rows: [Row; 9] = [
+    let rows: [Row; 10] = [
         ("recovered (pose updating + filter)", |s| pc(s.recovered_rate_pose_updating + s.recovered_rate_filter)),
         ("a right pose handed over within 5 s of stopping", |s| pc(s.pose_found_5s_rate)),
         ("right handovers held to the end", |s| {
             s.handover_held_rate.map_or_else(|| "–".into(), |v| format!("{} of {}", pc(v), s.handovers_right))
+        }),
+        ("runs without kidnap right from the kidnap's time to the end (the most a handover can hold)", |s| {
+            pc(s.reference_held_rate)
         }),
         ("time to hand over, median / p90", |s| {
             format!("{} / {}", secs(s.median_pose_found_s), secs(s.p90_pose_found_s))

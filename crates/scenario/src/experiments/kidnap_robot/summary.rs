@@ -87,6 +87,10 @@ pub struct KidnapRobotSummary {
     /// Those trials.
     #[serde(default)]
     pub trials_reference_held: usize,
+    /// Trials whose run without kidnap kept its localiser under the success criterion from the
+    /// kidnap's time to the end: the share a handover could be held in at most.
+    #[serde(default)]
+    pub reference_held_rate: f64,
     /// Right poses pose updating handed over after the kidnaps.
     #[serde(default)]
     pub handovers_right: usize,
@@ -196,6 +200,7 @@ pub fn summarise_robot_kidnap(preset: &str, map: KidnapMap, trials: &[RobotKidna
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
             0.9,
         ),
+        reference_held_rate: frac(a.iter().map(|t| t.reference_held == Some(true))),
         handovers_right: a.iter().map(|t| t.handovers_right).sum(),
         handover_held_rate: ratio(
             a.iter().map(|t| t.handovers_held as u64).sum(),

@@ -91,6 +91,7 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
         recovery_s: recovered.then_some(2.0),
         pose_found_s: recovered.then_some(1.0),
         reference_final_error_m: Some(reference_final_error_m),
+        reference_held: Some(reference_final_error_m < 0.2),
         handovers_right: usize::from(recovered) + 1,
         handovers_held: usize::from(recovered),
         pose_recoveries: usize::from(recovered),
@@ -116,6 +117,7 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
     let s = summarise_robot_kidnap("mapkeeper", KidnapMap::Chain, &t);
     assert_eq!(s.map, KidnapMap::Chain);
     assert_eq!(s.trials_reference_held, 2);
+    assert!((s.reference_held_rate - 0.5).abs() < 1e-12);
     // Six right handovers, two held.
     assert_eq!((s.handovers_right, s.handover_held_rate), (6, Some(2.0 / 6.0)));
     let held: usize = s.by_turn.iter().map(|b| b.handovers_held).sum();
@@ -162,4 +164,24 @@ fn maps_are_parsed_and_checked_by_name() {
     assert!(e.contains("kidnap_robot.maps") && e.contains("\"chain\" given twice"), "{e}");
     let names: Vec<String> = KidnapMap::ALL.iter().map(|m| serde_json::to_string(m).unwrap()).collect();
     assert_eq!(names, ["\"w1\"", "\"chain\"", "\"truth\""]);
+}
+
+#[test]
+fn the_reference_holds_only_if_every_pose_from_the_kidnap_on_is_right() {
+    use mapkeeper_sensor::StampedPose;
+    let c = SuccessCriterion::default();
+    let at = |t: u64, x: f64, yaw: f64| StampedPose { stamp_ns: t * 100_000_000, pose: Pose2::new(x, 0.0, yaw) };
+    let truth: Vec<StampedPose> = (0..10).map(|t| at(t, 0.1 * t as f64, 0.0)).collect();
+    // Off by 0.5 m before 0.3 s, right after it, then 6° off at 0.8 s.
+    let chain: Vec<StampedPose> = (0..10)
+        .map(|t| {
+            let x = 0.1 * t as f64 + if t < 3 { 0.5 } else { 0.05 };
+            at(t, x, if t == 8 { 6f64.to_radians() } else { 0.0 })
+        })
+        .collect();
+    let tr = mapkeeper_harness::Trajectories { truth, chain, baseline: Vec::new() };
+    assert_eq!(held_from(Some(&tr), 300_000_000, &c), Some(false), "the 6° pose at 0.8 s");
+    assert_eq!(held_from(Some(&tr), 900_000_000, &c), Some(true));
+    assert_eq!(held_from(Some(&tr), 2_000_000_000, &c), None, "no pose after the end");
+    assert_eq!(held_from(None, 0, &c), None);
 }
