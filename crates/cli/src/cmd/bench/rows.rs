@@ -109,6 +109,43 @@ pub(super) fn run_global_recovery(scene: &Scene, up: &mut MapUpdater) -> anyhow:
     Ok(attempts)
 }
 
+/// A Lost episode that never ends: the robot stands Lost where nothing fits. Every step of the
+/// scene is given 5 m ahead of and half a turn from the truth with its scans mirrored (each
+/// lidar's ranges in reverse order: a world that is not on the map), so the check says Lost, the
+/// local search and the global search (to its node budget) find nothing that passes, and the
+/// updater retries every `retry_interval_s` of the scans' clock, running the check on the steps
+/// between: the most a Lost second costs. Returns the seconds of scans covered and the
+/// attempts; fails unless there were about two attempts per second, almost all refused.
+pub(super) fn run_lost_seconds(scene: &Scene, up: &mut MapUpdater) -> anyhow::Result<(f64, usize)> {
+    let off = Pose2::new(5.0, 0.0, std::f64::consts::PI);
+    let (Some(first), Some(last)) = (scene.steps.first(), scene.steps.last()) else {
+        anyhow::bail!("Lost-second bench: an empty scene");
+    };
+    up.reset_reference_pose(first.truth.compose(&off), first.frame.odometry.unwrap_or(first.truth));
+    let (mut attempts, mut refused) = (0, 0);
+    let mut scans = Vec::new();
+    for s in &scene.steps {
+        scans.clone_from(&s.frame.scans);
+        for scan in &mut scans {
+            scan.ranges_m.reverse();
+        }
+        let r = up.process(s.truth.compose(&off), s.frame.odometry.unwrap_or(s.truth), &scans);
+        attempts += usize::from(r.pose_recovery.is_some());
+        refused += usize::from(
+            matches!(r.pose_recovery, Some(p) if !matches!(p, mapkeeper_updater::PoseRecovery::Recovered { .. })),
+        );
+    }
+    let span_s = last.frame.stamp_ns.saturating_sub(first.frame.stamp_ns) as f64 / 1e9;
+    anyhow::ensure!(
+        span_s > 0.0
+            && attempts as f64 >= span_s
+            && attempts as f64 <= 2.0 * span_s + 2.0
+            && refused * 10 >= attempts * 9,
+        "Lost-second bench: {attempts} attempts ({refused} refused) over {span_s:.1} s of scans"
+    );
+    Ok((span_s, attempts))
+}
+
 /// Rays from every 10th true pose of the scene in 1,082 directions, 30 m, to the first occupied
 /// or unknown cell; returns (rays, the sum of the ranges, to keep the work).
 pub(super) fn run_traversal(caster: &RayCaster, scene: &Scene) -> (usize, f64) {

@@ -61,6 +61,7 @@ pub(super) struct Keys {
     pub(super) fresh_map: usize,
     pub(super) traversal: usize,
     pub(super) global: usize,
+    pub(super) lost_second: usize,
     /// (CPU row, wall row) per closed-loop preset.
     pub(super) loops: Vec<(usize, usize)>,
 }
@@ -93,6 +94,14 @@ pub(super) fn table_rows(table: &mut Table, with_loop: bool, fresh_stride: u32) 
         "attempts/s",
         1e-3,
     );
+    let lost_second = table.add(
+        "pose recovery while Lost, `mapkeeper`: one second standing Lost where nothing fits (the check every step, a \
+         refused attempt every 0.5 s)"
+            .into(),
+        "ms",
+        "× real time",
+        1e-3,
+    );
     let loops = if with_loop {
         LOOP_PRESETS
             .iter()
@@ -107,7 +116,7 @@ pub(super) fn table_rows(table: &mut Table, with_loop: bool, fresh_stride: u32) 
     } else {
         Vec::new()
     };
-    Keys { sim, localisers, updaters, fresh_map, traversal, global, loops }
+    Keys { sim, localisers, updaters, fresh_map, traversal, global, lost_second, loops }
 }
 
 /// One repeat of every component row (not the loop).
@@ -141,5 +150,9 @@ pub(super) fn measure_components(
     let (t, attempts) = timed(|| run_global_recovery(scene, &mut up));
     let attempts = attempts?.max(1);
     table.push(keys.global, t / attempts as f64, attempts as f64 / t);
+    let mut up = MapUpdater::new(scene.map.clone(), UpdaterParams::mapkeeper())?;
+    let (t, lost) = timed(|| run_lost_seconds(scene, &mut up));
+    let (span_s, _) = lost?;
+    table.push(keys.lost_second, t / span_s, span_s / t);
     Ok(())
 }
