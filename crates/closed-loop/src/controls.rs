@@ -9,7 +9,7 @@ use mapkeeper_common::ParamError;
 use mapkeeper_grid::{Pose2, angle_diff, wrap_angle};
 pub use mapkeeper_harness::lost::{LostCounts, LostEnd, LostEpisode, LostPolicy};
 use mapkeeper_harness::{Control, HarnessError, Observer, PoseBias, RobotControl, Session, SessionStep, Step};
-use mapkeeper_updater::{PoseRecovery, Verdict};
+use mapkeeper_updater::{PoseRecovery, RecoveryFailure, Verdict};
 use serde::{Deserialize, Serialize};
 
 /// A kidnapping of the chain localiser's estimate: at the first scan tick at or after `at_s`,
@@ -112,6 +112,10 @@ pub struct KidnapRecord {
     pub recoveries_global: Vec<bool>,
     /// Refused pose recoveries at or after the kidnap.
     pub failed_recoveries: u64,
+    /// …of them refused because two distant poses fitted about equally well
+    /// (`RecoveryFailure::Ambiguous`); the others fitted too few points or nothing at all.
+    #[serde(default)]
+    pub ambiguous_recoveries: u64,
     /// The chain localiser's error at every scan tick from the kidnap on.
     pub track: Vec<TrackSample>,
 }
@@ -211,6 +215,7 @@ impl Control for KidnapControl {
             recoveries: Vec::new(),
             recoveries_global: Vec::new(),
             failed_recoveries: 0,
+            ambiguous_recoveries: 0,
             track: Vec::new(),
         });
         Ok(())
@@ -241,7 +246,10 @@ impl Control for KidnapControl {
                     rec.recoveries.push(TrackSample::of(t_s, pose_in_map, &truth));
                     rec.recoveries_global.push(u.and_then(|u| u.global_search.as_ref()).is_some_and(|g| g.chosen));
                 }
-                Some(PoseRecovery::NotRecovered { .. }) => rec.failed_recoveries += 1,
+                Some(PoseRecovery::NotRecovered { reason }) => {
+                    rec.failed_recoveries += 1;
+                    rec.ambiguous_recoveries += u64::from(matches!(reason, RecoveryFailure::Ambiguous { .. }));
+                }
                 None => {}
             }
         }

@@ -342,6 +342,13 @@ pub struct RobotKidnapTrial {
     /// the handover to the end of the run.
     #[serde(default)]
     pub handovers_held: usize,
+    /// Attempts of pose updating after the kidnap that found no pose (refused), and those of
+    /// them refused as ambiguous (two distant places fitted about equally well).
+    #[serde(default)]
+    pub refused_attempts: u64,
+    /// See `refused_attempts`.
+    #[serde(default)]
+    pub ambiguous_attempts: u64,
     /// Poses from pose updating after the kidnap.
     pub pose_recoveries: usize,
     /// …of them wrong (error above the criterion).
@@ -468,6 +475,8 @@ fn run_trial(
         reference_held: held_from(reference.trajectories.as_ref(), at_ns, c),
         handovers_right: 0,
         handovers_held: 0,
+        refused_attempts: 0,
+        ambiguous_attempts: 0,
         pose_recoveries: 0,
         wrong_pose_recoveries: 0,
         final_error_m: None,
@@ -516,6 +525,7 @@ fn score_kidnap(out: &mut RobotKidnapTrial, rec: &KidnapRecord, c: &SuccessCrite
         _ => None,
     };
     (out.handovers_right, out.handovers_held) = handovers(&rec.recoveries, track, c);
+    (out.refused_attempts, out.ambiguous_attempts) = (rec.failed_recoveries, rec.ambiguous_recoveries);
     out.pose_recoveries = rec.recoveries.len();
     out.wrong_pose_recoveries =
         rec.recoveries.iter().filter(|s| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad).count();

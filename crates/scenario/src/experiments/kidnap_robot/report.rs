@@ -29,6 +29,8 @@ pub const TRIALS_CSV_COLUMNS: &[&str] = &[
     "reference_held",
     "handovers_right",
     "handovers_held",
+    "refused_attempts",
+    "ambiguous_attempts",
     "pose_recoveries",
     "wrong_pose_recoveries",
     "final_error_m",
@@ -57,7 +59,7 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
         let d = &t.draw;
         let _ = writeln!(
             s,
-            "{},{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{},{:.3},{:.3},{:.3},{:.2},{:.2},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             d.trial,
             t.map.name(),
             d.world,
@@ -79,6 +81,8 @@ pub fn trials_csv(r: &KidnapRobotResults) -> String {
             t.reference_held.map_or_else(String::new, |b| b.to_string()),
             t.handovers_right,
             t.handovers_held,
+            t.refused_attempts,
+            t.ambiguous_attempts,
             t.pose_recoveries,
             t.wrong_pose_recoveries,
             opt(t.final_error_m),
@@ -206,6 +210,11 @@ fn map_section(o: &mut String, r: &KidnapRobotResults, k: &KidnapRobotSummary) {
         "| a right pose from pose updating, at all / within 5 s of stopping | {} / {} |",
         pc(k.pose_found_rate),
         pc(k.pose_found_5s_rate)
+    );
+    let _ = writeln!(
+        o,
+        "| never a right pose: trials / of them with an ambiguous attempt (the rest fitted no place) | {} / {} |",
+        k.never_found, k.never_found_ambiguous
     );
     let _ = writeln!(
         o,

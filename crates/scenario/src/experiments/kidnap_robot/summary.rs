@@ -91,6 +91,13 @@ pub struct KidnapRobotSummary {
     /// kidnap's time to the end: the share a handover could be held in at most.
     #[serde(default)]
     pub reference_held_rate: f64,
+    /// Trials (robot moved) in which pose updating never handed over a right pose.
+    #[serde(default)]
+    pub never_found: usize,
+    /// …of them with at least one attempt refused as ambiguous (two places fitted alike); the
+    /// others' scans fitted no place well enough.
+    #[serde(default)]
+    pub never_found_ambiguous: usize,
     /// Right poses pose updating handed over after the kidnaps.
     #[serde(default)]
     pub handovers_right: usize,
@@ -200,6 +207,8 @@ pub fn summarise_robot_kidnap(preset: &str, map: KidnapMap, trials: &[RobotKidna
             a.iter().filter(|t| t.recovered_pose_updating || t.recovered_filter).filter_map(|t| t.recovery_s).collect(),
             0.9,
         ),
+        never_found: a.iter().filter(|t| t.pose_found_s.is_none()).count(),
+        never_found_ambiguous: a.iter().filter(|t| t.pose_found_s.is_none() && t.ambiguous_attempts > 0).count(),
         reference_held_rate: frac(a.iter().map(|t| t.reference_held == Some(true))),
         handovers_right: a.iter().map(|t| t.handovers_right).sum(),
         handover_held_rate: ratio(

@@ -94,6 +94,8 @@ fn the_summary_counts_recoveries_where_the_reference_held_and_false_lost_three_w
         reference_held: Some(reference_final_error_m < 0.2),
         handovers_right: usize::from(recovered) + 1,
         handovers_held: usize::from(recovered),
+        refused_attempts: 0,
+        ambiguous_attempts: 0,
         pose_recoveries: usize::from(recovered),
         wrong_pose_recoveries: 0,
         final_error_m: Some(0.05),
