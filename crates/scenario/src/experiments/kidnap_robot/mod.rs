@@ -331,8 +331,9 @@ pub struct RobotKidnapTrial {
     #[serde(default)]
     pub reference_final_error_m: Option<f64>,
     /// Whether the run without kidnap kept its localiser under the success criterion at every
-    /// scan tick from the kidnap's time to the end: what a handover can be held to at most in
-    /// this world on this map (`None`: no pose recorded there).
+    /// scan tick from the kidnap's time to the end: how often the localiser alone stays right
+    /// over that stretch in this world on this map, without a kidnap, a handover or a hold
+    /// (`None`: no pose recorded there).
     #[serde(default)]
     pub reference_held: Option<bool>,
     /// Right poses (under the success criterion) pose updating handed over after the kidnap.

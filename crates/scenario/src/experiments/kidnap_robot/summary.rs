@@ -88,7 +88,7 @@ pub struct KidnapRobotSummary {
     #[serde(default)]
     pub trials_reference_held: usize,
     /// Trials whose run without kidnap kept its localiser under the success criterion from the
-    /// kidnap's time to the end: the share a handover could be held in at most.
+    /// kidnap's time to the end: the localiser alone over that stretch (no handover, no hold).
     #[serde(default)]
     pub reference_held_rate: f64,
     /// Trials (robot moved) in which pose updating never handed over a right pose.
