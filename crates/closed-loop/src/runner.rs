@@ -66,8 +66,9 @@ pub struct RunnerParams {
     /// one (a give-up), seconds of simulated time. Default 2.
     pub lost_wait_s: f64,
     /// Hold a handed-over pose with the updater's registration for a while
-    /// ([`mapkeeper_harness::HandoverHold`]). Default off (not written then).
-    #[serde(default, skip_serializing_if = "HandoverHold::is_off")]
+    /// ([`mapkeeper_harness::HandoverHold`]). Default 30 s after each handover; `hold_s = 0`
+    /// turns it off (the behaviour before issue 54).
+    #[serde(default)]
     pub handover_hold: HandoverHold,
     /// The run ends after this much simulated time even if the route is not done, seconds.
     /// Default 300.

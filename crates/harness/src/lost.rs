@@ -20,13 +20,14 @@ pub const DEFAULT_LOST_WAIT_S: f64 = 2.0;
 /// re-seeds the chain localiser at the refined pose, with the fit's own uncertainty (floored as
 /// a handover's is). The failure it prevents: a filter re-seeded at the right pose in a stale
 /// world drifts back past 0.2 m or 5° within seconds (its particles follow the changed
-/// structure), while the scan still fits the map's unchanged surfaces at the right pose. Off
-/// (`hold_s` = 0) by default; without registration it does nothing.
+/// structure), while the scan still fits the map's unchanged surfaces at the right pose. On for
+/// 30 s by default (`hold_s` = 0 turns it off; `docs/recovery.md`, "Holding what was found",
+/// has the measurements); without registration (`paper`, `authors`) it does nothing.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HandoverHold {
     /// How long after a handover registration may correct the localiser, seconds; 0: off.
-    /// Default 0.
+    /// Default 30.
     pub hold_s: f64,
     /// Smallest accepted correction that re-seeds, metres. Default 0.05.
     pub min_shift_m: f64,
@@ -36,11 +37,16 @@ pub struct HandoverHold {
 
 impl Default for HandoverHold {
     fn default() -> Self {
-        Self { hold_s: 0.0, min_shift_m: 0.05, min_turn_rad: 1f64.to_radians() }
+        Self { hold_s: 30.0, min_shift_m: 0.05, min_turn_rad: 1f64.to_radians() }
     }
 }
 
 impl HandoverHold {
+    /// No hold: a handed-over pose is left to the filter (the behaviour before issue 54).
+    pub fn off() -> Self {
+        Self { hold_s: 0.0, ..Self::default() }
+    }
+
     /// Whether it is off (`hold_s` = 0).
     pub fn is_off(&self) -> bool {
         self.hold_s <= 0.0
@@ -203,8 +209,8 @@ impl LostPolicy {
         }
     }
 
-    /// The same policy, holding each handed-over pose with registration as `hold` says
-    /// (checked by the caller: [`HandoverHold::validate`]).
+    /// The same policy, holding each handed-over pose with registration as `hold` says (the
+    /// default is [`HandoverHold::default`]; checked by the caller: [`HandoverHold::validate`]).
     pub fn with_hold(mut self, hold: HandoverHold) -> Self {
         self.hold = hold;
         self
@@ -393,10 +399,10 @@ mod tests {
     }
 
     #[test]
-    fn the_hold_is_off_by_default_and_its_fields_are_checked_by_name() {
+    fn the_hold_is_on_by_default_and_its_fields_are_checked_by_name() {
         let h = HandoverHold::default();
-        assert!(h.is_off() && h.validate().is_ok());
-        assert!(!HandoverHold { hold_s: 5.0, ..h }.is_off());
+        assert!(!h.is_off() && h.validate().is_ok() && h.hold_s == 30.0);
+        assert!(HandoverHold::off().is_off() && HandoverHold::off().validate().is_ok());
         for (bad, name) in [
             (HandoverHold { hold_s: f64::NAN, ..h }, "handover_hold.hold_s"),
             (HandoverHold { min_shift_m: -0.1, ..h }, "handover_hold.min_shift_m"),
@@ -405,7 +411,7 @@ mod tests {
             let e = bad.validate().expect_err("refused").to_string();
             assert!(e.contains(name), "{e}");
         }
-        // Not written when 0: the run records of the runs without a hold are unchanged.
+        // Not written when 0: the run records of runs without a re-seeding are unchanged.
         let json = serde_json::to_string(&LostCounts::default()).unwrap();
         assert!(!json.contains("hold_corrections"), "{json}");
     }
