@@ -22,11 +22,12 @@ fn bench_table_has_every_component_with_consistent_figures() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     let rows = rows(&json);
     let names: Vec<&str> = rows.iter().map(|r| r["what"].as_str().unwrap()).collect();
-    // Simulator, localisers, updaters, the fresh map, traversal, and one pose-recovery attempt
-    // (global search).
-    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 3;
+    // Simulator, localisers, updaters, the fresh map, traversal, one pose-recovery attempt
+    // (global search) and a second standing Lost.
+    let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 4;
     assert_eq!(rows.len(), expected, "{names:?}");
     assert!(names.iter().any(|n| n.starts_with("pose recovery when Lost")), "{names:?}");
+    assert!(names.iter().any(|n| n.starts_with("pose recovery while Lost")), "{names:?}");
     // The fresh map's row names the validation's rate, from its parameters.
     let stride = mapkeeper_scenario::ValidationParams::new(2, "paper").unwrap().runner.fresh_map.unwrap().scan_stride;
     let fresh = format!(
