@@ -177,7 +177,7 @@ fn with_start(world: &World, start: Pose2) -> World {
 /// stretch of good samples, if it reaches the end of the track and lasts at least `hold_s`
 /// (within one sample period). `None` if the last sample is bad or the track is empty.
 pub fn recovery_time(track: &[TrackSample], c: &SuccessCriterion) -> Option<f64> {
-    let good = |s: &TrackSample| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad;
+    let good = |s: &TrackSample| c.holds(s.error_m, s.yaw_error_rad);
     let last = track.last()?;
     if !good(last) {
         return None;

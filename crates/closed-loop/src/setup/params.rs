@@ -52,6 +52,14 @@ impl Default for SuccessCriterion {
     }
 }
 
+impl SuccessCriterion {
+    /// Whether a pose `error_m` and `yaw_error_rad` (absolute) off the truth counts as right:
+    /// under both limits.
+    pub fn holds(&self, error_m: f64, yaw_error_rad: f64) -> bool {
+        error_m < self.max_error_m && yaw_error_rad < self.max_yaw_error_rad
+    }
+}
+
 /// The localisation-check demo (§5.3.1, Fig. 16).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

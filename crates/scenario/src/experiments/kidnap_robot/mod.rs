@@ -482,9 +482,7 @@ fn run_trial(
         wrong_pose_recoveries: 0,
         final_error_m: None,
         reference_lost: reference.updater.lost,
-        reference_lost_right_pose: lost_where(&reference.timeline, |t| {
-            t.error_m < c.max_error_m && t.yaw_error_rad < c.max_yaw_error_rad
-        }),
+        reference_lost_right_pose: lost_where(&reference.timeline, |t| c.holds(t.error_m, t.yaw_error_rad)),
         reference_lost_well_localised: lost_where(&reference.timeline, well_localised),
         reference_steps: reference.timeline.len() as u64,
         reference_steps_well_localised: reference.timeline.iter().filter(|t| well_localised(t)).count() as u64,
@@ -520,16 +518,15 @@ fn score_kidnap(out: &mut RobotKidnapTrial, rec: &KidnapRecord, c: &SuccessCrite
     let last_before = t_r.and_then(|t| rec.recoveries.iter().rposition(|r| r.t_s <= t + 1e-9));
     out.recovered_global_search =
         out.recovered_pose_updating && last_before.is_some_and(|k| rec.recoveries_global.get(k) == Some(&true));
-    let right = |r: &&TrackSample| r.error_m < c.max_error_m && r.yaw_error_rad < c.max_yaw_error_rad;
-    out.pose_found_s = match (rec.first_lost_s, rec.recoveries.iter().find(right)) {
+    let right = |r: &TrackSample| c.holds(r.error_m, r.yaw_error_rad);
+    out.pose_found_s = match (rec.first_lost_s, rec.recoveries.iter().find(|r| right(r))) {
         (Some(lost), Some(r)) => Some((r.t_s - lost).max(0.0)),
         _ => None,
     };
     (out.handovers_right, out.handovers_held) = handovers(&rec.recoveries, track, c);
     (out.refused_attempts, out.ambiguous_attempts) = (rec.failed_recoveries, rec.ambiguous_recoveries);
     out.pose_recoveries = rec.recoveries.len();
-    out.wrong_pose_recoveries =
-        rec.recoveries.iter().filter(|s| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad).count();
+    out.wrong_pose_recoveries = rec.recoveries.iter().filter(|s| !right(s)).count();
     out.final_error_m = track.last().map(|s| s.error_m);
 }
 
@@ -538,7 +535,7 @@ fn score_kidnap(out: &mut RobotKidnapTrial, rec: &KidnapRecord, c: &SuccessCrite
 /// each scan tick; the sample of the handover's own tick is the estimate before it) is under
 /// the criterion to the end.
 fn handovers(recoveries: &[TrackSample], track: &[TrackSample], c: &SuccessCriterion) -> (usize, usize) {
-    let good = |s: &TrackSample| s.error_m < c.max_error_m && s.yaw_error_rad < c.max_yaw_error_rad;
+    let good = |s: &TrackSample| c.holds(s.error_m, s.yaw_error_rad);
     let last_bad = track.iter().rev().find(|s| !good(s)).map(|s| s.t_s);
     let right: Vec<&TrackSample> = recoveries.iter().filter(|r| good(r)).collect();
     let held = right.iter().filter(|r| last_bad.is_none_or(|t| t <= r.t_s + 1e-9)).count();
@@ -563,8 +560,7 @@ fn held_from(t: Option<&mapkeeper_harness::Trajectories>, from_ns: u64, c: &Succ
         }
         let truth = t.truth.get(k)?.pose;
         any = true;
-        let yaw = wrap_angle(s.pose.yaw - truth.yaw).abs();
-        if s.pose.distance(&truth) >= c.max_error_m || yaw >= c.max_yaw_error_rad {
+        if !c.holds(s.pose.distance(&truth), wrap_angle(s.pose.yaw - truth.yaw).abs()) {
             return Some(false);
         }
     }

@@ -255,7 +255,7 @@ pub fn run_kidnap_trial(
     let track = rec.map(|r| r.track.as_slice()).unwrap_or_default();
     let at = rec.map_or(draw.kidnap_s, |r| r.at_s);
     let recovery_s = recovery_time(track, c).map(|t| t - at);
-    let is_wrong = |s: &&TrackSample| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad;
+    let is_wrong = |s: &&TrackSample| !c.holds(s.error_m, s.yaw_error_rad);
     Ok(KidnapTrial {
         case,
         trial,

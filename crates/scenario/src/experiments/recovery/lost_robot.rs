@@ -158,7 +158,7 @@ impl Trials for LostTrials<'_> {
                     && with_error.opdf >= without_error.opdf - tol,
             });
         }
-        let is_wrong = |s: &TrackSample| s.error_m >= c.max_error_m || s.yaw_error_rad >= c.max_yaw_error_rad;
+        let is_wrong = |s: &TrackSample| !c.holds(s.error_m, s.yaw_error_rad);
         let wrong_recoveries = results
             .chunks(3)
             .filter_map(|t| t.first())
