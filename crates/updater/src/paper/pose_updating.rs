@@ -99,8 +99,33 @@ pub enum RecoveryFailure {
         /// A distant runner-up.
         second: Pose2,
     },
-    /// The fit does not constrain all three degrees of freedom.
+    /// The fit does not constrain all three degrees of freedom: its covariance is singular, or
+    /// weak in a direction along which the scans fit as well (a corridor).
     Degenerate,
+}
+
+/// A fit whose covariance leaves the position more uncertain than this in its weakest
+/// direction (σ, metres) is tested for sliding: the point-to-plane information sees only the
+/// surfaces' normals, so a featureless corridor (every pose along it fits) and a pillar seen
+/// from below (its face's ends fix the pose, its normals do not) both give σ of 10⁸ m. Good
+/// fits have σ of millimetres.
+const SLIDE_TEST_SIGMA_M: f64 = 0.5;
+/// The slides tried along the weakest direction, each way, metres.
+const SLIDES_M: [f64; 2] = [0.5, 1.0];
+
+/// The largest eigenvalue of the covariance's position block and its unit eigenvector.
+fn weakest_xy(c: &[[f64; 3]; 3]) -> (f64, Point2) {
+    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    let l = 0.5 * (a + d) + (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let v = if b.abs() > 1e-12 * (a.abs() + d.abs()) {
+        Point2::new(l - d, b)
+    } else if a >= d {
+        Point2::new(1.0, 0.0)
+    } else {
+        Point2::new(0.0, 1.0)
+    };
+    let n = v.x.hypot(v.y);
+    (l, Point2::new(v.x / n, v.y / n))
 }
 
 /// A candidate registered to the cloud expected from its own pose.
@@ -109,6 +134,11 @@ struct Checked {
     pose: Pose2,
     fit: Fitness,
     info: Matrix3<f64>,
+    /// What the ambiguity test compares: `fit`'s inlier ratio, plus the inlier ratios of other
+    /// scans at this pose when there are (`recovery_views`: earlier views).
+    evidence: f64,
+    /// How many other scans `evidence` sums (0: the current ones alone).
+    views: usize,
 }
 
 /// Pose updating with its reusable buffers.
@@ -135,7 +165,7 @@ fn distinct(a: &Pose2, b: &Pose2, p: &PoseUpdatingParams) -> bool {
 /// P_exp: the points the map says the scans' beams would hit from `robot_in_map` (rays start
 /// at each lidar's position, unknown cells count as occupied, beams that reach the range limit
 /// give no point).
-fn cast_expected(
+pub(crate) fn cast_expected(
     map: &OccupancyGrid,
     robot_in_map: &Pose2,
     scans: &[LaserScan],
@@ -244,7 +274,7 @@ impl PoseUpdater {
                 self.check(map, pose, scans, max_range_m, p);
             }
         }
-        let local_answer = self.decide(p);
+        let local_answer = self.decide(map, scans, max_range_m, p);
         if matches!(local_answer, PoseRecovery::Recovered { .. }) || p.search_radius_m <= 0.0 {
             return local_answer;
         }
@@ -254,7 +284,7 @@ impl PoseUpdater {
         for pose in peaks {
             self.check(map, pose, scans, max_range_m, p);
         }
-        self.decide(p)
+        self.decide(map, scans, max_range_m, p)
     }
 
     /// The scan points (robot frame) of the last [`PoseUpdater::recover`] call.
@@ -274,6 +304,25 @@ impl PoseUpdater {
         max_range_m: f64,
         p: &PoseUpdatingParams,
     ) -> PoseRecovery {
+        self.verify_with(map, candidates, scans, max_range_m, p, |_| (0.0, 0))
+    }
+
+    /// [`PoseUpdater::verify`] with more evidence per candidate: `more(pose)` gives the sum of
+    /// the inlier ratios of other scans at a checked candidate's pose and how many scans that is
+    /// (the `mapkeeper` addition `recovery_views` scores earlier views there). Each scan's ratio
+    /// is evidence of its own, so the ambiguity test compares the sums (current ratio plus the
+    /// others'): a difference seen in one earlier view counts in full, not diluted by views that
+    /// cannot tell the places apart. The gate takes the current ratio and the mean of all. With
+    /// `more` giving no scans it is `verify`.
+    pub fn verify_with(
+        &mut self,
+        map: &OccupancyGrid,
+        candidates: &[Pose2],
+        scans: &[LaserScan],
+        max_range_m: f64,
+        p: &PoseUpdatingParams,
+        mut more: impl FnMut(Pose2) -> (f64, usize),
+    ) -> PoseRecovery {
         self.checked.clear();
         if self.source.len() < (p.min_points as usize).max(3) {
             return PoseRecovery::NotRecovered {
@@ -283,7 +332,28 @@ impl PoseUpdater {
         for &pose in candidates {
             self.check(map, pose, scans, max_range_m, p);
         }
-        self.decide(p)
+        for c in &mut self.checked {
+            let (ratios, views) = more(c.pose);
+            if views > 0 {
+                (c.evidence, c.views) = (c.fit.inlier_ratio + ratios, views);
+            }
+        }
+        self.decide(map, scans, max_range_m, p)
+    }
+
+    /// The best distinct poses of the last check, best first (after [`PoseUpdater::verify`] or
+    /// [`PoseUpdater::recover`]), at most `k`.
+    pub fn ranked_poses(&self, k: usize, p: &PoseUpdatingParams) -> Vec<Pose2> {
+        let mut out: Vec<Pose2> = Vec::with_capacity(k);
+        for c in &self.checked {
+            if out.len() >= k {
+                break;
+            }
+            if out.iter().all(|q| distinct(q, &c.pose, p)) {
+                out.push(c.pose);
+            }
+        }
+        out
     }
 
     /// Heap bytes of the map-sized score grid of the correlative search: one byte per cell of
@@ -336,22 +406,31 @@ impl PoseUpdater {
             self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
         }
         let (fit, info) = fitness(&self.source, &self.check_grid, &run.pose, p.inlier_distance_m);
-        self.checked.push(Checked { pose: run.pose, fit, info });
+        self.checked.push(Checked { pose: run.pose, fit, info, evidence: fit.inlier_ratio, views: 0 });
     }
 
-    /// The best checked candidate through the fitness gate and the ambiguity test.
-    fn decide(&mut self, p: &PoseUpdatingParams) -> PoseRecovery {
-        self.checked.sort_by(|a, b| {
-            b.fit.inlier_ratio.total_cmp(&a.fit.inlier_ratio).then(a.fit.rmse_m.total_cmp(&b.fit.rmse_m))
-        });
+    /// The best checked candidate through the fitness gate, the ambiguity test and, if its
+    /// covariance is weak in some direction, the slide test.
+    fn decide(
+        &mut self,
+        map: &OccupancyGrid,
+        scans: &[LaserScan],
+        max_range_m: f64,
+        p: &PoseUpdatingParams,
+    ) -> PoseRecovery {
+        self.checked.sort_by(|a, b| b.evidence.total_cmp(&a.evidence).then(a.fit.rmse_m.total_cmp(&b.fit.rmse_m)));
         let Some(best) = self.checked.first().copied() else {
             return PoseRecovery::NotRecovered { reason: RecoveryFailure::PoorFit { best: Fitness::default() } };
         };
-        if best.fit.inlier_ratio < p.min_inlier_ratio || best.fit.rmse_m > p.max_rmse_m {
+        // The current scans must pass the gate on their own, and the other scans on average:
+        // other evidence ranks and breaks ties, it never makes a pose the current scans reject
+        // acceptable, and a pose the earlier scans contradict is not accepted.
+        let mean = best.evidence / (best.views + 1) as f64;
+        if best.fit.inlier_ratio.min(mean) < p.min_inlier_ratio || best.fit.rmse_m > p.max_rmse_m {
             return PoseRecovery::NotRecovered { reason: RecoveryFailure::PoorFit { best: best.fit } };
         }
         for other in &self.checked[1..] {
-            if best.fit.inlier_ratio - other.fit.inlier_ratio > p.ambiguity_ratio_margin {
+            if best.evidence - other.evidence > p.ambiguity_ratio_margin {
                 break;
             }
             if distinct(&other.pose, &best.pose, p) {
@@ -374,7 +453,46 @@ impl PoseUpdater {
         if covariance.iter().flatten().any(|v| !v.is_finite()) || covariance[2][2] <= 0.0 {
             return PoseRecovery::NotRecovered { reason: RecoveryFailure::Degenerate };
         }
+        if self.slides(map, scans, max_range_m, &best, &covariance, p) {
+            return PoseRecovery::NotRecovered { reason: RecoveryFailure::Degenerate };
+        }
         PoseRecovery::Recovered { pose_in_map: best.pose, covariance, fitness: best.fit }
+    }
+
+    /// Whether the best candidate slides: its covariance leaves the position uncertain beyond
+    /// [`SLIDE_TEST_SIGMA_M`] in some direction, and the current scans fit a pose moved along
+    /// it by one of [`SLIDES_M`] within the ambiguity margin (a pose that far is distinct, so
+    /// this is the ambiguity test with the alternatives the covariance proposes). Found by a
+    /// robot Lost in a corridor: a pose 14 m along it accepted with σ = 10⁸ m (test
+    /// `views_kept_while_lost_tell_twin_places_apart`).
+    fn slides(
+        &mut self,
+        map: &OccupancyGrid,
+        scans: &[LaserScan],
+        max_range_m: f64,
+        best: &Checked,
+        covariance: &[[f64; 3]; 3],
+        p: &PoseUpdatingParams,
+    ) -> bool {
+        let (variance, dir) = weakest_xy(covariance);
+        if variance <= SLIDE_TEST_SIGMA_M * SLIDE_TEST_SIGMA_M {
+            return false;
+        }
+        for d in SLIDES_M {
+            for sign in [1.0, -1.0] {
+                let q = Pose2::new(best.pose.x + sign * d * dir.x, best.pose.y + sign * d * dir.y, best.pose.yaw);
+                cast_expected(map, &q, scans, max_range_m, &mut self.check_cloud);
+                if self.check_cloud.len() < (p.min_points as usize).max(3) {
+                    continue;
+                }
+                self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
+                let (fit, _) = fitness(&self.source, &self.check_grid, &q, p.inlier_distance_m);
+                if best.fit.inlier_ratio - fit.inlier_ratio <= p.ambiguity_ratio_margin {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// Correlative search: every pose of the window around `predicted` on a grid of
