@@ -282,6 +282,11 @@ min_score = 0.45
 max_nodes = 400000
 min_inlier_ratio = 0.55
 ambiguity_ratio_margin = 0.08
+views = 1
+view_baseline_m = 0.3
+view_turn_rad = 0.26
+view_max_age_s = 30.0
+kept_candidates = 0
 
 [registration]
 enabled = false

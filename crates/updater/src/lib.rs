@@ -9,6 +9,7 @@
 //! | file | paper section, or why it exists |
 //! |---|---|
 //! | `updater.rs` | Fig. 4-6: the pipeline of one step ([`MapUpdater`]); memory accounting |
+//! | `updater/lost.rs` | §4.6 on a Lost step: pose updating, then the global search and the views kept while Lost (additions) |
 //! | `params.rs` | the parameter table, App. A.1 (D_th), tol(z) of §4.3.2; presets ([`UpdaterParams`]); `params/legacy.rs` reads the removal gates' names of older files |
 //! | `error.rs` | the crate's error type ([`UpdaterError`]) |
 //! | `paper/gating.rs` | §4.5 ("update rate that depends on both linear and angular speed") and the parameter table (0.05 m, 20°) |
@@ -26,6 +27,8 @@
 //! | `additions/registration.rs` | project addition: a yaw error of a fraction of a degree (AMCL on a stale map) is written into the map and erodes fixed walls; each step's pose is refined against `M_{i-1}` first, and a poor or ambiguous fit writes nothing |
 //! | `additions/surface_evidence.rs` | project addition (issue 53): the classifier is blind within D_th of the map's structure, so `M_1`'s thick faces, items moved a little and eroded faces stayed; per-cell trust-weighted hit/pass evidence over the last part of each beam, carried across worlds |
 //! | `additions/structure_memory.rs` | project addition: long-standing structure was as easy to remove as yesterday's box, and an eroded wall face never came back; a cross-world memory of young cells and scars |
+//! | `additions/global_search.rs` | project addition (issue 33): pose updating registers from the predicted pose, so a robot moved without its odometry seeing it was never found; a branch and bound over the whole map and every heading |
+//! | `additions/recovery_views.rs` | project addition (issue 54): each attempt judged one step's scans, so two places that look alike from here were refused for ever and one that only this step fits was taken; earlier views of the Lost stretch placed by odometry, and the candidates of a refused attempt kept |
 //! | `additions/log_odds_baseline.rs` | not a fix but a comparison baseline (plain log-odds mapping), asked for by the spec |
 //! | `support/beam_walk.rs` | support: [`support::beam_walk::BeamGeometry`], p_th (eq. 9), the walk over buffered cells |
 //! | `support/cell_buffers.rs` | support: the rolling buffers B_c of §4 (Fig. 6) and §4.5; the memory claim of §6 |
@@ -96,6 +99,7 @@ pub mod additions {
     pub mod grazing;
     pub mod log_odds_baseline;
     pub mod pose_tolerance;
+    pub mod recovery_views;
     pub mod registration;
     pub mod removal_gates;
     pub mod shift_check;

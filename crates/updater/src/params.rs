@@ -443,14 +443,15 @@ impl UpdaterParams {
     /// removed wall face hit again heals), and the shift check on alarm steps only (a Suspend or
     /// Lost of the change count is lifted when the scan fits `M_{i-1}` at the given pose and no
     /// nearby pose fits better: a right pose in a stale world), and when pose updating's local
-    /// search finds no pose, a global search over the whole map and every heading. Each is
+    /// search finds no pose, a global search over the whole map and every heading, its
+    /// candidates judged on up to four views of the Lost stretch (issue 54). Each is
     /// switchable by its own field; `tests/additions.rs` shows the failure each addition prevents.
     pub fn mapkeeper() -> Self {
         Self {
             registration: RegistrationParams { enabled: true, ..RegistrationParams::default() },
             memory: MemoryParams { enabled: true, ..MemoryParams::default() },
             shift_check: ShiftCheckParams { enabled: true, when: ShiftWhen::OnAlarm, ..ShiftCheckParams::default() },
-            global_search: GlobalSearchParams { enabled: true, ..GlobalSearchParams::default() },
+            global_search: GlobalSearchParams::mapkeeper(),
             ..Self::mapkeeper_no_registration()
         }
     }

@@ -7,6 +7,7 @@ use crate::additions::free_pass::evaluate_free_pass;
 use crate::additions::global_search::{GlobalSearch, GlobalSearchReport};
 use crate::additions::log_odds_baseline::LogOddsBaseline;
 use crate::additions::pose_tolerance::{PoseSigma, StepTolerance};
+use crate::additions::recovery_views::{ViewMemory, ViewScratch};
 use crate::additions::registration::{Refusal, Registrar, Registration};
 use crate::additions::removal_gates::RemovalGates;
 use crate::additions::shift_check::ShiftResult;
@@ -19,12 +20,12 @@ use crate::paper::gating::{GateReason, UpdateGate};
 use crate::paper::localisation_check::{Verdict, localisation_check};
 use crate::paper::pose_updating::{PoseRecovery, PoseUpdater};
 use crate::paper::unchanged_cells::evaluate_unchanged_beam;
-use crate::params::{PoseUpdatingParams, UpdateMethod, UpdaterParams};
+use crate::params::{UpdateMethod, UpdaterParams};
 use crate::support::beam_walk::BeamGeometry;
 use crate::support::cell_buffers::CellBuffers;
 use crate::support::hit_index::HitIndex;
 use crate::support::votes::{Vote, ensure_buffers, merge_sorted_tail};
-use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster, angle_diff};
+use mapkeeper_grid::{OccupancyGrid, Pose2, RayCaster};
 use mapkeeper_sensor::LaserScan;
 
 /// What happened to one step.
@@ -250,6 +251,10 @@ pub struct MapUpdater {
     pose_updater: PoseUpdater,
     /// The global search when Lost (when on).
     global: GlobalSearch,
+    /// The views and kept candidates of the current Lost stretch (`global_search.views`,
+    /// `global_search.kept_candidates`).
+    views: ViewMemory,
+    view_scratch: ViewScratch,
     /// `M_{i-1}`'s distance field, for the shift check (when on).
     shift_field: Option<mapkeeper_grid::DistanceField>,
     /// Registration before writing (when on).
@@ -339,6 +344,8 @@ impl MapUpdater {
             hits: HitIndex::new(),
             pose_updater: PoseUpdater::new(),
             global: GlobalSearch::new(),
+            views: ViewMemory::default(),
+            view_scratch: ViewScratch::default(),
             log_odds,
             last_good: None,
             last_attempt_ns: None,
@@ -445,12 +452,15 @@ impl MapUpdater {
             + self.pose_updater.scratch_bytes()
             + self.registrar.as_ref().map_or(0, Registrar::scratch_bytes)
             + self.evidence.scratch_bytes()
+            + self.views.heap_bytes()
+            + self.view_scratch.heap_bytes()
     }
 
     /// Tells the updater that the robot is at `robot_in_map` now (e.g. after the localiser was
     /// re-initialised): pose updating will predict from here.
     pub fn reset_reference_pose(&mut self, robot_in_map: Pose2, robot_in_odom: Pose2) {
         self.last_good = Some((robot_in_map, robot_in_odom));
+        self.views.clear();
     }
 
     /// Processes one time step: the robot pose from any localiser, the robot pose in the
@@ -502,6 +512,10 @@ impl MapUpdater {
         report.verdict = Some(verdict);
         if verdict != Verdict::Lost {
             self.last_attempt_ns = None;
+        }
+        if verdict == Verdict::Update {
+            // The pose fits again: the Lost stretch the views belong to is over.
+            self.views.clear();
         }
         match verdict {
             Verdict::Update => {
@@ -586,91 +600,6 @@ impl MapUpdater {
             }
         }
         (check, verdict, shift)
-    }
-
-    /// Pose updating (§4.6) on a Lost step, if enabled and due (the first Lost step of an
-    /// episode, then at most once per `retry_interval_s`); then the global search if it is on
-    /// and the local search found no pose.
-    fn try_pose_updating(
-        &mut self,
-        robot_in_map: Pose2,
-        robot_in_odom: Pose2,
-        scans: &[LaserScan],
-        stamp_ns: u64,
-    ) -> (Option<PoseRecovery>, Option<GlobalSearchReport>) {
-        let p = &self.params.pose_updating;
-        if !p.enabled {
-            return (None, None);
-        }
-        if let Some(last) = self.last_attempt_ns
-            && (stamp_ns.saturating_sub(last) as f64) * 1e-9 < p.retry_interval_s
-        {
-            return (None, None);
-        }
-        self.last_attempt_ns = Some(stamp_ns);
-        let predicted = match self.last_good {
-            Some((good_in_map, good_in_odom)) => good_in_map.compose(&good_in_odom.between(&robot_in_odom)),
-            None => robot_in_map,
-        };
-        let mut r = self.pose_updater.recover(&self.current, predicted, scans, self.params.max_range_m, p);
-        let mut searched = None;
-        let g = &self.params.global_search;
-        let local = match &r {
-            PoseRecovery::Recovered { pose_in_map, fitness, .. } => {
-                (fitness.inlier_ratio < g.confident_inlier_ratio).then_some(Some(*pose_in_map))
-            }
-            PoseRecovery::NotRecovered { .. } => Some(None),
-        };
-        if g.enabled
-            && let Some(local) = local
-        {
-            let (mut found, answer) = self.global_recovery(scans, local);
-            let p = &self.params.pose_updating;
-            if let PoseRecovery::Recovered { pose_in_map: q, .. } = &answer
-                && local.is_none_or(|l| {
-                    l.distance(q) > p.ambiguity_distance_m || angle_diff(l.yaw, q.yaw).abs() > p.ambiguity_rotation_rad
-                })
-            {
-                self.stats.global_recoveries += 1;
-                found.chosen = true;
-            }
-            r = answer;
-            searched = Some(found);
-        }
-        if let PoseRecovery::Recovered { pose_in_map, .. } = &r {
-            self.stats.recoveries += 1;
-            self.last_good = Some((*pose_in_map, robot_in_odom));
-            // A new episode starts if the robot is still Lost at the recovered pose.
-            self.last_attempt_ns = None;
-        } else {
-            self.stats.failed_recoveries += 1;
-        }
-        (Some(r), searched)
-    }
-
-    /// The global search over `M_i` with the points of the pose updating just run, its
-    /// candidates (and the local search's pose, if it found a weak one) checked as pose updating
-    /// checks its own, with the search's ambiguity margin.
-    fn global_recovery(&mut self, scans: &[LaserScan], local: Option<Pose2>) -> (GlobalSearchReport, PoseRecovery) {
-        let p = &self.params.pose_updating;
-        let g = &self.params.global_search;
-        let found = self.global.search(
-            &self.current,
-            self.pose_updater.source_points(),
-            g,
-            p.ambiguity_distance_m,
-            p.ambiguity_rotation_rad,
-        );
-        self.stats.global_searches += 1;
-        self.stats.global_nodes += found.nodes as u64;
-        let poses: Vec<Pose2> = local.into_iter().chain(found.peaks.iter().map(|&(q, _)| q)).collect();
-        let strict = PoseUpdatingParams {
-            ambiguity_ratio_margin: g.ambiguity_ratio_margin.max(p.ambiguity_ratio_margin),
-            min_inlier_ratio: g.min_inlier_ratio,
-            ..p.clone()
-        };
-        let answer = self.pose_updater.verify(&self.current, &poses, scans, self.params.max_range_m, &strict);
-        (found, answer)
     }
 
     /// Changed and unchanged cells evaluators, then the cells update, over the classified beams.
@@ -774,5 +703,6 @@ impl MapUpdater {
     }
 }
 
+mod lost;
 #[cfg(test)]
 mod tests;

@@ -81,13 +81,23 @@ fn states(token: &str, value: &Value) -> Option<bool> {
 
 /// The value of a field of a preset (`a.b` for a section's field). A section (`x.*`) is read as
 /// its `enabled`: `false` when the section is not written (off with default values), `None`
-/// when it has no `enabled` (the row then only describes).
+/// when it has no `enabled` (the row then only describes); a field of a section not written is
+/// null (the table says `off`).
 fn value(preset: &Value, field: &str) -> Result<Option<Value>, String> {
     if let Some(section) = field.strip_suffix(".*") {
         return Ok(match preset.get(section) {
             None => Some(Value::Bool(false)),
             Some(s) => s.get("enabled").cloned(),
         });
+    }
+    // A field of a section this preset does not write (off with its defaults) reads as off,
+    // if some preset writes the section and has the field.
+    if let Some((section, _)) = field.split_once('.')
+        && preset.get(section).is_none()
+    {
+        let full = serde_json::to_value(UpdaterParams::mapkeeper()).unwrap();
+        full.pointer(&format!("/{}", field.replace('.', "/"))).ok_or_else(|| format!("`{field}`: no such field"))?;
+        return Ok(Some(Value::Null));
     }
     let mut v = preset;
     for part in field.split('.') {

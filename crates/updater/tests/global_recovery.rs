@@ -118,3 +118,62 @@ fn a_scan_of_another_place_is_not_placed() {
     assert!(matches!(r.pose_recovery, Some(PoseRecovery::NotRecovered { .. })), "{:?}", r.pose_recovery);
     assert_eq!((up.stats().global_searches, up.stats().global_recoveries), (1, 0));
 }
+
+/// A 30 m × 4 m corridor: a block on its lower wall at x = 3 and x = 15 (alike), a pillar near
+/// its upper wall at x = 10 and x = 27 (alike), plain walls between. With the lidar reaching
+/// 2.5 m no view sees two features: each of them fits two places (or, between them, many).
+fn twin_corridor() -> OccupancyGrid {
+    let mut m = room(30.0, 4.0, 0.05);
+    for x in [3.0, 15.0] {
+        fill_rect(&mut m, x - 0.75, 0.0, x + 0.75, 1.0, CellState::Occupied);
+    }
+    for x in [10.0, 27.0] {
+        fill_rect(&mut m, x - 0.5, 2.6, x + 0.5, 3.2, CellState::Occupied);
+    }
+    m
+}
+
+/// The robot, kidnapped to x = 3 (its estimate stuck at x = 20 by the lower wall), drives 7 m
+/// along the corridor, Lost (once Suspended); returns the poses recovered on the way, with the robot's
+/// true pose at each.
+fn drive_lost_through_the_twins(params: UpdaterParams) -> Vec<(Pose2, Pose2)> {
+    let map = twin_corridor();
+    let lidar =
+        common::Lidar { range_max_m: 2.5, ..common::Lidar::centred(-std::f64::consts::PI, 0.5f64.to_radians(), 720) };
+    let mut up = MapUpdater::new(map.clone(), params).expect("valid preset");
+    let stuck = Pose2::new(20.0, 0.6, std::f64::consts::PI);
+    let mut found = Vec::new();
+    for k in 0..29u64 {
+        let truth = Pose2::new(3.0 + 0.25 * k as f64, 2.0, 0.0);
+        let odom = Pose2::new(0.25 * k as f64, 0.0, 0.0);
+        let r = up.process(stuck, odom, &[common::synth_scan(&map, truth, &lidar, k * 600_000_000)]);
+        assert_ne!(r.verdict, Some(Verdict::Update), "step {k}");
+        if let Some(PoseRecovery::Recovered { pose_in_map, .. }) = r.pose_recovery {
+            found.push((pose_in_map, truth));
+            break;
+        }
+    }
+    found
+}
+
+/// Issue 54 item 2: on the way each view fits two places or more; the views kept since the
+/// kidnap (the block seen at x = 3 and the plain walls after it) rule out every place but the
+/// right one, which is handed over near the pillar. Without views (one scan per attempt) the
+/// check hands over a place 3.7 m off, which the scans of that one step fit best by the margin.
+#[test]
+fn views_kept_while_lost_tell_twin_places_apart() {
+    let mut with = UpdaterParams::mapkeeper();
+    assert_eq!((with.global_search.views, with.global_search.kept_candidates), (4, 4));
+    // Every attempt through the global search and its check, where the views act: a view of
+    // plain corridor and a pillar's corner fits a place 11 m off, turned, with 95 % of its points,
+    // which the local search's confident shortcut would take (docs/recovery.md, "Several views").
+    with.global_search.confident_inlier_ratio = 1.0;
+    let found = drive_lost_through_the_twins(with.clone());
+    let [(pose, truth)] = found[..] else { panic!("{found:?}") };
+    assert!(pose.distance(&truth) < 0.1 && angle_diff(pose.yaw, truth.yaw).abs() < 0.02, "{pose:?} at {truth:?}");
+    let mut without = with;
+    (without.global_search.views, without.global_search.kept_candidates) = (1, 0);
+    let guessed = drive_lost_through_the_twins(without);
+    let [(pose, truth)] = guessed[..] else { panic!("{guessed:?}") };
+    assert!(pose.distance(&truth) > 1.0, "without views the check takes a wrong place: {pose:?} at {truth:?}");
+}

@@ -66,6 +66,21 @@ pub struct GlobalSearchParams {
     /// than every distinct runner-up by this much (inlier ratio), else not recovered. Larger
     /// than the local search's, as a wrong pose found across the map costs more. Default 0.08.
     pub ambiguity_ratio_margin: f64,
+    /// Views compared per attempt, the current one included (`recovery_views` module): each
+    /// candidate is scored by its inlier ratio pooled over the current scans and those of up to
+    /// `views − 1` earlier attempts of the same Lost stretch, placed by odometry. 1: the current
+    /// scans alone. Default 1 (`mapkeeper`: 4).
+    pub views: u32,
+    /// An attempt's scans are kept beside the newest kept view only when the robot moved this
+    /// far since it (else they replace it), metres. Default 0.3.
+    pub view_baseline_m: f64,
+    /// …or turned this much, radians. Default 0.26 (15°).
+    pub view_turn_rad: f64,
+    /// Kept views older than this are dropped, seconds. Default 30.
+    pub view_max_age_s: f64,
+    /// The best distinct poses of a refused attempt checked again at the next one (moved on by
+    /// odometry) beside the search's peaks. Default 0 (`mapkeeper`: 4).
+    pub kept_candidates: u32,
 }
 
 impl Default for GlobalSearchParams {
@@ -82,11 +97,22 @@ impl Default for GlobalSearchParams {
             max_nodes: 400_000,
             min_inlier_ratio: 0.55,
             ambiguity_ratio_margin: 0.08,
+            views: 1,
+            view_baseline_m: 0.3,
+            view_turn_rad: 0.26,
+            view_max_age_s: 30.0,
+            kept_candidates: 0,
         }
     }
 }
 
 impl GlobalSearchParams {
+    /// `mapkeeper`'s: on, each attempt's candidates judged on up to four views of the Lost
+    /// stretch, four candidates of a refused attempt kept.
+    pub fn mapkeeper() -> Self {
+        Self { enabled: true, views: 4, kept_candidates: 4, ..Self::default() }
+    }
+
     /// Whether it is off with default values (then not written to files).
     pub fn is_default_off(&self) -> bool {
         *self == Self::default()
@@ -120,7 +146,14 @@ impl GlobalSearchParams {
         check("max_nodes", nodes, (1_000..=100_000_000).contains(&nodes), "must lie in 1000..=100000000")?;
         check("min_inlier_ratio", self.min_inlier_ratio, unit(self.min_inlier_ratio), "must lie in [0, 1]")?;
         let margin = self.ambiguity_ratio_margin;
-        check("ambiguity_ratio_margin", margin, unit(margin), "must lie in [0, 1]")
+        check("ambiguity_ratio_margin", margin, unit(margin), "must lie in [0, 1]")?;
+        check("views", self.views, (1..=16).contains(&self.views), "must lie in 1..=16")?;
+        let (b, t, age) = (self.view_baseline_m, self.view_turn_rad, self.view_max_age_s);
+        check("view_baseline_m", b, b.is_finite() && b >= 0.0, "must be finite and ≥ 0")?;
+        check("view_turn_rad", t, t.is_finite() && t >= 0.0, "must be finite and ≥ 0")?;
+        check("view_max_age_s", age, age.is_finite() && age >= 0.0, "must be finite and ≥ 0")?;
+        let kept = self.kept_candidates;
+        check("kept_candidates", kept, kept <= 64, "must lie in 0..=64")
     }
 }
 
