@@ -23,7 +23,7 @@ fn bench_table_has_every_component_with_consistent_figures() {
     let rows = rows(&json);
     let names: Vec<&str> = rows.iter().map(|r| r["what"].as_str().unwrap()).collect();
     // Simulator, localisers, updaters, the fresh map, traversal, one pose-recovery attempt
-    // (global search) and a second standing Lost.
+    // (global search) and a second Lost driving on.
     let expected = 1 + mapkeeper_localiser::LOCALISER_PRESETS.len() + mapkeeper_updater::PRESET_NAMES.len() + 4;
     assert_eq!(rows.len(), expected, "{names:?}");
     assert!(names.iter().any(|n| n.starts_with("pose recovery when Lost")), "{names:?}");

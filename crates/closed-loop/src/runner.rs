@@ -65,6 +65,12 @@ pub struct RunnerParams {
     /// The longest a Lost episode waits for a recovered pose before the robot resumes without
     /// one (a give-up), seconds of simulated time. Default 2.
     pub lost_wait_s: f64,
+    /// After a stopped Lost episode gave up, the robot walks on along its route for this long,
+    /// Lost steps not stopping it, so that pose updating looks from new places
+    /// ([`LostPolicy::with_walk`]), seconds. Default 0: it stops again at the next Lost (the
+    /// paper's reaction). Not written when 0.
+    #[serde(default, skip_serializing_if = "is_zero_f64")]
+    pub lost_walk_s: f64,
     /// Hold a handed-over pose with the updater's registration for a while
     /// ([`mapkeeper_harness::HandoverHold`]). Default 30 s after each handover; `hold_s = 0`
     /// turns it off (the behaviour before issue 54).
@@ -205,6 +211,7 @@ impl Default for RunnerParams {
             run_baseline: true,
             stop_on_lost: true,
             lost_wait_s: mapkeeper_harness::DEFAULT_LOST_WAIT_S,
+            lost_walk_s: 0.0,
             handover_hold: HandoverHold::default(),
             max_sim_time_s: 300.0,
             record_trajectories: false,
@@ -264,6 +271,7 @@ impl RunnerParams {
             ("init_sigma_xy_m", self.init_sigma_xy_m),
             ("init_sigma_yaw_rad", self.init_sigma_yaw_rad),
             ("lost_wait_s", self.lost_wait_s),
+            ("lost_walk_s", self.lost_walk_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(name, v));
@@ -502,6 +510,13 @@ fn session<'c>(
     session
 }
 
+/// The reaction to Lost the runner's parameters say: stop, wait, hold, walk.
+fn lost_policy(params: &RunnerParams, cov: [[f64; 3]; 3]) -> LostPolicy {
+    LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov)
+        .with_hold(params.handover_hold)
+        .with_walk(params.lost_walk_s)
+}
+
 /// [`run_world`] with parameters checked where the run started ([`RunnerParams::checked`]),
 /// run as `exec` says (threads, clock), and `extra` observers seeing every step after the run's
 /// own (an MCAP recorder, say); observers cannot change the run. With
@@ -533,7 +548,7 @@ pub fn run_world_with(
     let mut timeline = TimelineRecorder::default();
     let mut kidnap = params.kidnap.map(KidnapControl::new).or(params.robot_kidnap.map(KidnapControl::robot));
     let mut pose_error = params.pose_error.map(PoseErrorControl::new);
-    let mut lost = LostPolicy::new(params.stop_on_lost, params.lost_wait_s, cov).with_hold(params.handover_hold);
+    let mut lost = lost_policy(params, cov);
     let mut oracle = PoseOracle::new(&params.updater_poses, seed, label);
     let mut given = GivenPoseError::default();
     let mut fresh = fresh_mapper(params, prev_map, options.parallel_fresh_map)?;
@@ -618,4 +633,9 @@ impl UpdaterCounts {
             heal_votes: s.heal_votes,
         }
     }
+}
+
+/// Whether a duration is 0 (then not written).
+fn is_zero_f64(v: &f64) -> bool {
+    *v == 0.0
 }

@@ -188,6 +188,11 @@ pub struct LostPolicy {
     hold: HandoverHold,
     /// The stamp of the last handover, nanoseconds.
     handed_over_ns: Option<u64>,
+    /// How long the robot walks on after a stopped episode gave up, nanoseconds (0: it stops
+    /// again at the next Lost).
+    walk_ns: u64,
+    /// Lost steps before this stamp do not stop the robot (it walks on, looking).
+    walk_until_ns: Option<u64>,
 }
 
 impl LostPolicy {
@@ -206,7 +211,20 @@ impl LostPolicy {
             episodes: Vec::new(),
             hold: HandoverHold::default(),
             handed_over_ns: None,
+            walk_ns: 0,
+            walk_until_ns: None,
         }
+    }
+
+    /// The same policy, letting the robot walk on for `walk_s` (finite, ≥ 0; checked by the
+    /// caller) after a stopped episode gave up: Lost steps in that time open episodes that do
+    /// not stop it, so pose updating keeps trying on scans from new places (the views of
+    /// `global_search.views` come from there), and the next Lost after it stops the robot
+    /// again. 0 (the default): the robot stops again at the next Lost, and stands, looking from
+    /// one place (the paper's reaction).
+    pub fn with_walk(mut self, walk_s: f64) -> Self {
+        self.walk_ns = (walk_s.max(0.0) * 1e9).round() as u64;
+        self
     }
 
     /// The same policy, holding each handed-over pose with registration as `hold` says (the
@@ -256,7 +274,12 @@ impl LostPolicy {
         match end {
             LostEnd::Recovered => self.counts.recoveries += 1,
             LostEnd::Cleared => self.counts.cleared += 1,
-            LostEnd::GaveUp => self.counts.give_ups += 1,
+            LostEnd::GaveUp => {
+                self.counts.give_ups += 1;
+                if ep.stopped && self.walk_ns > 0 {
+                    self.walk_until_ns = Some(stamp_ns.saturating_add(self.walk_ns));
+                }
+            }
             LostEnd::RunEnded => {}
         }
         self.episodes.push(ep);
@@ -302,7 +325,9 @@ impl Control for LostPolicy {
                 return Ok(());
             }
             let mut stopped = false;
+            let walking = self.walk_until_ns.is_some_and(|t| stamp_ns < t);
             if self.stop_on_lost
+                && !walking
                 && let Some(r) = robot.as_deref_mut()
             {
                 r.stop(None);

@@ -109,12 +109,14 @@ pub(super) fn run_global_recovery(scene: &Scene, up: &mut MapUpdater) -> anyhow:
     Ok(attempts)
 }
 
-/// A Lost episode that never ends: the robot stands Lost where nothing fits. Every step of the
-/// scene is given 5 m ahead of and half a turn from the truth with its scans mirrored (each
-/// lidar's ranges in reverse order: a world that is not on the map), so the check says Lost, the
-/// local search and the global search (to its node budget) find nothing that passes, and the
-/// updater retries every `retry_interval_s` of the scans' clock, running the check on the steps
-/// between: the most a Lost second costs. Returns the seconds of scans covered and the
+/// A Lost episode that never ends: the robot drives on along the scene's route, Lost where
+/// nothing fits. Every step of the scene is given 5 m ahead of and half a turn from the truth
+/// with its scans mirrored (each lidar's ranges in reverse order: a world that is not on the
+/// map), so the check says Lost, the local search and the global search (to its node budget)
+/// find nothing that passes, and the updater retries every `retry_interval_s` of the scans'
+/// clock, each candidate judged on the views kept since (the robot moves, so they count),
+/// running the check on the steps between: the most a Lost second costs (standing, the views
+/// are not used). Returns the seconds of scans covered and the
 /// attempts; fails unless there were about two attempts per second, almost all refused.
 pub(super) fn run_lost_seconds(scene: &Scene, up: &mut MapUpdater) -> anyhow::Result<(f64, usize)> {
     let off = Pose2::new(5.0, 0.0, std::f64::consts::PI);

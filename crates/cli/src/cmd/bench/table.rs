@@ -95,8 +95,8 @@ pub(super) fn table_rows(table: &mut Table, with_loop: bool, fresh_stride: u32) 
         1e-3,
     );
     let lost_second = table.add(
-        "pose recovery while Lost, `mapkeeper`: one second standing Lost where nothing fits (the check every step, a \
-         refused attempt every 0.5 s)"
+        "pose recovery while Lost, `mapkeeper`: one second Lost where nothing fits, driving on (the check every step, \
+         a refused attempt every 0.5 s judged on up to four views)"
             .into(),
         "ms",
         "× real time",
