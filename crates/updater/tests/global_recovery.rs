@@ -166,7 +166,7 @@ fn views_kept_while_lost_tell_twin_places_apart() {
     assert_eq!((with.global_search.views, with.global_search.kept_candidates), (4, 4));
     // Every attempt through the global search and its check, where the views act: a view of
     // plain corridor and a pillar's corner fits a place 11 m off, turned, with 95 % of its points,
-    // which the local search's confident shortcut would take (docs/recovery.md, "Several views").
+    // which the local search's confident shortcut would take (docs/recovery.md, "Finding more").
     with.global_search.confident_inlier_ratio = 1.0;
     let found = drive_lost_through_the_twins(with.clone());
     let [(pose, truth)] = found[..] else { panic!("{found:?}") };
