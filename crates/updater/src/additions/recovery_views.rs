@@ -9,16 +9,18 @@
 //!
 //! - **Views.** The scans of up to `views − 1` earlier attempts of the same Lost stretch, each
 //!   with its robot pose in the odometry frame and its points: the first view of the stretch
-//!   and the newest ones. A candidate pose q of the
-//!   current step puts an earlier view at q ∘ (odom_now⁻¹ ∘ odom_then); the view is scored
-//!   against the cloud `M_i` predicts from there. Each view's inlier ratio is evidence of its
-//!   own: the ambiguity test compares the candidates' **sums** of ratios (the current one and
-//!   every view's), the fitness gate takes the current ratio and the mean. Two places that look alike from here but not from where
+//!   and the newest ones. A candidate pose q of the current step puts an earlier view at
+//!   q ∘ (odom_now⁻¹ ∘ odom_then); the view is scored against the cloud `M_i` predicts from
+//!   there. Each view's inlier ratio is evidence of its own: the ambiguity test compares the
+//!   candidates' **sums** of ratios (the current one and every view's), the fitness gate takes
+//!   the current ratio and the mean. Two places that look alike from here but not from where
 //!   the robot was are told apart; a pose that fits the current scans and none of the earlier
 //!   ones loses its lead. Views from one place repeat the same evidence (summed, they would
 //!   shrink the margin with the number of attempts instead of with what was seen): a view
 //!   replaces the newest kept one unless the robot has moved `view_baseline_m` or turned
-//!   `view_turn_rad` since it, and a kept view that close to the current step is not used.
+//!   `view_turn_rad` since it, and a kept view that close to the current step is not used. So
+//!   a robot standing while Lost gains nothing; one that walks on (the loop's `lost_walk_s`)
+//!   brings views from new places.
 //! - **Kept candidates.** The `kept_candidates` best distinct poses of a refused attempt are
 //!   moved on by odometry and checked again at the next attempt beside the search's own
 //!   peaks, so the next scans decide between them even when the search ranks them lower.
