@@ -34,7 +34,7 @@
 
 use crate::additions::global_search::GlobalSearchParams;
 use crate::paper::icp::{PointGrid, fitness, icp_from};
-use crate::paper::pose_updating::cast_expected;
+use crate::paper::pose_updating::expected_grid;
 use crate::params::PoseUpdatingParams;
 use mapkeeper_grid::{OccupancyGrid, Point2, Pose2, angle_diff};
 use mapkeeper_sensor::LaserScan;
@@ -76,10 +76,10 @@ pub(crate) struct ViewMemory {
     candidates: Vec<(Pose2, Pose2)>,
 }
 
-/// Whether two robot poses (odometry frame) are views apart: moved `baseline_m` or turned
-/// `turn_rad`.
-fn apart(a: &Pose2, b: &Pose2, l: &ViewLimits) -> bool {
-    a.distance(b) >= l.baseline_m || angle_diff(a.yaw, b.yaw).abs() >= l.turn_rad
+/// Whether two robot poses (odometry frame) are views apart: moved `view_baseline_m` or
+/// turned `view_turn_rad`.
+fn apart(a: &Pose2, b: &Pose2, g: &GlobalSearchParams) -> bool {
+    a.distance(b) >= g.view_baseline_m || angle_diff(a.yaw, b.yaw).abs() >= g.view_turn_rad
 }
 
 /// Reusable buffers of [`view_evidence`].
@@ -121,55 +121,24 @@ fn view_ratio(
     max_range_m: f64,
     p: &PoseUpdatingParams,
 ) -> f64 {
-    let min = (p.min_points as usize).max(3);
-    let cell = p.min_correspondence_m.max(0.15);
-    cast_expected(map, &at, v.scans, max_range_m, &mut s.cloud);
-    if s.cloud.len() < min || v.points.len() < 3 {
+    if v.points.len() < 3 || !expected_grid(map, &at, v.scans, max_range_m, p, &mut s.cloud, &mut s.grid) {
         return 0.0;
     }
-    s.grid.build(&s.cloud, cell);
     let d0 = VIEW_SLACK_M.min(p.max_correspondence_m).max(p.min_correspondence_m);
     let (run, _) = icp_from(v.points, &s.grid, at, p, d0, p.max_iterations);
     let within = run.pose.is_finite()
         && run.pose.distance(&at) <= VIEW_SLACK_M
         && angle_diff(run.pose.yaw, at.yaw).abs() <= VIEW_SLACK_RAD;
     let pose = if within { run.pose } else { at };
-    if pose != at {
-        cast_expected(map, &pose, v.scans, max_range_m, &mut s.cloud);
-        if s.cloud.len() < min {
-            return 0.0;
-        }
-        s.grid.build(&s.cloud, cell);
+    if pose != at && !expected_grid(map, &pose, v.scans, max_range_m, p, &mut s.cloud, &mut s.grid) {
+        return 0.0;
     }
     fitness(v.points, &s.grid, &pose, p.inlier_distance_m).0.inlier_ratio
 }
 
-/// What the memory keeps (the fields of [`GlobalSearchParams`] that say it).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct ViewLimits {
-    pub views: u32,
-    pub baseline_m: f64,
-    pub turn_rad: f64,
-    pub max_age_s: f64,
-    pub kept_candidates: u32,
-}
-
-impl ViewLimits {
-    /// What `g`'s fields say.
-    pub fn of(g: &GlobalSearchParams) -> Self {
-        Self {
-            views: g.views,
-            baseline_m: g.view_baseline_m,
-            turn_rad: g.view_turn_rad,
-            max_age_s: g.view_max_age_s,
-            kept_candidates: g.kept_candidates,
-        }
-    }
-
-    /// Whether anything is kept at all.
-    pub fn keeps_anything(&self) -> bool {
-        self.views > 1 || self.kept_candidates > 0
-    }
+/// Whether `g` keeps anything at all (more than the current view, or candidates).
+pub(crate) fn keeps_anything(g: &GlobalSearchParams) -> bool {
+    g.views > 1 || g.kept_candidates > 0
 }
 
 impl ViewMemory {
@@ -180,18 +149,18 @@ impl ViewMemory {
     }
 
     /// Drops views older than `max_age_s` at `stamp_ns`.
-    pub fn prune(&mut self, stamp_ns: u64, l: &ViewLimits) {
-        let max_ns = (l.max_age_s * 1e9).min(u64::MAX as f64) as u64;
+    pub fn prune(&mut self, stamp_ns: u64, g: &GlobalSearchParams) {
+        let max_ns = (g.view_max_age_s * 1e9).min(u64::MAX as f64) as u64;
         self.views.retain(|v| stamp_ns.saturating_sub(v.stamp_ns) <= max_ns);
     }
 
     /// The kept views as the step at `robot_in_odom` sees them, oldest first, but those taken
     /// within `view_baseline_m` and `view_turn_rad` of here: they repeat the current scans'
     /// evidence and would count it twice.
-    pub fn past(&self, robot_in_odom: &Pose2, l: &ViewLimits) -> Vec<PastView<'_>> {
+    pub fn past(&self, robot_in_odom: &Pose2, g: &GlobalSearchParams) -> Vec<PastView<'_>> {
         self.views
             .iter()
-            .filter(|v| apart(&v.robot_in_odom, robot_in_odom, l))
+            .filter(|v| apart(&v.robot_in_odom, robot_in_odom, g))
             .map(|v| PastView { offset: robot_in_odom.between(&v.robot_in_odom), scans: &v.scans, points: &v.points })
             .collect()
     }
@@ -212,18 +181,18 @@ impl ViewMemory {
         scans: &[LaserScan],
         points: &[Point2],
         candidates: &[Pose2],
-        l: &ViewLimits,
+        g: &GlobalSearchParams,
     ) {
         self.candidates.clear();
-        self.candidates.extend(candidates.iter().take(l.kept_candidates as usize).map(|&c| (c, robot_in_odom)));
-        let keep = l.views.saturating_sub(1) as usize;
+        self.candidates.extend(candidates.iter().take(g.kept_candidates as usize).map(|&c| (c, robot_in_odom)));
+        let keep = g.views.saturating_sub(1) as usize;
         if keep == 0 {
             self.views.clear();
             return;
         }
         let view = View { robot_in_odom, stamp_ns, scans: scans.to_vec(), points: points.to_vec() };
         match self.views.last_mut() {
-            Some(newest) if !apart(&newest.robot_in_odom, &robot_in_odom, l) => *newest = view,
+            Some(newest) if !apart(&newest.robot_in_odom, &robot_in_odom, g) => *newest = view,
             _ => self.views.push(view),
         }
         // The first view of the stretch stays (the earliest evidence: it tells apart places
@@ -301,9 +270,6 @@ mod tests {
         }
     }
 
-    const LIMITS: ViewLimits =
-        ViewLimits { views: 4, baseline_m: 0.3, turn_rad: 0.26, max_age_s: 30.0, kept_candidates: 4 };
-
     /// `mapkeeper`'s check of the global search's candidates (gate 0.55, margin 0.08).
     fn strict() -> PoseUpdatingParams {
         let g = GlobalSearchParams::default();
@@ -329,7 +295,7 @@ mod tests {
         let mut all = candidates.to_vec();
         all.extend(mem.candidates_now(odom));
         let alone = pu.verify(map, &all, scans, RANGE_M, &p);
-        let past = mem.past(&odom, &LIMITS);
+        let past = mem.past(&odom, &GlobalSearchParams::mapkeeper());
         let mut s = ViewScratch::default();
         let pooled =
             pu.verify_with(map, &all, scans, RANGE_M, &p, |q| view_evidence(&mut s, map, q, &past, RANGE_M, &p));
@@ -342,7 +308,7 @@ mod tests {
     #[test]
     fn two_candidates_are_resolved_by_the_next_scans() {
         let map = corridor();
-        let l = LIMITS;
+        let l = GlobalSearchParams::mapkeeper();
         let mut pu = PoseUpdater::new();
         let mut mem = ViewMemory::default();
         let (a1, b1) = (Pose2::new(3.0, 2.0, 0.0), Pose2::new(13.0, 2.0, 0.0));
@@ -383,8 +349,8 @@ mod tests {
         }
     }
 
-    fn limits() -> ViewLimits {
-        ViewLimits { views: 3, baseline_m: 0.3, turn_rad: 0.26, max_age_s: 10.0, kept_candidates: 2 }
+    fn limits() -> GlobalSearchParams {
+        GlobalSearchParams { views: 3, view_max_age_s: 10.0, kept_candidates: 2, ..GlobalSearchParams::default() }
     }
 
     fn remember(m: &mut ViewMemory, t_s: f64, at: Pose2) {

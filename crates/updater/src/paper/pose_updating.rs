@@ -165,7 +165,7 @@ fn distinct(a: &Pose2, b: &Pose2, p: &PoseUpdatingParams) -> bool {
 /// P_exp: the points the map says the scans' beams would hit from `robot_in_map` (rays start
 /// at each lidar's position, unknown cells count as occupied, beams that reach the range limit
 /// give no point).
-pub(crate) fn cast_expected(
+fn cast_expected(
     map: &OccupancyGrid,
     robot_in_map: &Pose2,
     scans: &[LaserScan],
@@ -188,6 +188,26 @@ pub(crate) fn cast_expected(
             }
         }
     }
+}
+
+/// P_exp from `pose` cast into `cloud` and indexed in `grid` (cells of the correspondence
+/// floor, at least 0.15 m); `false` when the cloud has fewer points than pose updating needs
+/// (`grid` then holds an older cloud).
+pub(crate) fn expected_grid(
+    map: &OccupancyGrid,
+    pose: &Pose2,
+    scans: &[LaserScan],
+    max_range_m: f64,
+    p: &PoseUpdatingParams,
+    cloud: &mut Vec<Point2>,
+    grid: &mut PointGrid,
+) -> bool {
+    cast_expected(map, pose, scans, max_range_m, cloud);
+    if cloud.len() < (p.min_points as usize).max(3) {
+        return false;
+    }
+    grid.build(cloud, p.min_correspondence_m.max(0.15));
+    true
 }
 
 impl PoseUpdater {
@@ -388,22 +408,18 @@ impl PoseUpdater {
         max_range_m: f64,
         p: &PoseUpdatingParams,
     ) {
-        cast_expected(map, &pose, scans, max_range_m, &mut self.check_cloud);
-        if self.check_cloud.len() < (p.min_points as usize).max(3) {
+        if !expected_grid(map, &pose, scans, max_range_m, p, &mut self.check_cloud, &mut self.check_grid) {
             return;
         }
-        self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
         let d0 = CHECK_CORRESPONDENCE_M.min(p.max_correspondence_m).max(p.min_correspondence_m);
         let (run, _) = icp_from(&self.source, &self.check_grid, pose, p, d0, p.max_iterations);
         if !run.pose.is_finite() {
             return;
         }
-        if run.pose.distance(&pose) > 0.5 * p.inlier_distance_m || angle_diff(run.pose.yaw, pose.yaw).abs() > 0.01 {
-            cast_expected(map, &run.pose, scans, max_range_m, &mut self.check_cloud);
-            if self.check_cloud.len() < (p.min_points as usize).max(3) {
-                return;
-            }
-            self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
+        let moved =
+            run.pose.distance(&pose) > 0.5 * p.inlier_distance_m || angle_diff(run.pose.yaw, pose.yaw).abs() > 0.01;
+        if moved && !expected_grid(map, &run.pose, scans, max_range_m, p, &mut self.check_cloud, &mut self.check_grid) {
+            return;
         }
         let (fit, info) = fitness(&self.source, &self.check_grid, &run.pose, p.inlier_distance_m);
         self.checked.push(Checked { pose: run.pose, fit, info, evidence: fit.inlier_ratio, views: 0 });
@@ -481,11 +497,9 @@ impl PoseUpdater {
         for d in SLIDES_M {
             for sign in [1.0, -1.0] {
                 let q = Pose2::new(best.pose.x + sign * d * dir.x, best.pose.y + sign * d * dir.y, best.pose.yaw);
-                cast_expected(map, &q, scans, max_range_m, &mut self.check_cloud);
-                if self.check_cloud.len() < (p.min_points as usize).max(3) {
+                if !expected_grid(map, &q, scans, max_range_m, p, &mut self.check_cloud, &mut self.check_grid) {
                     continue;
                 }
-                self.check_grid.build(&self.check_cloud, p.min_correspondence_m.max(0.15));
                 let (fit, _) = fitness(&self.source, &self.check_grid, &q, p.inlier_distance_m);
                 if best.fit.inlier_ratio - fit.inlier_ratio <= p.ambiguity_ratio_margin {
                     return true;

@@ -3,7 +3,7 @@
 
 use super::MapUpdater;
 use crate::additions::global_search::GlobalSearchReport;
-use crate::additions::recovery_views::{ViewLimits, view_evidence};
+use crate::additions::recovery_views::{keeps_anything, view_evidence};
 use crate::paper::pose_updating::PoseRecovery;
 use crate::params::PoseUpdatingParams;
 use mapkeeper_grid::{Pose2, angle_diff};
@@ -94,8 +94,7 @@ impl MapUpdater {
         );
         self.stats.global_searches += 1;
         self.stats.global_nodes += found.nodes as u64;
-        let limits = ViewLimits::of(g);
-        self.views.prune(stamp_ns, &limits);
+        self.views.prune(stamp_ns, g);
         let mut poses: Vec<Pose2> = local.into_iter().chain(found.peaks.iter().map(|&(q, _)| q)).collect();
         poses.extend(self.views.candidates_now(robot_in_odom));
         let strict = PoseUpdatingParams {
@@ -104,15 +103,15 @@ impl MapUpdater {
             ..p.clone()
         };
         let (map, max_range) = (&self.current, self.params.max_range_m);
-        let past = self.views.past(&robot_in_odom, &limits);
+        let past = self.views.past(&robot_in_odom, g);
         let scratch = &mut self.view_scratch;
         let answer = self.pose_updater.verify_with(map, &poses, scans, max_range, &strict, |q| {
             view_evidence(scratch, map, q, &past, max_range, &strict)
         });
-        if limits.keeps_anything() && !matches!(answer, PoseRecovery::Recovered { .. }) {
-            let ranked = self.pose_updater.ranked_poses(limits.kept_candidates as usize, &strict);
+        if keeps_anything(g) && !matches!(answer, PoseRecovery::Recovered { .. }) {
+            let ranked = self.pose_updater.ranked_poses(g.kept_candidates as usize, &strict);
             let points = self.pose_updater.source_points();
-            self.views.remember(stamp_ns, robot_in_odom, scans, points, &ranked, &limits);
+            self.views.remember(stamp_ns, robot_in_odom, scans, points, &ranked, g);
         }
         (found, answer)
     }
